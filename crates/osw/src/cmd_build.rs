@@ -1,0 +1,88 @@
+//! `osw build`: input (glTF, GLB, PLY or a generator) → scene file + `<scene>.build.json`.
+
+use anyhow::{Context, bail};
+use osw_scene::generators::GenKind;
+use osw_scene::{BuildOptions, build_scene};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+#[command(group = clap::ArgGroup::new("source").required(true).args(["input", "generator"]))]
+pub struct Args {
+    /// Input model: .gltf (external or embedded buffers), .glb or .ply (ASCII or binary LE).
+    input: Option<PathBuf>,
+    /// Generate a scene instead: city, teapots or plant.
+    #[arg(long = "gen", value_name = "KIND")]
+    generator: Option<GenKind>,
+    /// Triangle budget of a generated scene.
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
+    triangles: u64,
+    /// Seed of a generated scene (same seed, same scene, same content hash).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Largest chunk in triangles (objects above it are split).
+    #[arg(long, default_value_t = osw_scene::limits::CHUNK_TRIANGLES, value_name = "N")]
+    chunk_triangles: u32,
+    /// World position of the scene's local origin, "X,Y,Z" (moves the whole scene, e.g. to test
+    /// precision far from the origin).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_offset)]
+    offset: Option<[f64; 3]>,
+    /// Output scene file; the report goes beside it as <scene>.build.json.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+fn parse_offset(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| format!("{s:?}: {e}"))?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+        _ => Err(format!("{s:?}: expected three finite numbers X,Y,Z")),
+    }
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    if a.chunk_triangles == 0 {
+        bail!("--chunk-triangles must be at least 1");
+    }
+    let started = std::time::Instant::now();
+    let bar = crate::progress::Bar::new();
+    let (objects, input, notes) = match (&a.input, a.generator) {
+        (Some(path), _) => {
+            let imported = osw_scene::import::read(path)?;
+            let notes = imported.skipped.iter().map(|s| format!("skipped {s}")).collect::<Vec<_>>();
+            for s in &imported.skipped {
+                tracing::warn!("{}: skipped {s}", path.display());
+            }
+            (imported.objects, path.display().to_string(), notes)
+        }
+        (None, Some(kind)) => {
+            if a.triangles > 200_000_000 {
+                bail!("--triangles {} is above the 200M this tool is sized for", a.triangles);
+            }
+            let g = osw_scene::generators::generate(kind, a.triangles, a.seed);
+            (g.objects, format!("--gen {kind:?} --triangles {} --seed {}", a.triangles, a.seed).to_lowercase(), g.notes)
+        }
+        (None, None) => unreachable!("clap requires a source"),
+    };
+    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, origin: a.offset.unwrap_or([0.0; 3]) };
+    let report = build_scene(objects, &input, notes, &opts, &a.output, started, &bar);
+    bar.finish();
+    let report = report?;
+    let json = a.output.with_extension("build.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", json.display()))?;
+    println!(
+        "build: {} input triangles → {} nodes ({} leaves, {} HLODs, up to {} LOD levels), {:.1} MB in {:.2} s ({:.2} M triangles/s)",
+        report.input_triangles,
+        report.nodes,
+        report.leaves,
+        report.hlod_nodes,
+        report.lod_levels_max,
+        report.output_bytes as f64 / 1e6,
+        report.seconds,
+        report.input_triangles_per_second / 1e6
+    );
+    for l in &report.left_out {
+        println!("left out: {l}");
+    }
+    println!("wrote {} and {}", a.output.display(), json.display());
+    Ok(())
+}

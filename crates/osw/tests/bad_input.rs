@@ -1,0 +1,219 @@
+//! Bad input to `osw build`, `osw info` and `osw path`: a clear error naming the file and what
+//! is wrong (exit 1), or a documented clean-up counted in the report; never a panic.
+
+mod common;
+use common::*;
+use std::path::Path;
+
+/// A glTF document with one buffer holding `positions` (f32 VEC3) and optional u32 `indices`,
+/// one mesh, and a node hierarchy: root (translate x+10) → child (scale 2) → mesh.
+fn gltf_json(buffer_uri: Option<&str>, byte_len: usize, vertex_count: usize, index_count: Option<usize>, extra_prim: &str) -> String {
+    let uri = buffer_uri.map(|u| format!(r#""uri":"{u}","#)).unwrap_or_default();
+    let pos_bytes = vertex_count * 12;
+    let (indices_view, indices_acc, indices_ref) = match index_count {
+        Some(n) => (
+            format!(r#",{{"buffer":0,"byteOffset":{pos_bytes},"byteLength":{}}}"#, n * 4),
+            format!(r#",{{"bufferView":1,"componentType":5125,"count":{n},"type":"SCALAR"}}"#),
+            r#","indices":1"#.to_string(),
+        ),
+        None => (String::new(), String::new(), String::new()),
+    };
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+        "nodes":[{{"name":"root","translation":[10,0,0],"children":[1]}},{{"name":"part","scale":[2,2,2],"mesh":0}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}{indices_ref}}}{extra_prim}]}}],
+        "buffers":[{{{uri}"byteLength":{byte_len}}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_bytes}}}{indices_view}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":{vertex_count},"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}{indices_acc}]}}"#
+    )
+}
+
+/// Two triangles of a unit quad, indexed.
+fn quad_buffer(index: [u32; 6]) -> Vec<u8> {
+    let mut b = Vec::new();
+    for p in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]] {
+        p.iter().for_each(|c| b.extend(c.to_le_bytes()));
+    }
+    index.iter().for_each(|i| b.extend(i.to_le_bytes()));
+    b
+}
+
+fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut j = json.as_bytes().to_vec();
+    while !j.len().is_multiple_of(4) {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while !b.len().is_multiple_of(4) {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + 8 + b.len();
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(j);
+    out.extend((b.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(b);
+    out
+}
+
+fn build_args(input: &Path, out: &Path) -> Vec<String> {
+    vec!["build".into(), input.display().to_string(), "-o".into(), out.display().to_string()]
+}
+
+fn run_build(input: &Path, out: &Path) -> std::process::Output {
+    let a = build_args(input, out);
+    osw(&a.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+fn build_err(input: &Path, out: &Path, needle: &str) {
+    let a = build_args(input, out);
+    osw_err(&a.iter().map(String::as_str).collect::<Vec<_>>(), needle);
+    assert!(!out.exists(), "a failed build left {}", out.display());
+}
+
+#[test]
+fn gltf_external_embedded_and_glb_all_import_the_hierarchy() {
+    let d = tempfile::tempdir().unwrap();
+    let bin = quad_buffer([0, 1, 2, 0, 2, 3]);
+    // External buffer, plus a POINTS primitive that is skipped with a warning.
+    std::fs::write(d.path().join("quad.bin"), &bin).unwrap();
+    let points = r#",{"attributes":{"POSITION":0},"mode":0}"#;
+    std::fs::write(d.path().join("ext.gltf"), gltf_json(Some("quad.bin"), bin.len(), 4, Some(6), points)).unwrap();
+    // Embedded data URI, non-indexed: the first three vertices are one triangle.
+    let uri = format!("data:application/octet-stream;base64,{}", base64::encode(&bin[..36]));
+    std::fs::write(d.path().join("emb.gltf"), gltf_json(Some(&uri), 36, 3, None, "")).unwrap();
+    std::fs::write(d.path().join("q.glb"), glb(&gltf_json(None, bin.len(), 4, Some(6), ""), &bin)).unwrap();
+    for (name, tris) in [("ext.gltf", 2), ("emb.gltf", 1), ("q.glb", 2)] {
+        let out = d.path().join(format!("{name}.osw"));
+        assert!(run_build(&d.path().join(name), &out).status.success(), "{name}");
+        let s = osw_scene::SceneFile::open(&out).unwrap();
+        check_invariants(&s);
+        assert_eq!(s.header().leaf_triangles, tris, "{name}");
+        // Transforms compose: x' = 10 + 2x, so the unit quad spans x in [10, 12].
+        let root = s.node(0);
+        assert_eq!((root.bbox_min[0], root.bbox_max[0], root.bbox_max[1]), (10.0, 12.0, 2.0), "{name}");
+    }
+    let report = std::fs::read_to_string(d.path().join("ext.gltf.build.json")).unwrap();
+    assert!(report.contains("Points"), "the skipped POINTS primitive is not reported: {report}");
+}
+
+#[test]
+fn broken_gltf_and_glb_name_the_file_and_the_problem() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    let out = p("out.osw");
+    let bin = quad_buffer([0, 1, 2, 0, 2, 3]);
+    std::fs::write(p("nojson.gltf"), "{ not json").unwrap();
+    build_err(&p("nojson.gltf"), &out, "nojson.gltf");
+    std::fs::write(p("missing.gltf"), gltf_json(Some("gone.bin"), bin.len(), 4, Some(6), "")).unwrap();
+    build_err(&p("missing.gltf"), &out, "cannot load a buffer");
+    // A buffer shorter than its views say.
+    std::fs::write(p("short.bin"), &bin[..40]).unwrap();
+    std::fs::write(p("short.gltf"), gltf_json(Some("short.bin"), 40, 4, Some(6), "")).unwrap();
+    build_err(&p("short.gltf"), &out, "short.gltf");
+    // An index past the last vertex.
+    let bad = quad_buffer([0, 1, 2, 0, 2, 9]);
+    std::fs::write(p("badidx.bin"), &bad).unwrap();
+    std::fs::write(p("badidx.gltf"), gltf_json(Some("badidx.bin"), bad.len(), 4, Some(6), "")).unwrap();
+    build_err(&p("badidx.gltf"), &out, "out of range");
+    // NaN position.
+    let mut nan = bin.clone();
+    nan[4..8].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(p("nan.bin"), &nan).unwrap();
+    std::fs::write(p("nan.gltf"), gltf_json(Some("nan.bin"), nan.len(), 4, Some(6), "")).unwrap();
+    build_err(&p("nan.gltf"), &out, "non-finite");
+    // Every truncation of a GLB fails cleanly.
+    let g = glb(&gltf_json(None, bin.len(), 4, Some(6), ""), &bin);
+    for n in (0..g.len() - 1).step_by(7) {
+        std::fs::write(p("t.glb"), &g[..n]).unwrap();
+        let r = run_build(&p("t.glb"), &out);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(r.status.code() == Some(1) && err.contains("t.glb") && !err.contains("panicked"), "GLB cut at {n}: {err}");
+    }
+    // No triangles at all: an empty scene.
+    std::fs::write(p("empty.gltf"), r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[]}],"scene":0}"#).unwrap();
+    build_err(&p("empty.gltf"), &out, "empty scene");
+    build_err(&p("none.gltf"), &out, "none.gltf");
+    build_err(&p("x.obj"), &out, "unknown input format");
+}
+
+#[test]
+fn ply_degenerates_are_dropped_and_counted_and_bad_ply_is_named() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    let head = |v: usize, f: usize| {
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex {v}\nproperty float x\nproperty float y\nproperty float z\nelement face {f}\nproperty list uchar int vertex_indices\nend_header\n"
+        )
+    };
+    // One good triangle, one with a repeated index, one of zero area.
+    let ok = format!("{}0 0 0\n1 0 0\n0 1 0\n2 0 0\n3 0 1 2\n3 0 0 1\n3 0 1 3\n", head(4, 3));
+    std::fs::write(p("deg.ply"), ok).unwrap();
+    assert!(run_build(&p("deg.ply"), &p("deg.osw")).status.success());
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p("deg.build.json")).unwrap()).unwrap();
+    assert_eq!(report["degenerate_triangles_dropped"], 2);
+    assert!(report["left_out"].to_string().contains("2 degenerate triangles"));
+    assert_eq!(osw_scene::SceneFile::open(&p("deg.osw")).unwrap().header().leaf_triangles, 1);
+
+    std::fs::write(p("idx.ply"), format!("{}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", head(3, 1))).unwrap();
+    build_err(&p("idx.ply"), &p("o.osw"), "out of range");
+    std::fs::write(p("nan.ply"), format!("{}0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", head(3, 1))).unwrap();
+    build_err(&p("nan.ply"), &p("o.osw"), "non-finite");
+    std::fs::write(p("short.ply"), format!("{}0 0 0\n1 0 0\n", head(3, 1))).unwrap();
+    build_err(&p("short.ply"), &p("o.osw"), "unexpected end of data");
+    // Only degenerate triangles: nothing left, an empty scene.
+    std::fs::write(p("flat.ply"), format!("{}0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n", head(3, 1))).unwrap();
+    build_err(&p("flat.ply"), &p("o.osw"), "empty scene");
+}
+
+#[test]
+fn corrupted_or_truncated_scene_files_are_refused_by_name() {
+    let d = tempfile::tempdir().unwrap();
+    let good = build_gen(d.path(), "teapots", 20_000, 1);
+    let bytes = std::fs::read(&good).unwrap();
+    let bad = d.path().join("bad.osw");
+    let info = |b: &[u8], needle: &str| {
+        std::fs::write(&bad, b).unwrap();
+        osw_err(&["info", "--scene", bad.to_str().unwrap()], needle);
+    };
+    info(&bytes[..bytes.len() - 1], "truncated");
+    info(&bytes[..100], "truncated");
+    info(&bytes[..0], "not an osw scene file");
+    let mut v = bytes.clone();
+    v[8] = 99; // version
+    info(&v, "version");
+    let mut v = bytes.clone();
+    v[300] ^= 0x40; // inside the node table
+    info(&v, "content hash");
+    let mut v = bytes.clone();
+    v[40] ^= 1; // a header count
+    info(&v, "header hash");
+    // A flipped geometry byte passes opening (only tables are read) and fails on first read.
+    let mut v = bytes.clone();
+    let n = v.len();
+    v[n - 200] ^= 0x10;
+    std::fs::write(&bad, &v).unwrap();
+    osw_ok(&["info", "--scene", bad.to_str().unwrap()]);
+    osw_err(&["info", "--scene", bad.to_str().unwrap(), "--check-geometry"], "fails its hash");
+    // Truncations at many points never panic.
+    for cut in (0..bytes.len()).step_by(bytes.len() / 50) {
+        let r = osw_scene::file::validate(std::path::Path::new("t"), &bytes[..cut]);
+        assert!(r.is_err(), "cut at {cut} accepted");
+    }
+}
+
+#[test]
+fn bad_command_lines_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let o = d.path().join("o.osw");
+    let out = osw(&["build", "--gen", "castle", "-o", o.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected city, teapots or plant"));
+    osw_err(&["build", "--gen", "city", "--chunk-triangles", "0", "-o", o.to_str().unwrap()], "chunk-triangles");
+    osw_err(&["path", "--scene", "/nonexistent.osw", "--kind", "walk", "-o", "p.csv"], "/nonexistent.osw");
+}

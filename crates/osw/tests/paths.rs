@@ -1,0 +1,176 @@
+//! `osw path`: the CSV format, determinism, and walks that stay out of walls, checked against
+//! the full-detail triangles of the scene (closest distance and segment crossings).
+
+mod common;
+use common::*;
+use glam::{DVec3, Vec3};
+use osw_scene::SceneFile;
+use osw_scene::format::NodeKind;
+
+/// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5).
+fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+/// Does segment pq cross triangle abc (Möller-Trumbore on the segment)?
+fn segment_hits(p: Vec3, q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let d = q - p;
+    let (e1, e2) = (b - a, c - a);
+    let h = d.cross(e2);
+    let det = e1.dot(h);
+    if det.abs() < 1e-12 {
+        return false;
+    }
+    let s = p - a;
+    let u = s.dot(h) / det;
+    let qv = s.cross(e1);
+    let v = d.dot(qv) / det;
+    let t = e2.dot(qv) / det;
+    (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && (0.0..=1.0).contains(&t)
+}
+
+/// Smallest distance from any camera to any full-detail triangle, and how many steps of the
+/// path cross a triangle.
+fn clearance(scene: &SceneFile, cams: &[osw_scene::Camera]) -> (f32, usize) {
+    let local: Vec<Vec3> = cams.iter().map(|c| (c.position - scene.origin()).as_vec3()).collect();
+    let mut tris = Vec::new();
+    for id in 0..scene.bvh_count() {
+        let n = scene.node(id);
+        if n.kind() == NodeKind::Leaf {
+            let g = scene.geometry(n.first_lod).unwrap();
+            for t in 0..g.indices.len() / 3 {
+                tris.push([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t * 3 + k) as usize])));
+            }
+        }
+    }
+    let near = |p: Vec3, r: f32| {
+        let (lo, hi) = (p - Vec3::splat(r), p + Vec3::splat(r));
+        tris.iter().filter(move |t| {
+            let (tl, th) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            tl.cmple(hi).all() && lo.cmple(th).all()
+        })
+    };
+    let mut min_d = f32::INFINITY;
+    let mut crossings = 0;
+    for (i, &p) in local.iter().enumerate() {
+        for t in near(p, 2.0) {
+            min_d = min_d.min(closest_on_triangle(p, t[0], t[1], t[2]).distance(p));
+        }
+        if let Some(&q) = local.get(i + 1) {
+            crossings += near(p, p.distance(q) + 0.1).filter(|t| segment_hits(p, q, t[0], t[1], t[2])).count();
+        }
+    }
+    (min_d, crossings)
+}
+
+#[test]
+fn walks_stay_out_of_walls_and_paths_are_deterministic() {
+    let d = tempfile::tempdir().unwrap();
+    for kind in ["plant", "city", "teapots"] {
+        let scene_path = build_gen(d.path(), kind, 300_000, 2);
+        let scene = SceneFile::open(&scene_path).unwrap();
+        let csv = d.path().join(format!("{kind}.csv"));
+        let args = |seed: &str, out: &std::path::Path| {
+            vec![
+                "path".to_string(),
+                "--scene".into(),
+                scene_path.display().to_string(),
+                "--kind".into(),
+                "walk".into(),
+                "--frames".into(),
+                "300".into(),
+                "--seed".into(),
+                seed.into(),
+                "-o".into(),
+                out.display().to_string(),
+            ]
+        };
+        let run = |a: Vec<String>| osw_ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        run(args("5", &csv));
+        let cams = osw_scene::path::read(&csv).unwrap();
+        assert_eq!(cams.len(), 300);
+        let (min_d, crossings) = clearance(&scene, &cams);
+        eprintln!("{kind}: min distance {min_d}, crossings {crossings}");
+        assert_eq!(crossings, 0, "{kind}: the walk passes through geometry");
+        assert!(min_d >= 0.2, "{kind}: the walk comes within {min_d} m of a surface");
+        // The walk moves.
+        let travelled: f64 = cams.windows(2).map(|w| w[0].position.distance(w[1].position)).sum();
+        assert!(travelled > 30.0, "{kind}: walked only {travelled} m");
+        let again = d.path().join("again.csv");
+        run(args("5", &again));
+        assert_eq!(std::fs::read(&csv).unwrap(), std::fs::read(&again).unwrap(), "{kind}: same seed, different path");
+        run(args("6", &again));
+        assert_ne!(std::fs::read(&csv).unwrap(), std::fs::read(&again).unwrap(), "{kind}: seed ignored");
+    }
+}
+
+#[test]
+fn orbit_and_flyover_look_at_the_scene_from_outside() {
+    let d = tempfile::tempdir().unwrap();
+    let scene_path = build_gen(d.path(), "plant", 100_000, 1);
+    let scene = SceneFile::open(&scene_path).unwrap();
+    let root = scene.node(0).aabb();
+    let centre = scene.origin() + root.center().as_dvec3();
+    for kind in ["orbit", "flyover"] {
+        let csv = d.path().join(format!("{kind}.csv"));
+        osw_ok(&["path", "--scene", scene_path.to_str().unwrap(), "--kind", kind, "--frames", "120", "-o", csv.to_str().unwrap()]);
+        let cams = osw_scene::path::read(&csv).unwrap();
+        assert_eq!(cams.len(), 120);
+        for c in &cams {
+            let local = (c.position - scene.origin()).as_vec3();
+            assert!(!root.contains_point(local), "{kind}: camera inside the scene box");
+            if kind == "orbit" {
+                // Looking at the centre.
+                assert!(c.forward().dot((centre - c.position).normalize()) > 0.999, "orbit: not looking at the centre");
+            } else {
+                assert!(local.y > root.max.y && c.forward().y < -0.1, "flyover: not above the scene looking down");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_walk_through_an_offset_scene_is_the_same_walk_moved() {
+    let d = tempfile::tempdir().unwrap();
+    let (near, far) = (d.path().join("near.osw"), d.path().join("far.osw"));
+    osw_ok(&["build", "--gen", "city", "--triangles", "100000", "-o", near.to_str().unwrap()]);
+    osw_ok(&["build", "--gen", "city", "--triangles", "100000", "--offset", "1e7,0,1e7", "-o", far.to_str().unwrap()]);
+    let walk = |s: &std::path::Path, name: &str| {
+        let csv = d.path().join(name);
+        osw_ok(&["path", "--scene", s.to_str().unwrap(), "--kind", "walk", "--frames", "50", "-o", csv.to_str().unwrap()]);
+        osw_scene::path::read(&csv).unwrap()
+    };
+    let (a, b) = (walk(&near, "a.csv"), walk(&far, "b.csv"));
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(y.position - DVec3::new(1e7, 0.0, 1e7), x.position);
+        assert_eq!(x.orientation, y.orientation);
+    }
+}

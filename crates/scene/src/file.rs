@@ -1,0 +1,276 @@
+//! Opens a scene file by memory-mapping it (memmap2) and reads it in place.
+//!
+//! Opening checks the header, every size and offset, the content hash and every node and block
+//! record, which touches only the header and the two tables: a process that never draws never
+//! reads a page of geometry. A geometry block is checked (hash, index range) the first time it
+//! is read, so a corrupted block gives an error naming the block instead of a wrong picture.
+
+use crate::format::{BlockRecord, Header, MAGIC, NONE, NodeId, NodeKind, NodeRecord, VERSION};
+use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
+use crate::writer::{content_hash, header_hash};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU8, Ordering};
+
+/// What is wrong with a scene file. Every message names what was expected.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{0}: not an osw scene file (bad magic bytes)")]
+    BadMagic(PathBuf),
+    #[error("{path}: scene format version {found}, this build reads version {expected}; rebuild the scene with `osw build`")]
+    Version { path: PathBuf, found: u32, expected: u32 },
+    #[error("{path}: truncated: the header says {expected} bytes, the file has {found}")]
+    Truncated { path: PathBuf, expected: u64, found: u64 },
+    #[error("{path}: corrupted: {what}")]
+    Corrupt { path: PathBuf, what: String },
+}
+
+/// An open, validated scene file.
+pub struct SceneFile {
+    path: PathBuf,
+    map: memmap2::Mmap,
+    header: Header,
+    /// Per block: 0 = not yet checked, 1 = good, 2 = bad.
+    checked: Vec<AtomicU8>,
+}
+
+/// A view of one geometry block in the mapped file.
+#[derive(Clone, Copy, Debug)]
+pub struct Geometry<'a> {
+    pub positions: &'a [[f32; 3]],
+    pub indices: Indices<'a>,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub enum Indices<'a> {
+    U16(&'a [u16]),
+    U32(&'a [u32]),
+}
+
+impl Indices<'_> {
+    pub fn len(&self) -> usize {
+        match self {
+            Indices::U16(s) => s.len(),
+            Indices::U32(s) => s.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    pub fn get(&self, i: usize) -> u32 {
+        match self {
+            Indices::U16(s) => s[i] as u32,
+            Indices::U32(s) => s[i],
+        }
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.len()).map(|i| self.get(i))
+    }
+
+    pub fn bytes(&self) -> &[u8] {
+        match self {
+            Indices::U16(s) => bytemuck::cast_slice(s),
+            Indices::U32(s) => bytemuck::cast_slice(s),
+        }
+    }
+}
+
+impl SceneFile {
+    /// Maps and validates the file at `path`.
+    pub fn open(path: &Path) -> Result<SceneFile, SceneError> {
+        let io = |source| SceneError::Io { path: path.to_owned(), source };
+        let file = std::fs::File::open(path).map_err(io)?;
+        // SAFETY: the map is read-only; osw never writes a scene file in place (the writer
+        // renames a finished file over the old one), so the mapped bytes do not change.
+        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
+        let header = validate(path, &map)?;
+        let checked = (0..header.block_count).map(|_| AtomicU8::new(0)).collect();
+        Ok(SceneFile { path: path.to_owned(), map, header, checked })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// The content hash the cluster handshake compares.
+    pub fn content_hash(&self) -> [u64; 2] {
+        self.header.content_hash
+    }
+
+    pub fn origin(&self) -> glam::DVec3 {
+        glam::DVec3::from_array(self.header.origin)
+    }
+
+    pub fn nodes(&self) -> &[NodeRecord] {
+        nodes_of(&self.map, &self.header)
+    }
+
+    pub fn node(&self, id: NodeId) -> &NodeRecord {
+        &self.nodes()[id as usize]
+    }
+
+    pub fn root(&self) -> NodeId {
+        0
+    }
+
+    /// Ids below this are BVH nodes; the rest are LOD/HLOD nodes.
+    pub fn bvh_count(&self) -> u32 {
+        self.header.bvh_count
+    }
+
+    pub fn blocks(&self) -> &[BlockRecord] {
+        blocks_of(&self.map, &self.header)
+    }
+
+    /// The geometry of LOD node `lod`, checked on first read.
+    pub fn geometry(&self, lod: NodeId) -> Result<Geometry<'_>, SceneError> {
+        let node = self
+            .nodes()
+            .get(lod as usize)
+            .filter(|n| n.kind() == NodeKind::Lod)
+            .ok_or_else(|| SceneError::Corrupt { path: self.path.clone(), what: format!("node {lod} is not a LOD node") })?;
+        let b = node.block as usize;
+        let rec = self.blocks()[b];
+        let start = (self.header.blob_offset + rec.offset) as usize;
+        let bytes = &self.map[start..start + rec.byte_len() as usize];
+        let state = &self.checked[b];
+        if state.load(Ordering::Acquire) == 0 {
+            let ok = xxhash_rust::xxh3::xxh3_64(bytes) == rec.hash && indices_in_range(bytes, &rec);
+            state.store(if ok { 1 } else { 2 }, Ordering::Release);
+        }
+        if state.load(Ordering::Acquire) == 2 {
+            return Err(SceneError::Corrupt {
+                path: self.path.clone(),
+                what: format!("geometry block {b} of node {lod} fails its hash or index check"),
+            });
+        }
+        Ok(geometry_of(bytes, &rec))
+    }
+}
+
+fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
+    let (pos, idx) = bytes.split_at(rec.vertex_count as usize * 12);
+    let indices = if rec.index_bytes == 2 { Indices::U16(bytemuck::cast_slice(idx)) } else { Indices::U32(bytemuck::cast_slice(idx)) };
+    Geometry { positions: bytemuck::cast_slice(pos), indices }
+}
+
+fn indices_in_range(bytes: &[u8], rec: &BlockRecord) -> bool {
+    let g = geometry_of(bytes, rec);
+    g.indices.iter().all(|i| i < rec.vertex_count)
+}
+
+fn nodes_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [NodeRecord] {
+    let s = h.nodes_offset as usize;
+    bytemuck::cast_slice(&bytes[s..s + h.node_count as usize * 64])
+}
+
+fn blocks_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [BlockRecord] {
+    let s = h.blocks_offset as usize;
+    bytemuck::cast_slice(&bytes[s..s + h.block_count as usize * 32])
+}
+
+/// Checks everything but the geometry bytes; returns the header.
+pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
+    let corrupt = |what: String| SceneError::Corrupt { path: path.to_owned(), what };
+    let hsize = std::mem::size_of::<Header>();
+    if bytes.len() < 8 || bytes[..8] != MAGIC {
+        return Err(SceneError::BadMagic(path.to_owned()));
+    }
+    if bytes.len() < hsize {
+        return Err(SceneError::Truncated { path: path.to_owned(), expected: hsize as u64, found: bytes.len() as u64 });
+    }
+    let h: Header = bytemuck::pod_read_unaligned(&bytes[..hsize]);
+    if h.version != VERSION {
+        return Err(SceneError::Version { path: path.to_owned(), found: h.version, expected: VERSION });
+    }
+    if h.header_hash != header_hash(&h) {
+        return Err(corrupt("header hash mismatch".into()));
+    }
+    if h.file_bytes != bytes.len() as u64 {
+        return Err(SceneError::Truncated { path: path.to_owned(), expected: h.file_bytes, found: bytes.len() as u64 });
+    }
+    let nodes_end = h.nodes_offset.checked_add(h.node_count as u64 * 64);
+    let blocks_end = h.blocks_offset.checked_add(h.block_count as u64 * 32);
+    let layout_ok = h.header_bytes as usize == hsize
+        && h.nodes_offset == hsize as u64
+        && nodes_end == Some(h.blocks_offset)
+        && blocks_end.is_some_and(|e| e <= h.blob_offset && h.blob_offset - e < BLOCK_ALIGN)
+        && h.blob_offset.is_multiple_of(BLOCK_ALIGN)
+        && h.blob_offset.checked_add(h.blob_bytes) == Some(h.file_bytes);
+    if !layout_ok {
+        return Err(corrupt("section offsets do not match the counts".into()));
+    }
+    if h.node_count == 0 || h.bvh_count == 0 || h.bvh_count > h.node_count {
+        return Err(corrupt(format!("{} nodes of which {} BVH nodes", h.node_count, h.bvh_count)));
+    }
+    if !h.origin.iter().all(|c| c.is_finite()) {
+        return Err(corrupt(format!("non-finite origin {:?}", h.origin)));
+    }
+    let nodes = nodes_of(bytes, &h);
+    let blocks = blocks_of(bytes, &h);
+    if content_hash(&h, nodes, blocks) != h.content_hash {
+        return Err(corrupt("content hash mismatch in the node or block table".into()));
+    }
+    for (i, b) in blocks.iter().enumerate() {
+        let ok = b.offset.is_multiple_of(BLOCK_ALIGN)
+            && (b.index_bytes == 2 || b.index_bytes == 4)
+            && b.index_count.is_multiple_of(3)
+            && b.vertex_count <= MAX_BLOCK_VERTICES
+            && b.offset.checked_add(b.byte_len()).is_some_and(|e| e <= h.blob_bytes);
+        if !ok {
+            return Err(corrupt(format!("block {i} record is out of range: {b:?}")));
+        }
+    }
+    for (id, n) in nodes.iter().enumerate() {
+        check_node(id as u32, n, nodes, &h).map_err(|what| corrupt(format!("node {id}: {what}")))?;
+    }
+    Ok(h)
+}
+
+fn check_node(id: u32, n: &NodeRecord, nodes: &[NodeRecord], h: &Header) -> Result<(), String> {
+    let kind = NodeKind::from_u32(n.kind).ok_or_else(|| format!("unknown kind {}", n.kind))?;
+    let is_bvh = id < h.bvh_count;
+    if is_bvh == (kind == NodeKind::Lod) {
+        return Err(format!("kind {kind:?} in the wrong id range"));
+    }
+    let finite = n.bbox_min.iter().chain(&n.bbox_max).all(|c| c.is_finite());
+    if !finite || (0..3).any(|k| n.bbox_min[k] > n.bbox_max[k]) {
+        return Err(format!("bad box {:?}..{:?}", n.bbox_min, n.bbox_max));
+    }
+    if !(n.error.is_finite() && n.error >= 0.0) {
+        return Err(format!("bad error {}", n.error));
+    }
+    let in_range = |r: std::ops::Range<u64>, lo: u32, hi: u32| r.is_empty() || (r.start >= lo as u64 && r.end <= hi as u64);
+    let children = n.first_child as u64..n.first_child as u64 + n.child_count as u64;
+    let lods = n.first_lod as u64..n.first_lod as u64 + n.lod_count as u64;
+    match kind {
+        NodeKind::Lod => {
+            if n.block >= h.block_count || n.parent >= h.bvh_count || n.child_count != 0 || n.lod_count != 0 {
+                return Err("LOD node with bad block, owner or children".into());
+            }
+        }
+        NodeKind::Group | NodeKind::Leaf => {
+            if (id == 0) != (n.parent == NONE) || (id != 0 && n.parent >= id) {
+                return Err(format!("bad parent {}", n.parent));
+            }
+            if !in_range(children.clone(), id + 1, h.bvh_count) || !in_range(lods.clone(), h.bvh_count, h.node_count) {
+                return Err("child or LOD range out of bounds".into());
+            }
+            if (kind == NodeKind::Leaf) != (n.child_count == 0) || (kind == NodeKind::Leaf && n.lod_count == 0) {
+                return Err("a leaf has LODs and no children; a group has children".into());
+            }
+            if children.clone().any(|c| nodes[c as usize].parent != id) || lods.clone().any(|l| nodes[l as usize].parent != id) {
+                return Err("a child or LOD does not name this node as its parent".into());
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,163 @@
+//! The scene file format, version 1: one file that the three processes of the cluster map into
+//! memory and read in place (paper 000, sec. 3.5: every process holds the same scene and refers
+//! to nodes by the same integer id).
+//!
+//! ```text
+//! offset 0              Header (256 bytes)
+//! header.nodes_offset   [NodeRecord; node_count]       64 bytes each
+//! header.blocks_offset  [BlockRecord; block_count]     32 bytes each
+//! header.blob_offset    geometry blocks, each BLOCK_ALIGN-aligned:
+//!                       [[f32; 3]; vertex_count] then [u16 or u32; index_count]
+//! ```
+//! All integers little-endian. Node ids are dense: ids `0..bvh_count` are BVH nodes in
+//! breadth-first order (root = 0), ids `bvh_count..node_count` are LOD and HLOD nodes, each its
+//! own id as in paper 000 sec. 4.1; a BVH node's LODs are contiguous, finest first.
+//!
+//! Hashes (xxh3): `header_hash` covers the header with that field zeroed; `content_hash` covers
+//! the header's scene fields, the node table and the block table (which holds a hash of every
+//! block), so it names the whole content while opening reads only the tables. A block's own
+//! hash is checked when the block is first read.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Index of a node in the node table: a BVH node or a LOD/HLOD node.
+pub type NodeId = u32;
+
+/// Marks "no node" / "no block" in u32 fields.
+pub const NONE: u32 = u32::MAX;
+
+pub const MAGIC: [u8; 8] = *b"OSWSCENE";
+pub const VERSION: u32 = 1;
+
+/// The fixed-size file header.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct Header {
+    pub magic: [u8; 8],
+    pub version: u32,
+    pub header_bytes: u32,
+    /// World position of local coordinate 0: world = origin + local (f64 so that a scene far
+    /// from the origin keeps f32 precision in its local coordinates).
+    pub origin: [f64; 3],
+    pub node_count: u32,
+    /// Ids below this are BVH nodes, ids from it on are LOD/HLOD nodes.
+    pub bvh_count: u32,
+    pub block_count: u32,
+    pub object_count: u32,
+    pub leaf_count: u32,
+    /// Triangles of the full-detail scene (all level-0 LODs).
+    pub leaf_triangles: u32,
+    pub nodes_offset: u64,
+    pub blocks_offset: u64,
+    pub blob_offset: u64,
+    pub blob_bytes: u64,
+    pub file_bytes: u64,
+    pub content_hash: [u64; 2],
+    pub header_hash: u64,
+    pub reserved: [u64; 16],
+}
+
+/// What a node is. BVH nodes are `Group` (interior) or `Leaf` (one chunk); `Lod` nodes hold
+/// geometry: a level of a leaf's chain or a group's HLOD.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeKind {
+    Group = 0,
+    Leaf = 1,
+    Lod = 2,
+}
+
+impl NodeKind {
+    pub fn from_u32(v: u32) -> Option<NodeKind> {
+        match v {
+            0 => Some(NodeKind::Group),
+            1 => Some(NodeKind::Leaf),
+            2 => Some(NodeKind::Lod),
+            _ => None,
+        }
+    }
+}
+
+/// One node: 64 bytes.
+///
+/// For a BVH node, `error` is the object-space error of its finest representation (0 for a leaf,
+/// whose level 0 is the original; the HLOD's error for a group with an HLOD; for a group
+/// without one, the largest of its children's, so errors never decrease going up). For a LOD
+/// node it is the distance (world units, approximately Hausdorff) between that level and the
+/// original geometry.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct NodeRecord {
+    pub bbox_min: [f32; 3],
+    pub kind: u32,
+    pub bbox_max: [f32; 3],
+    pub error: f32,
+    /// BVH parent for BVH nodes (NONE for the root), owning BVH node for LOD nodes.
+    pub parent: u32,
+    /// BVH children `first_child..first_child + child_count` (groups only).
+    pub first_child: u32,
+    pub child_count: u32,
+    /// LOD nodes `first_lod..first_lod + lod_count`, finest first (BVH nodes only).
+    pub first_lod: u32,
+    pub lod_count: u32,
+    /// Geometry block of a LOD node (NONE for BVH nodes).
+    pub block: u32,
+    /// Object the geometry came from (leaves and their LODs; NONE for groups and HLODs).
+    pub object: u32,
+    /// Triangles: of the block for a LOD node, of the full-detail subtree for a BVH node.
+    pub triangles: u32,
+}
+
+impl NodeRecord {
+    pub fn kind(&self) -> NodeKind {
+        // Validated when the file is opened.
+        NodeKind::from_u32(self.kind).unwrap_or(NodeKind::Group)
+    }
+
+    pub fn children(&self) -> std::ops::Range<u32> {
+        self.first_child..self.first_child + self.child_count
+    }
+
+    pub fn lods(&self) -> std::ops::Range<u32> {
+        self.first_lod..self.first_lod + self.lod_count
+    }
+
+    pub fn aabb(&self) -> crate::Aabb {
+        crate::Aabb::new(self.bbox_min.into(), self.bbox_max.into())
+    }
+}
+
+/// Where one geometry block lies in the blob: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct BlockRecord {
+    /// Offset from the start of the blob; a multiple of BLOCK_ALIGN.
+    pub offset: u64,
+    pub vertex_count: u32,
+    pub index_count: u32,
+    /// 2 or 4.
+    pub index_bytes: u32,
+    pub reserved: u32,
+    /// xxh3-64 of the block's bytes.
+    pub hash: u64,
+}
+
+impl BlockRecord {
+    /// Bytes of positions, then of indices (positions are 12 bytes a vertex, so indices start
+    /// 4-byte aligned).
+    pub fn byte_len(&self) -> u64 {
+        self.vertex_count as u64 * 12 + self.index_count as u64 * self.index_bytes as u64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn record_sizes_are_stable() {
+        assert_eq!(std::mem::size_of::<Header>(), 256);
+        assert_eq!(std::mem::size_of::<NodeRecord>(), 64);
+        assert_eq!(std::mem::size_of::<BlockRecord>(), 32);
+    }
+}

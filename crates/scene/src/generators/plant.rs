@@ -1,0 +1,181 @@
+//! The power plant: a building of several floors on a grid of bays. Each bay holds equipment of
+//! very different sizes (tanks, boilers with tube banks, pumps and valves, pipe runs with
+//! elbows), floors are slabs on I-beam columns, walkways with railings run along bay rows and
+//! the outside walls have doors. The stand-in for the 13M-triangle power plant of papers 000,
+//! 001 and 004: deep occlusion between floors and equipment, objects from 10 to 10^4 triangles.
+
+use super::shapes::{add_box, cylinder, lathe, rounded, tube};
+use super::triangles_of;
+use crate::mesh::{Mesh, Object};
+use glam::Vec3;
+use rand::RngExt;
+use rayon::prelude::*;
+
+/// Bay size (m) and floor height (m).
+pub const BAY: f32 = 12.0;
+pub const FLOOR: f32 = 6.0;
+pub const FLOORS: u32 = 3;
+const SLAB: f32 = 0.3;
+const WALL: f32 = 0.4;
+
+pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
+    // Measure the average bay on a sample, then lay out as many bays as the budget pays for.
+    let sample: u64 = (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed))).sum::<u64>() / 16;
+    let bays = (triangles * 95 / 100 / (sample + 60)).max(1);
+    let per_floor = bays.div_ceil(FLOORS as u64);
+    let nz = ((per_floor as f64 / 2.0).sqrt().ceil() as u64).max(1);
+    let nx = per_floor.div_ceil(nz);
+    let origin = |b: u64| Vec3::new((b % nx) as f32 * BAY, (b / (nx * nz)) as f32 * FLOOR, ((b / nx) % nz) as f32 * BAY);
+    let mut objects: Vec<Object> = (0..nx * nz * FLOORS as u64).into_par_iter().flat_map_iter(|b| bay(origin(b), b, seed)).collect();
+    let size = Vec3::new(nx as f32 * BAY, 0.0, nz as f32 * BAY);
+    for f in 0..FLOORS {
+        objects.push(Object { name: format!("structure floor {f}"), mesh: structure(size, f, nx, nz) });
+    }
+    objects.extend(walls(size, nx, nz, seed));
+    objects
+}
+
+/// The equipment of one bay with its corner at `o`; `id` seeds it.
+fn bay(o: Vec3, id: u64, seed: u64) -> Vec<Object> {
+    let mut r = super::rng(seed, id);
+    let mut out = Vec::new();
+    let floor_y = o.y + SLAB;
+    let inner = |r: &mut rand_pcg::Pcg64Mcg, margin: f32| {
+        o + Vec3::new(r.random_range(margin..BAY - margin), SLAB, r.random_range(margin..BAY - margin))
+    };
+    let mut push = |name: &str, mesh: Mesh| out.push(Object { name: format!("{name} {id}"), mesh });
+    let roll: f32 = r.random();
+    if roll < 0.3 {
+        // A vertical tank with a domed head.
+        let rad = r.random_range(1.2..4.0);
+        let h = r.random_range(2.5..FLOOR - SLAB - rad * 0.45 - 0.2);
+        let c = inner(&mut r, rad + 0.3);
+        let mut prof = vec![(0.0, 0.0), (rad, 0.0), (rad, h)];
+        prof.extend((1..=8).map(|i| {
+            let a = std::f32::consts::FRAC_PI_2 * i as f32 / 8.0;
+            // Exact 0 at the pole: cos(pi/2) in f32 is not 0.
+            (if i == 8 { 0.0 } else { rad * a.cos() }, h + rad * 0.45 * a.sin())
+        }));
+        let mut m = Mesh::default();
+        lathe(&mut m, c, &prof, 48);
+        // Legs and a nozzle.
+        cylinder(&mut m, c + Vec3::new(rad, h * 0.7, 0.0), c + Vec3::new(rad + 0.6, h * 0.7, 0.0), 0.15, 12);
+        push("tank", m);
+    } else if roll < 0.45 {
+        // A boiler: a casing, a bank of vertical tubes in front and a steam drum on top.
+        let mut m = Mesh::default();
+        let lo = o + Vec3::new(2.0, SLAB, 3.0);
+        let hi = lo + Vec3::new(r.random_range(5.0..8.0), FLOOR - SLAB - 1.5, r.random_range(4.0..6.5));
+        add_box(&mut m, lo, hi);
+        let tubes = r.random_range(8..24);
+        for k in 0..tubes {
+            let x = lo.x + (hi.x - lo.x) * (k as f32 + 0.5) / tubes as f32;
+            cylinder(&mut m, Vec3::new(x, lo.y, lo.z - 0.3), Vec3::new(x, hi.y, lo.z - 0.3), 0.12, 10);
+        }
+        cylinder(&mut m, Vec3::new(lo.x, hi.y + 0.6, (lo.z + hi.z) / 2.0), Vec3::new(hi.x, hi.y + 0.6, (lo.z + hi.z) / 2.0), 0.6, 24);
+        push("boiler", m);
+    } else if roll < 0.7 {
+        // Pumps with motors and valves: small objects.
+        for _ in 0..r.random_range(2..6) {
+            let p = inner(&mut r, 1.5);
+            let mut m = Mesh::default();
+            add_box(&mut m, p, p + Vec3::new(1.2, 0.4, 0.8));
+            cylinder(&mut m, p + Vec3::new(0.2, 0.75, 0.4), p + Vec3::new(1.0, 0.75, 0.4), 0.32, 16);
+            cylinder(&mut m, p + Vec3::new(0.6, 1.05, 0.4), p + Vec3::new(0.6, 1.6, 0.4), 0.06, 8);
+            let wheel: Vec<Vec3> = (0..=16)
+                .map(|k| {
+                    p + Vec3::new(0.6, 1.6, 0.4)
+                        + 0.25
+                            * Vec3::new((k as f32 * std::f32::consts::FRAC_PI_8).cos(), 0.0, (k as f32 * std::f32::consts::FRAC_PI_8).sin())
+                })
+                .collect();
+            tube(&mut m, &wheel, 0.03, 6, false);
+            push("pump", m);
+        }
+    }
+    // Pipe runs: most bays start one or more, crossing into neighbouring bays, with elbows
+    // down to the floor or up to the ceiling. Radii from 5 cm to 50 cm.
+    for _ in 0..r.random_range(0..4) {
+        let rad = 0.05 * 10f32.powf(r.random::<f32>());
+        let y = floor_y + r.random_range(3.0..FLOOR - SLAB - 0.6);
+        let start = Vec3::new(o.x + r.random_range(0.5..BAY - 0.5), y, o.z + r.random_range(0.5..BAY - 0.5));
+        let dir = if r.random::<bool>() { Vec3::X } else { Vec3::Z };
+        let len = BAY * r.random_range(0.5..3.0);
+        let mut corners = vec![start.with_y(floor_y + 0.3), start, start + dir * len * 0.5];
+        let side = if dir == Vec3::X { Vec3::Z } else { Vec3::X };
+        corners.push(corners[2] + side * r.random_range(1.0..4.0));
+        corners.push(corners[3] + dir * len * 0.5);
+        if r.random::<bool>() {
+            let last = corners[4];
+            corners.push(last.with_y(floor_y + 0.3));
+        }
+        let seg = (8.0 + rad * 30.0) as u32;
+        let mut m = Mesh::default();
+        tube(&mut m, &rounded(&corners, rad * 3.0, 6), rad, seg, true);
+        push("pipe", m);
+    }
+    // A walkway with railings along the bay's north edge, 2.8 m up (not on every bay).
+    if r.random::<f32>() < 0.35 {
+        let y = floor_y + 2.8;
+        let (a, b) = (o + Vec3::new(0.0, y - o.y, 0.4), o + Vec3::new(BAY, y - o.y, 1.6));
+        let mut m = Mesh::default();
+        add_box(&mut m, a, b.with_y(y + 0.08));
+        for k in 0..=8 {
+            let x = a.x + BAY * k as f32 / 8.0;
+            add_box(&mut m, Vec3::new(x, y, b.z - 0.05), Vec3::new(x + 0.06, y + 1.1, b.z));
+        }
+        cylinder(&mut m, Vec3::new(a.x, y + 1.1, b.z - 0.02), Vec3::new(b.x, y + 1.1, b.z - 0.02), 0.03, 6);
+        cylinder(&mut m, Vec3::new(a.x, y + 0.55, b.z - 0.02), Vec3::new(b.x, y + 0.55, b.z - 0.02), 0.03, 6);
+        push("walkway", m);
+    }
+    out
+}
+
+/// Floor slabs (one box per bay) and I-beam columns at bay corners for floor `f`.
+fn structure(size: Vec3, f: u32, nx: u64, nz: u64) -> Mesh {
+    let mut m = Mesh::default();
+    let y = f as f32 * FLOOR;
+    for i in 0..nx {
+        for k in 0..nz {
+            let lo = Vec3::new(i as f32 * BAY, y, k as f32 * BAY);
+            add_box(&mut m, lo, lo + Vec3::new(BAY, SLAB, BAY));
+        }
+    }
+    for i in 0..=nx {
+        for k in 0..=nz {
+            let c = Vec3::new((i as f32 * BAY).min(size.x - 0.2).max(0.2), y + SLAB, (k as f32 * BAY).min(size.z - 0.2).max(0.2));
+            let top = y + FLOOR;
+            add_box(&mut m, c + Vec3::new(-0.15, 0.0, -0.15), Vec3::new(c.x + 0.15, top, c.z - 0.12));
+            add_box(&mut m, c + Vec3::new(-0.15, 0.0, 0.12), Vec3::new(c.x + 0.15, top, c.z + 0.15));
+            add_box(&mut m, c + Vec3::new(-0.03, 0.0, -0.12), Vec3::new(c.x + 0.03, top, c.z + 0.12));
+        }
+    }
+    m
+}
+
+/// Outside walls, one object per side and floor, with a door in one bay in four.
+fn walls(size: Vec3, nx: u64, nz: u64, seed: u64) -> Vec<Object> {
+    let mut r = super::rng(seed, u64::MAX);
+    let mut out = Vec::new();
+    for f in 0..FLOORS {
+        let y0 = f as f32 * FLOOR + SLAB;
+        let y1 = (f + 1) as f32 * FLOOR;
+        for (side, bays) in [(0, nx), (1, nx), (2, nz), (3, nz)] {
+            let mut m = Mesh::default();
+            for b in 0..bays {
+                let (a, e) = (b as f32 * BAY, (b + 1) as f32 * BAY);
+                let door = r.random::<f32>() < 0.25;
+                let yb = if door { y0 + 3.0 } else { y0 };
+                let (lo, hi) = match side {
+                    0 => (Vec3::new(a, yb, -WALL), Vec3::new(e, y1, 0.0)),
+                    1 => (Vec3::new(a, yb, size.z), Vec3::new(e, y1, size.z + WALL)),
+                    2 => (Vec3::new(-WALL, yb, a), Vec3::new(0.0, y1, e)),
+                    _ => (Vec3::new(size.x, yb, a), Vec3::new(size.x + WALL, y1, e)),
+                };
+                add_box(&mut m, lo, hi);
+            }
+            out.push(Object { name: format!("wall {side} floor {f}"), mesh: m });
+        }
+    }
+    out
+}

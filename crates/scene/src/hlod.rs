@@ -1,0 +1,76 @@
+//! HLODs for interior nodes (paper 000 sec. 4.1, after Erikson et al. 2001): the children's
+//! coarsest representations merged and simplified with meshoptimizer's sloppy simplifier,
+//! which merges disjoint parts (a row of tanks becomes one blob) where edge collapse cannot.
+//!
+//! Error: the sloppy step's absolute error plus the largest error of the merged inputs, so that
+//! a parent's error is never below a child's (errors monotone up the hierarchy).
+
+use crate::limits::{HLOD_MAX_FRACTION, HLOD_MAX_TRIANGLES, LOD_TARGET_RATIO};
+use crate::lod::Level;
+use crate::mesh::{Mesh, sub_mesh};
+
+/// Why a group got no HLOD.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoHlod {
+    /// The simplifier kept more than HLOD_MAX_FRACTION of the input's triangles.
+    NotCoarser,
+    /// The simplifier removed everything: parts too small to merge at any coarser size.
+    Vanished,
+}
+
+/// The HLOD of a node whose children's coarsest representations are `parts`, or why there is
+/// none: it must have at most HLOD_MAX_FRACTION of the parts' triangles, else drawing the
+/// parts costs little more. Aims at LOD_TARGET_RATIO of the input, then at the largest size
+/// allowed when the first aim collapses the parts to nothing (small inputs do). `min_error`
+/// (> 0) is the smallest error the result may report.
+pub fn build(parts: &[&Level], min_error: f32) -> Result<Level, NoHlod> {
+    let mut merged = Mesh::default();
+    for p in parts {
+        merged.append(&p.mesh);
+    }
+    let input = merged.triangle_count();
+    let most = (input as f32 * HLOD_MAX_FRACTION) as usize;
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&merged.positions), 12, 0).expect("12-byte vertices");
+    let mut result = Err(NoHlod::Vanished);
+    for aim in [(input as f32 * LOD_TARGET_RATIO) as usize, most] {
+        let target = aim.clamp(1, HLOD_MAX_TRIANGLES as usize);
+        let mut rel = 0.0f32;
+        let indices = meshopt::simplify_sloppy(&merged.indices, &adapter, target * 3, 1.0, Some(&mut rel));
+        if indices.len() / 3 > most {
+            return Err(NoHlod::NotCoarser);
+        }
+        if !indices.is_empty() {
+            result = Ok((indices, rel));
+            break;
+        }
+    }
+    let (indices, rel) = result?;
+    let scale = meshopt::simplify_scale(&adapter);
+    let inputs_error = parts.iter().map(|p| p.error).fold(0.0, f32::max);
+    Ok(Level { mesh: sub_mesh(&merged.positions, &indices), error: inputs_error + (rel * scale).max(min_error) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generators::shapes;
+    use glam::Vec3;
+
+    #[test]
+    fn two_spheres_merge_into_a_coarser_hlod_with_larger_error() {
+        let sphere = |x: f32| {
+            let mut m = Mesh::default();
+            shapes::lathe(&mut m, Vec3::new(x, 0.0, 0.0), &shapes::sphere_profile(1.0, 16), 32);
+            Level { mesh: m, error: 0.01 * (x + 1.0) }
+        };
+        let (a, b) = (sphere(0.0), sphere(3.0));
+        let h = build(&[&a, &b], 1e-6).expect("an HLOD");
+        assert!(h.mesh.triangle_count() as f32 <= HLOD_MAX_FRACTION * (a.mesh.triangle_count() + b.mesh.triangle_count()) as f32);
+        assert!(h.error > a.error.max(b.error));
+    }
+
+    #[test]
+    fn no_hlod_from_nothing() {
+        assert_eq!(build(&[], 1e-6).unwrap_err(), NoHlod::Vanished);
+    }
+}

@@ -1,0 +1,38 @@
+//! osw scene: everything the three processes of the cluster share (paper 000, sec. 3.5 and 4.1).
+//!
+//! Layout of this crate, in the order a scene is made:
+//! - [`mesh`]: indexed triangle meshes and the clean-up every input goes through.
+//! - [`import`]: glTF 2.0 (.gltf/.glb) and PLY readers; [`generators`]: the city, teapots and plant
+//!   generators.
+//! - [`chunk`]: splits large objects into chunks of bounded triangle count.
+//! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
+//! - [`lod`] and [`hlod`]: static LOD chains per leaf, HLODs per interior node.
+//! - [`build`]: the pipeline above plus the report of what it left out.
+//! - [`format`] and [`file`]: the versioned, hashed, memory-mapped scene file.
+//! - [`error_metric`]: object-space error projected to pixels (tau).
+//! - [`camera`] and [`path`]: cameras, the path CSV, and walk/orbit/flyover paths.
+
+pub mod aabb;
+pub mod build;
+pub mod bvh;
+pub mod camera;
+pub mod chunk;
+pub mod error_metric;
+pub mod file;
+pub mod format;
+pub mod generators;
+pub mod hlod;
+pub mod import;
+pub mod limits;
+pub mod lod;
+pub mod mesh;
+pub mod path;
+pub mod path_gen;
+pub mod writer;
+
+pub use aabb::Aabb;
+pub use build::{BuildOptions, BuildReport, build_scene};
+pub use camera::Camera;
+pub use file::{SceneError, SceneFile};
+pub use format::{NodeId, NodeKind, NodeRecord};
+pub use mesh::Mesh;

@@ -1,0 +1,105 @@
+//! Static LOD chains for leaves (paper 000 sec. 4.1), made with meshoptimizer's
+//! edge-collapse simplifier. Chunk borders are locked so that neighbouring chunks of one
+//! object at different levels still meet without cracks.
+//!
+//! Errors: meshoptimizer reports each step's error relative to the mesh's extent; the object
+//! error of level k is the sum of the steps' absolute errors, an upper bound on the distance to
+//! the original by the triangle inequality. Levels are simplified one from the next (cost
+//! 1 + 1/4 + 1/16 ... of the chunk instead of one pass per level).
+
+use crate::limits::{LOD_MAX_LEVELS, LOD_MIN_REDUCTION, LOD_MIN_TRIANGLES, LOD_TARGET_RATIO};
+use crate::mesh::{Mesh, sub_mesh};
+
+/// One level of a chain: geometry and its object-space error (world units).
+#[derive(Clone, Debug)]
+pub struct Level {
+    pub mesh: Mesh,
+    pub error: f32,
+}
+
+/// Why a chain stopped: the build report counts these.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LodStats {
+    /// Chunks too small to simplify at all (at most LOD_MIN_TRIANGLES triangles).
+    pub too_small: u64,
+    /// Levels simplified and dropped because they did not cut enough triangles.
+    pub not_paying: u64,
+    /// Chains that reached LOD_MAX_LEVELS.
+    pub max_levels: u64,
+}
+
+impl LodStats {
+    pub fn add(&mut self, o: LodStats) {
+        self.too_small += o.too_small;
+        self.not_paying += o.not_paying;
+        self.max_levels += o.max_levels;
+    }
+}
+
+/// The chain for `mesh`: level 0 is `mesh` itself with error 0, then coarser levels with
+/// increasing error, each at most LOD_MIN_REDUCTION of the previous one's triangles.
+/// `min_error` (> 0) is the smallest error a simplified level may report.
+pub fn chain(mesh: &Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
+    let mut stats = LodStats::default();
+    let mut levels = vec![Level { mesh: mesh.clone(), error: 0.0 }];
+    if mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize {
+        stats.too_small += 1;
+        return (levels, stats);
+    }
+    let scale = meshopt::simplify_scale_decoder(&mesh.positions);
+    loop {
+        let prev = levels.last().expect("level 0");
+        let target = ((prev.mesh.indices.len() as f32 * LOD_TARGET_RATIO) as usize / 3 * 3).max(3);
+        let mut rel = 0.0f32;
+        let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&prev.mesh.positions), 12, 0).expect("12-byte vertices");
+        let opts = meshopt::SimplifyOptions::LockBorder | meshopt::SimplifyOptions::Prune;
+        // Error limit 1.0 (relative): no limit, the level's error is measured, not bounded.
+        let indices = meshopt::simplify(&prev.mesh.indices, &adapter, target, 1.0, opts, Some(&mut rel));
+        if indices.is_empty() || indices.len() as f32 > prev.mesh.indices.len() as f32 * LOD_MIN_REDUCTION {
+            stats.not_paying += 1;
+            break;
+        }
+        let error = prev.error + (rel * scale).max(min_error);
+        let mesh = sub_mesh(&prev.mesh.positions, &indices);
+        let small = mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize;
+        levels.push(Level { mesh, error });
+        if levels.len() == LOD_MAX_LEVELS {
+            stats.max_levels += 1;
+            break;
+        }
+        if small {
+            break;
+        }
+    }
+    (levels, stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generators::shapes;
+    use glam::Vec3;
+
+    #[test]
+    fn a_fine_sphere_gets_a_chain_of_coarser_levels_with_growing_error() {
+        let mut m = Mesh::default();
+        shapes::lathe(&mut m, Vec3::ZERO, &shapes::sphere_profile(1.0, 32), 64); // ~4000 triangles
+        let (levels, _) = chain(&m, 1e-6);
+        assert!(levels.len() >= 3, "{} levels", levels.len());
+        for w in levels.windows(2) {
+            assert!(w[1].mesh.triangle_count() as f32 <= w[0].mesh.triangle_count() as f32 * LOD_MIN_REDUCTION);
+            assert!(w[1].error > w[0].error);
+        }
+        // The coarse level of a unit sphere deviates by less than its radius.
+        assert!(levels.last().unwrap().error < 1.0);
+    }
+
+    #[test]
+    fn a_box_is_too_small_for_a_lod() {
+        let mut m = Mesh::default();
+        shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
+        let (levels, stats) = chain(&m, 1e-6);
+        assert_eq!(levels.len(), 1);
+        assert_eq!(stats.too_small, 1);
+    }
+}

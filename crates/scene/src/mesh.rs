@@ -1,0 +1,196 @@
+//! Indexed triangle meshes, and the clean-up every input goes through before the build.
+//!
+//! Positions are scene-local f32 (the scene file stores one f64 origin). Degenerate triangles
+//! (two equal indices or zero area) are dropped and counted; non-finite positions and
+//! out-of-range indices are errors, because guessing would change what the user sees.
+
+use crate::aabb::Aabb;
+use glam::Vec3;
+
+/// An indexed triangle list: `indices.len()` is a multiple of 3, every index < `positions.len()`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<[f32; 3]>,
+    pub indices: Vec<u32>,
+}
+
+/// One input object: a named mesh. Objects are what chunks are cut from; each keeps its index
+/// so that renderers can colour by object.
+#[derive(Clone, Debug, Default)]
+pub struct Object {
+    pub name: String,
+    pub mesh: Mesh,
+}
+
+/// What is wrong with a mesh that cannot be cleaned up without guessing.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum MeshError {
+    #[error("index count {0} is not a multiple of 3")]
+    RaggedIndices(usize),
+    #[error("index {index} at position {at} is out of range (the mesh has {vertices} vertices)")]
+    IndexOutOfRange { at: usize, index: u32, vertices: usize },
+    #[error("vertex {vertex} has a non-finite position {pos:?}")]
+    NonFinite { vertex: usize, pos: [f32; 3] },
+}
+
+/// Counts of what [`Mesh::clean`] removed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CleanStats {
+    pub degenerate_triangles: u64,
+    pub unused_vertices: u64,
+}
+
+impl CleanStats {
+    pub fn add(&mut self, o: CleanStats) {
+        self.degenerate_triangles += o.degenerate_triangles;
+        self.unused_vertices += o.unused_vertices;
+    }
+}
+
+impl Mesh {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.indices.is_empty()
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&self.positions)
+    }
+
+    pub fn vertex(&self, i: u32) -> Vec3 {
+        Vec3::from_array(self.positions[i as usize])
+    }
+
+    /// Checks the contract of [`Mesh`] and that every position is finite.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        if !self.indices.len().is_multiple_of(3) {
+            return Err(MeshError::RaggedIndices(self.indices.len()));
+        }
+        if let Some((vertex, p)) = self.positions.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
+            return Err(MeshError::NonFinite { vertex, pos: *p });
+        }
+        let n = self.positions.len();
+        if let Some((at, &index)) = self.indices.iter().enumerate().find(|(_, i)| **i as usize >= n) {
+            return Err(MeshError::IndexOutOfRange { at, index, vertices: n });
+        }
+        Ok(())
+    }
+
+    /// Validates, then drops degenerate triangles (repeated index or zero area) and vertices no
+    /// triangle uses. The result may be empty.
+    pub fn clean(mut self) -> Result<(Mesh, CleanStats), MeshError> {
+        self.validate()?;
+        let mut stats = CleanStats::default();
+        let mut kept = Vec::with_capacity(self.indices.len());
+        for t in self.indices.chunks_exact(3) {
+            let (a, b, c) = (self.vertex(t[0]), self.vertex(t[1]), self.vertex(t[2]));
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || (b - a).cross(c - a).length_squared() == 0.0 {
+                stats.degenerate_triangles += 1;
+            } else {
+                kept.extend_from_slice(t);
+            }
+        }
+        self.indices = kept;
+        let before = self.positions.len();
+        let compact = self.compacted();
+        stats.unused_vertices = (before - compact.positions.len()) as u64;
+        Ok((compact, stats))
+    }
+
+    /// A copy holding only the vertices the indices use, in first-use order.
+    pub fn compacted(&self) -> Mesh {
+        sub_mesh(&self.positions, &self.indices)
+    }
+
+    /// Appends `o`, offsetting its indices.
+    pub fn append(&mut self, o: &Mesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&o.positions);
+        self.indices.extend(o.indices.iter().map(|i| i + base));
+    }
+
+    /// Adds a triangle by its three corners (no welding).
+    pub fn push_triangle(&mut self, a: Vec3, b: Vec3, c: Vec3) {
+        let base = self.positions.len() as u32;
+        self.positions.extend([a.to_array(), b.to_array(), c.to_array()]);
+        self.indices.extend([base, base + 1, base + 2]);
+    }
+
+    /// Applies an affine transform to every position.
+    pub fn transform(&mut self, m: &glam::Affine3A) {
+        for p in &mut self.positions {
+            *p = m.transform_point3(Vec3::from_array(*p)).to_array();
+        }
+    }
+
+    /// Merges vertices with bit-identical positions (meshoptimizer's remap), so that the
+    /// simplifier sees a connected surface in inputs that repeat corners per triangle.
+    pub fn welded(&self) -> Mesh {
+        let (unique, remap) = meshopt::generate_vertex_remap(&self.positions, Some(&self.indices));
+        let positions = meshopt::remap_vertex_buffer(&self.positions, unique, &remap);
+        let indices = meshopt::remap_index_buffer(Some(&self.indices), self.indices.len(), &remap);
+        Mesh { positions, indices }
+    }
+}
+
+/// The mesh made of `indices` into `positions`, with only the used vertices, in first-use order.
+pub fn sub_mesh(positions: &[[f32; 3]], indices: &[u32]) -> Mesh {
+    let mut map = vec![u32::MAX; positions.len()];
+    let mut out = Mesh { positions: Vec::new(), indices: Vec::with_capacity(indices.len()) };
+    for &i in indices {
+        let slot = &mut map[i as usize];
+        if *slot == u32::MAX {
+            *slot = out.positions.len() as u32;
+            out.positions.push(positions[i as usize]);
+        }
+        out.indices.push(*slot);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad() -> Mesh {
+        Mesh { positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]], indices: vec![0, 1, 2, 0, 2, 3] }
+    }
+
+    #[test]
+    fn clean_drops_degenerates_and_unused_vertices() {
+        let mut m = quad();
+        m.positions.push([5.0, 5.0, 5.0]); // unused
+        m.positions.push([2.0, 0.0, 0.0]); // collinear with 0 and 1
+        m.indices.extend([0, 0, 1]); // repeated index
+        m.indices.extend([0, 1, 5]); // zero area
+        let (c, stats) = m.clean().unwrap();
+        assert_eq!(c, quad());
+        assert_eq!(stats, CleanStats { degenerate_triangles: 2, unused_vertices: 2 });
+    }
+
+    #[test]
+    fn validate_names_what_is_wrong() {
+        let mut m = quad();
+        m.indices[4] = 9;
+        assert_eq!(m.validate(), Err(MeshError::IndexOutOfRange { at: 4, index: 9, vertices: 4 }));
+        let mut m = quad();
+        m.positions[2][1] = f32::NAN;
+        assert!(matches!(m.validate(), Err(MeshError::NonFinite { vertex: 2, .. })));
+        let mut m = quad();
+        m.indices.pop();
+        assert_eq!(m.validate(), Err(MeshError::RaggedIndices(5)));
+    }
+
+    #[test]
+    fn weld_merges_repeated_corners() {
+        let mut soup = Mesh::default();
+        soup.push_triangle(Vec3::ZERO, Vec3::X, Vec3::Y);
+        soup.push_triangle(Vec3::X, Vec3::ONE, Vec3::Y);
+        let w = soup.welded();
+        assert_eq!(w.positions.len(), 4);
+        assert_eq!(w.triangle_count(), 2);
+    }
+}
