@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Installs what osw needs on a fresh Debian machine, skipping what is already there:
+# Mesa's software Vulkan driver (lavapipe) and the Vulkan loader, which the renderer uses when
+# no GPU is present. Needs root (or sudo) only when something is missing.
+set -euo pipefail
+missing=()
+for pkg in mesa-vulkan-drivers libvulkan1; do
+  dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo_cmd=""
+  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+command -v cargo >/dev/null || { echo "setup: cargo not found: install Rust (rustup) first" >&2; exit 1; }
