@@ -29,11 +29,15 @@ pub fn build(parts: &[&Level], min_error: f32) -> Result<Level, NoHlod> {
         merged.append(&p.mesh);
     }
     let input = merged.triangle_count();
+    if input == 0 {
+        return Err(NoHlod::Vanished);
+    }
     let most = (input as f32 * HLOD_MAX_FRACTION) as usize;
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&merged.positions), 12, 0).expect("12-byte vertices");
     let mut result = Err(NoHlod::Vanished);
     for aim in [(input as f32 * LOD_TARGET_RATIO) as usize, most] {
-        let target = aim.clamp(1, HLOD_MAX_TRIANGLES as usize);
+        // meshoptimizer asserts target <= input.
+        let target = aim.clamp(1, HLOD_MAX_TRIANGLES as usize).min(input);
         let mut rel = 0.0f32;
         let indices = meshopt::simplify_sloppy(&merged.indices, &adapter, target * 3, 1.0, Some(&mut rel));
         if indices.len() / 3 > most {
