@@ -1,11 +1,15 @@
-//! `osw`: the osw tool. Subcommands build scenes, make camera paths and inspect scene files;
-//! later issues add render, exact, compare, run and report here.
+//! `osw`: the osw tool. Subcommands build scenes, make camera paths, inspect scene files,
+//! render paths with each culling mode, compute exact visibility and compare runs.
 //!
 //! Exit codes: 0 success, 1 error (message on stderr, prefixed `osw: error:`), 2 bad usage.
 
 mod cmd_build;
+mod cmd_compare;
+mod cmd_exact;
 mod cmd_info;
 mod cmd_path;
+mod cmd_render;
+mod gpu_args;
 mod progress;
 
 use clap::{Parser, Subcommand};
@@ -25,6 +29,12 @@ enum Cmd {
     Path(cmd_path::Args),
     /// Open a scene file, validate it and print what it holds.
     Info(cmd_info::Args),
+    /// Render a camera path with one culling mode (single process).
+    Render(cmd_render::Args),
+    /// Exact visibility (item buffer at full detail) for every frame of a path.
+    Exact(cmd_exact::Args),
+    /// Image and culling error of one run against another and against exact visibility.
+    Compare(cmd_compare::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -37,6 +47,9 @@ fn main() -> std::process::ExitCode {
         Cmd::Build(a) => cmd_build::run(a),
         Cmd::Path(a) => cmd_path::run(a),
         Cmd::Info(a) => cmd_info::run(a),
+        Cmd::Render(a) => cmd_render::run(a),
+        Cmd::Exact(a) => cmd_exact::run(a),
+        Cmd::Compare(a) => cmd_compare::run(a),
     };
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -30,3 +30,15 @@ impl osw_scene::build::Progress for Bar {
         self.0.inc(n);
     }
 }
+
+/// A bar over the frames of a path.
+pub fn frames(total: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>6} [{bar:40}] {pos}/{len} frames {elapsed} (eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_owned());
+    bar
+}

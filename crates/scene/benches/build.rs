@@ -21,7 +21,10 @@ fn bench(c: &mut Criterion) {
         g.bench_function(format!("{kind:?} {tris} triangles"), |b| {
             b.iter_batched(
                 || objects.clone(),
-                |objects| build_scene(objects, "bench", Vec::new(), &BuildOptions::default(), &out, std::time::Instant::now(), &()).expect("build"),
+                |objects| {
+                    build_scene(objects, "bench", Vec::new(), &BuildOptions::default(), &out, std::time::Instant::now(), &())
+                        .expect("build")
+                },
                 BatchSize::LargeInput,
             )
         });

@@ -1,0 +1,20 @@
+//! osw culling: the per-frame visibility algorithms as plain synchronous code over a
+//! [`VisibilityTester`], so that they run and are tested without a GPU.
+//!
+//! - [`view`]: a camera turned into what culling needs (scene-local eye, frustum, focal length).
+//! - [`frustum`]: view-frustum tests of node boxes.
+//! - [`tester`]: the visibility-test interface (GPU implementations live in `osw-gpu`).
+//! - [`hc`]: the hardware cull traversal, paper 000 alg. 4.1 with level batches (sec. 4.7.1)
+//!   and the pixel-count LOD stop (sec. 4.7.2).
+//! - [`front`]: the front update that re-selects last frame's visible set for a new camera
+//!   (paper 000 sec. 4.6), used to draw occluders.
+
+pub mod front;
+pub mod frustum;
+pub mod hc;
+pub mod tester;
+pub mod view;
+
+pub use hc::{HcStats, hardware_cull};
+pub use tester::{AllVisible, Visibility, VisibilityTester};
+pub use view::View;

@@ -1,0 +1,30 @@
+//! The visibility-test interface the traversals use. Implementations test node boxes against
+//! an occluder depth buffer (GPU: `osw-gpu`) or answer from a fixed set (tests).
+
+use crate::view::View;
+use osw_scene::NodeId;
+
+/// The answer for one box.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Visibility {
+    /// Some part of the box passes the depth test: conservative (never false when any
+    /// geometry inside could be visible).
+    pub visible: bool,
+    /// Pixels of the box that pass, when the tester counts them (paper 000 sec. 4.7.2).
+    pub pixels: Option<u32>,
+}
+
+pub trait VisibilityTester {
+    /// Tests the boxes of BVH nodes `ids` for `view`; appends one answer per id to `out`, in
+    /// order. One call is one batch: paper 000 sec. 4.7.1 issues a whole level at once.
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>);
+}
+
+/// Frustum culling only: every box that reaches the tester is visible.
+pub struct AllVisible;
+
+impl VisibilityTester for AllVisible {
+    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
+    }
+}

@@ -1,0 +1,76 @@
+//! The HC primitive (paper 000 sec. 4.2 and alg. 4.1 line 6): node bounding boxes rasterised
+//! against the occluder depth buffer, one instance per box, with forced early depth so that
+//! only passing fragments write (see shaders/boxtest.wgsl). Exact per pixel: a box is visible
+//! when any of its pixels is nearer than the occluders. With `count_pixels` each box gets its
+//! number of passing fragments (front and back faces; an upper bound for sec. 4.7.2).
+
+use crate::draw::depth_state;
+
+/// One box, camera-relative: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuBox {
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+}
+
+pub struct BoxTestPipelines {
+    pub layout: wgpu::BindGroupLayout,
+    pub flag: wgpu::RenderPipeline,
+    pub count: wgpu::RenderPipeline,
+}
+
+impl BoxTestPipelines {
+    pub fn new(device: &wgpu::Device) -> BoxTestPipelines {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("boxtest.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/boxtest.wgsl").into()),
+        });
+        let buffer = |binding, ty, visibility| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("boxtest"),
+            entries: &[
+                buffer(0, wgpu::BufferBindingType::Uniform, wgpu::ShaderStages::VERTEX),
+                buffer(1, wgpu::BufferBindingType::Storage { read_only: true }, wgpu::ShaderStages::VERTEX),
+                buffer(2, wgpu::BufferBindingType::Storage { read_only: false }, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("boxtest"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let make = |label: &str, count: bool| {
+            let constants = [("count_pixels", if count { 1.0 } else { 0.0 })];
+            let options = wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_box"),
+                    compilation_options: options.clone(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
+                // GreaterEqual: a box face exactly at the occluder's depth counts as visible.
+                depth_stencil: Some(depth_state(false, wgpu::CompareFunction::GreaterEqual)),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_box"),
+                    compilation_options: options,
+                    targets: &[],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        BoxTestPipelines { flag: make("boxtest flag", false), count: make("boxtest count", true), layout }
+    }
+}

@@ -1,0 +1,105 @@
+//! Device set-up: prefer a hardware adapter, fall back to a software one (lavapipe), or take
+//! the one named by `--adapter`. Features the renderer needs are requested when the adapter
+//! has them; what is missing is reported by [`Gpu::missing`].
+
+use std::sync::{Arc, Mutex};
+
+/// Why no device could be made.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error(
+        "no Vulkan adapter found: install a Vulkan driver (on Debian/Ubuntu without a GPU: `apt-get install -y mesa-vulkan-drivers libvulkan1`)"
+    )]
+    NoAdapter,
+    #[error("no adapter matches {wanted:?}; available: {available}")]
+    NoSuchAdapter { wanted: String, available: String },
+    #[error("adapter {adapter} lacks {what}, which osw needs")]
+    Missing { adapter: String, what: String },
+    #[error("could not create a device on {adapter}: {source}")]
+    RequestDevice { adapter: String, source: wgpu::RequestDeviceError },
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+    #[error("GPU error: {0}")]
+    Device(String),
+}
+
+/// A device and its queue.
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub features: wgpu::Features,
+    first_error: Arc<Mutex<Option<String>>>,
+}
+
+/// Features the exact box test and the item buffer need.
+pub const WANTED: wgpu::Features = wgpu::Features::SHADER_EARLY_DEPTH_TEST.union(wgpu::Features::PRIMITIVE_INDEX);
+
+impl Gpu {
+    /// Opens an adapter: `name` picks the first whose name contains it (case-insensitive);
+    /// `None` prefers a hardware adapter and falls back to a software one.
+    pub fn new(name: Option<&str>) -> Result<Gpu, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter);
+        }
+        let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Other => 3,
+            wgpu::DeviceType::Cpu => 4,
+        };
+        let adapter = match name {
+            Some(want) => {
+                let names = adapters.iter().map(|a| a.get_info().name).collect::<Vec<_>>().join(", ");
+                adapters
+                    .into_iter()
+                    .find(|a| a.get_info().name.to_lowercase().contains(&want.to_lowercase()))
+                    .ok_or(GpuError::NoSuchAdapter { wanted: want.to_owned(), available: names })?
+            }
+            None => adapters.into_iter().min_by_key(rank).ok_or(GpuError::NoAdapter)?,
+        };
+        let info = adapter.get_info();
+        let features = adapter.features() & WANTED;
+        if !features.contains(WANTED) {
+            return Err(GpuError::Missing { adapter: info.name.clone(), what: format!("{:?}", WANTED - features) });
+        }
+        let limits =
+            wgpu::Limits { max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size, ..wgpu::Limits::default() };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("osw"),
+            required_features: features,
+            required_limits: limits,
+            ..Default::default()
+        }))
+        .map_err(|source| GpuError::RequestDevice { adapter: info.name.clone(), source })?;
+        // wgpu panics on an uncaptured error by default; keep the first one instead and
+        // report it from the next wait, so a GPU error is an error message, not a crash.
+        let first_error = Arc::new(Mutex::new(None));
+        let slot = Arc::clone(&first_error);
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let mut s = slot.lock().unwrap_or_else(|p| p.into_inner());
+            s.get_or_insert_with(|| e.to_string());
+        }));
+        Ok(Gpu { device, queue, info, features, first_error })
+    }
+
+    /// Waits until the GPU has finished all submitted work; reports the first GPU error since
+    /// the device was made.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Device(e.to_string()))?;
+        self.check()
+    }
+
+    /// The first GPU error since the device was made, if any.
+    pub fn check(&self) -> Result<(), GpuError> {
+        match self.first_error.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+            Some(e) => Err(GpuError::Device(e.clone())),
+            None => Ok(()),
+        }
+    }
+}

@@ -1,0 +1,133 @@
+//! Drawing LOD nodes: one draw per node, the node's entry in the per-draw buffer picked by
+//! instance index. Passes: colour + depth (RVG), depth only (OR's occluders), item ids +
+//! depth (exact visibility). All use the same vertex shader, so a node covers the same pixels
+//! at the same depth in every pass.
+
+use crate::target::{COLOR, DEPTH, ITEM};
+use bytemuck::{Pod, Zeroable};
+
+/// What a draw writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pass {
+    Color,
+    Depth,
+    Item,
+}
+
+/// The view uniform shared by all shaders: 80 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ViewUniform {
+    pub view_proj: [[f32; 4]; 4],
+    pub offset: [f32; 4],
+}
+
+impl ViewUniform {
+    pub fn new(view: &osw_cull::View) -> ViewUniform {
+        ViewUniform { view_proj: view.view_proj().to_cols_array_2d(), offset: view.offset().extend(0.0).to_array() }
+    }
+}
+
+/// Per-draw data: 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct DrawData {
+    pub id: u32,
+    pub object: u32,
+    pub pad: [u32; 2],
+}
+
+pub struct DrawPipelines {
+    pub layout: wgpu::BindGroupLayout,
+    pub color: wgpu::RenderPipeline,
+    pub depth: wgpu::RenderPipeline,
+    pub item: wgpu::RenderPipeline,
+}
+
+pub fn depth_state(write: bool, compare: wgpu::CompareFunction) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
+impl DrawPipelines {
+    pub fn new(device: &wgpu::Device) -> DrawPipelines {
+        let src = include_str!("shaders/draw.wgsl");
+        let module = device
+            .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("draw.wgsl"), source: wgpu::ShaderSource::Wgsl(src.into()) });
+        let item_src = format!("enable primitive_index;\n{src}\n{}", include_str!("shaders/item.frag.wgsl"));
+        let item_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("item.frag.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(item_src.into()),
+        });
+        let entry = |binding, ty, vis| wgpu::BindGroupLayoutEntry { binding, visibility: vis, ty, count: None };
+        let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("draw"),
+            entries: &[
+                entry(
+                    0,
+                    wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+                    vf,
+                ),
+                entry(
+                    1,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    vf,
+                ),
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("draw"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let vbuf = [Some(wgpu::VertexBufferLayout {
+            array_stride: 12,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &[wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }],
+        })];
+        let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>| {
+            let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend: None, write_mask: wgpu::ColorWrites::ALL })]);
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState { module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &vbuf },
+                // No back-face culling: imported models are not reliably closed or wound.
+                primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
+                depth_stencil: Some(depth_state(true, wgpu::CompareFunction::Greater)),
+                multisample: Default::default(),
+                fragment: fs.map(|(entry, _)| wgpu::FragmentState {
+                    module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: targets.as_ref().map(|t| t.as_slice()).unwrap_or(&[]),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        DrawPipelines {
+            color: make("draw color", &module, Some(("fs_color", COLOR))),
+            depth: make("draw depth", &module, None),
+            item: make("draw item", &item_module, Some(("fs_item", ITEM))),
+            layout,
+        }
+    }
+
+    pub fn pipeline(&self, pass: Pass) -> &wgpu::RenderPipeline {
+        match pass {
+            Pass::Color => &self.color,
+            Pass::Depth => &self.depth,
+            Pass::Item => &self.item,
+        }
+    }
+}

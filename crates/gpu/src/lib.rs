@@ -1,0 +1,24 @@
+//! osw GPU renderer on wgpu (Vulkan; Mesa lavapipe when there is no GPU).
+//!
+//! - [`device`]: adapter choice and device set-up, with a clear error when there is no driver.
+//! - [`residency`]: geometry uploaded on first use from the mapped scene, under an LRU budget.
+//! - [`target`]: the offscreen colour, depth and item-buffer attachments and their readback.
+//! - [`draw`]: drawing a set of LOD nodes (colour for RVG, depth only for OR, item ids for
+//!   exact visibility).
+//! - [`boxtest`]: the HC primitive: node boxes tested against the depth buffer (paper 000
+//!   sec. 4.2), exact per pixel with forced early depth, optionally counting pixels (4.7.2).
+//! - [`exact`]: item-buffer exact visibility (paper 000 sec. 5) for verification.
+//! - [`renderer`]: the above bound to one scene and one image size.
+
+pub mod boxtest;
+pub mod device;
+pub mod draw;
+pub mod exact;
+pub mod limits;
+pub mod readback;
+pub mod renderer;
+pub mod residency;
+pub mod target;
+
+pub use device::{Gpu, GpuError};
+pub use renderer::Renderer;

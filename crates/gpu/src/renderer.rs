@@ -1,0 +1,243 @@
+//! One scene, one image size, one device: draw, test boxes, exact visibility, read frames.
+//! Every operation submits its work and waits, so the CPU timings around it are GPU times on
+//! lavapipe (which runs on the CPU anyway).
+
+use crate::boxtest::{BoxTestPipelines, GpuBox};
+use crate::device::{Gpu, GpuError};
+use crate::draw::{DrawData, DrawPipelines, Pass, ViewUniform};
+use crate::residency::Residency;
+use crate::target::Target;
+use osw_cull::{View, Visibility, VisibilityTester};
+use osw_scene::{NodeId, SceneError, SceneFile};
+use std::sync::Arc;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("image size {0}x{1} is out of range (1..={max} a side)", max = crate::limits::MAX_SIZE)]
+    Size(u32, u32),
+}
+
+/// Counts of one draw call list.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DrawStats {
+    pub nodes: u32,
+    pub triangles: u64,
+}
+
+pub struct Renderer {
+    pub gpu: Gpu,
+    pub scene: Arc<SceneFile>,
+    pub target: Target,
+    pub residency: Residency,
+    draw: DrawPipelines,
+    boxtest: BoxTestPipelines,
+    view_buf: wgpu::Buffer,
+    draws_buf: wgpu::Buffer,
+    draw_group: wgpu::BindGroup,
+    boxes_buf: wgpu::Buffer,
+    results_buf: wgpu::Buffer,
+    results_staging: wgpu::Buffer,
+    box_group: wgpu::BindGroup,
+    draw_data: Vec<DrawData>,
+    gpu_boxes: Vec<GpuBox>,
+}
+
+fn storage(gpu: &Gpu, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+}
+
+impl Renderer {
+    pub fn new(gpu: Gpu, scene: Arc<SceneFile>, width: u32, height: u32, residency_bytes: u64) -> Result<Renderer, RenderError> {
+        let max = crate::limits::MAX_SIZE;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::Size(width, height));
+        }
+        use wgpu::BufferUsages as U;
+        let draw = DrawPipelines::new(&gpu.device);
+        let boxtest = BoxTestPipelines::new(&gpu.device);
+        let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);
+        let draws_buf = storage(&gpu, "draws", crate::limits::MAX_DRAWS as u64 * 16, U::STORAGE | U::COPY_DST);
+        let n = crate::limits::MAX_BOXES as u64;
+        let boxes_buf = storage(&gpu, "boxes", n * 32, U::STORAGE | U::COPY_DST);
+        let results_buf = storage(&gpu, "box results", n * 4, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+        let results_staging = crate::readback::staging(&gpu, "box results readback", n * 4);
+        let bind = |layout: &wgpu::BindGroupLayout, bufs: &[&wgpu::Buffer]| {
+            let entries: Vec<wgpu::BindGroupEntry> =
+                bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
+        };
+        let draw_group = bind(&draw.layout, &[&view_buf, &draws_buf]);
+        let box_group = bind(&boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
+        let target = Target::new(&gpu, width, height);
+        Ok(Renderer {
+            target,
+            residency: Residency::new(residency_bytes),
+            draw,
+            boxtest,
+            view_buf,
+            draws_buf,
+            draw_group,
+            boxes_buf,
+            results_buf,
+            results_staging,
+            box_group,
+            draw_data: Vec::new(),
+            gpu_boxes: Vec::new(),
+            gpu,
+            scene,
+        })
+    }
+
+    /// Near plane for this scene (see [`osw_cull::view::near_for`]).
+    pub fn view(&self, camera: &osw_scene::Camera) -> View {
+        let diag = self.scene.node(0).aabb().extent().length() as f64;
+        View::new(camera, self.scene.origin(), self.target.width, self.target.height, osw_cull::view::near_for(diag))
+    }
+
+    /// Starts a frame: geometry used from here on is kept resident through the frame.
+    pub fn begin_frame(&mut self) {
+        self.residency.next_epoch();
+    }
+
+    /// Draws LOD nodes `ids` (in the given order) for `view`. `clear` clears the pass's
+    /// attachments first (colour to black, depth to 0 = infinitely far), else draws on top.
+    pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+        let scene = Arc::clone(&self.scene);
+        let mut stats = DrawStats::default();
+        self.draw_data.clear();
+        for &id in ids.iter().take(crate::limits::MAX_DRAWS as usize) {
+            self.residency.ensure(&self.gpu, &scene, id)?;
+            let n = scene.node(id);
+            self.draw_data.push(DrawData { id, object: n.object, pad: [0; 2] });
+            stats.nodes += 1;
+            stats.triangles += n.triangles as u64;
+        }
+        let q = &self.gpu.queue;
+        q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
+        if !self.draw_data.is_empty() {
+            q.write_buffer(&self.draws_buf, 0, bytemuck::cast_slice(&self.draw_data));
+        }
+        let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+        {
+            let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
+            let color_view = match pass {
+                Pass::Color => Some(&self.target.color),
+                Pass::Item => Some(&self.target.item),
+                Pass::Depth => None,
+            };
+            let color = color_view.map(|v| wgpu::RenderPassColorAttachment {
+                view: v,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: load(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+            });
+            let colors = [color];
+            let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("draw"),
+                // The depth-only pass has no colour attachment at all (not an empty slot).
+                color_attachments: if colors[0].is_some() { &colors } else { &[] },
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.target.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: if clear { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load },
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            rp.set_pipeline(self.draw.pipeline(pass));
+            rp.set_bind_group(0, &self.draw_group, &[]);
+            for (i, d) in self.draw_data.iter().enumerate() {
+                let r = self.residency.get(d.id);
+                rp.set_vertex_buffer(0, r.vertices.slice(..));
+                rp.set_index_buffer(r.indices.slice(..), r.format);
+                rp.draw_indexed(0..r.index_count, 0, i as u32..i as u32 + 1);
+            }
+        }
+        self.gpu.queue.submit([enc.finish()]);
+        self.gpu.wait()?;
+        self.residency.trim();
+        Ok(stats)
+    }
+
+    /// Tests the boxes of BVH nodes `ids` against the depth buffer as it is now. Returns one
+    /// answer per id; with `count_pixels`, visible pixel counts too.
+    pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], count_pixels: bool, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
+        self.gpu.queue.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
+        for chunk in ids.chunks(crate::limits::MAX_BOXES as usize) {
+            self.gpu_boxes.clear();
+            for &id in chunk {
+                let b = self.scene.node(id).aabb();
+                let (lo, hi) = (b.min.as_dvec3() - view.eye, b.max.as_dvec3() - view.eye);
+                // Grow by a relative epsilon so that f32 rounding of the camera-relative
+                // corners never shrinks a box (conservative), and flat boxes keep an area.
+                let eps = (hi - lo).max_element() * 1e-6 + lo.abs().max(hi.abs()).max_element() * 1e-6;
+                let (lo, hi) = ((lo - eps).as_vec3(), (hi + eps).as_vec3());
+                self.gpu_boxes.push(GpuBox { lo: lo.extend(0.0).to_array(), hi: hi.extend(0.0).to_array() });
+            }
+            let n = chunk.len() as u64;
+            self.gpu.queue.write_buffer(&self.boxes_buf, 0, bytemuck::cast_slice(&self.gpu_boxes));
+            let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+            enc.clear_buffer(&self.results_buf, 0, Some(n * 4));
+            {
+                let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("boxtest"),
+                    color_attachments: &[],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: &self.target.depth,
+                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                rp.set_pipeline(if count_pixels { &self.boxtest.count } else { &self.boxtest.flag });
+                rp.set_bind_group(0, &self.box_group, &[]);
+                rp.draw(0..36, 0..n as u32);
+            }
+            enc.copy_buffer_to_buffer(&self.results_buf, 0, &self.results_staging, 0, Some(n * 4));
+            self.gpu.queue.submit([enc.finish()]);
+            crate::readback::read(&self.gpu, &self.results_staging, n * 4, |bytes| {
+                let words: &[u32] = bytemuck::cast_slice(bytes);
+                out.extend(words.iter().map(|&w| Visibility { visible: w > 0, pixels: count_pixels.then_some(w) }));
+            })?;
+        }
+        Ok(())
+    }
+
+    /// The colour attachment, RGBA8 rows top first.
+    pub fn read_color(&self) -> Result<Vec<u8>, RenderError> {
+        Ok(self.target.read_color(&self.gpu)?)
+    }
+}
+
+/// A [`VisibilityTester`] on the GPU box test. A GPU error makes every later answer "visible"
+/// (conservative) and is kept in `error` for the caller to report.
+pub struct GpuTester<'a> {
+    pub renderer: &'a mut Renderer,
+    pub count_pixels: bool,
+    pub error: Option<RenderError>,
+}
+
+impl VisibilityTester for GpuTester<'_> {
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        let start = out.len();
+        if self.error.is_none()
+            && let Err(e) = self.renderer.test_boxes(view, ids, self.count_pixels, out)
+        {
+            self.error = Some(e);
+        }
+        if self.error.is_some() {
+            out.truncate(start);
+            out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
+        }
+    }
+}

@@ -1,0 +1,60 @@
+// The HC box test (paper 000 sec. 4.2): each instance rasterises one node's bounding box
+// against the occluder depth buffer (depth test only, no writes). Early depth is forced so
+// that only fragments that pass the test run the shader (without it lavapipe runs the shader
+// for occluded fragments too, and the flags are wrong). count_pixels selects a per-box
+// visible-pixel count (paper 000 sec. 4.7.2) over a plain visible flag.
+
+override count_pixels: bool = false;
+
+struct ViewUniform {
+    view_proj: mat4x4<f32>,
+    offset: vec4<f32>,
+}
+
+// Camera-relative box corners.
+struct Box {
+    lo: vec4<f32>,
+    hi: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> view: ViewUniform;
+@group(0) @binding(1) var<storage, read> boxes: array<Box>;
+@group(0) @binding(2) var<storage, read_write> results: array<atomic<u32>>;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) @interpolate(flat) box: u32,
+}
+
+// 12 triangles over the 8 corners (bit 0 = x, bit 1 = y, bit 2 = z); culling is off, so
+// winding does not matter.
+const CORNERS = array<u32, 36>(
+    0u, 4u, 6u, 0u, 6u, 2u,  1u, 3u, 7u, 1u, 7u, 5u,
+    0u, 1u, 5u, 0u, 5u, 4u,  2u, 6u, 7u, 2u, 7u, 3u,
+    0u, 2u, 3u, 0u, 3u, 1u,  4u, 5u, 7u, 4u, 7u, 6u,
+);
+
+@vertex
+fn vs_box(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance: u32) -> VertexOut {
+    let b = boxes[instance];
+    let c = CORNERS[vertex];
+    let p = vec3<f32>(
+        select(b.lo.x, b.hi.x, (c & 1u) != 0u),
+        select(b.lo.y, b.hi.y, (c & 2u) != 0u),
+        select(b.lo.z, b.hi.z, (c & 4u) != 0u),
+    );
+    var out: VertexOut;
+    out.clip = view.view_proj * vec4<f32>(p, 1.0);
+    out.box = instance;
+    return out;
+}
+
+@fragment
+@early_depth_test(force)
+fn fs_box(in: VertexOut) {
+    if count_pixels {
+        atomicAdd(&results[in.box], 1u);
+    } else {
+        atomicStore(&results[in.box], 1u);
+    }
+}

@@ -1,0 +1,52 @@
+// Draws LOD nodes: colour (RVG), depth only (OR) and, with item.frag.wgsl appended, item ids.
+// Positions are scene-local; view.offset makes them camera-relative (issue 3: precision far
+// from the origin), view.view_proj is reversed Z with an infinite far plane.
+
+struct ViewUniform {
+    view_proj: mat4x4<f32>,
+    offset: vec4<f32>,
+}
+
+// One per draw, indexed by instance_index (each draw has one instance).
+struct Draw {
+    id: u32,
+    object: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> view: ViewUniform;
+@group(0) @binding(1) var<storage, read> draws: array<Draw>;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) rel: vec3<f32>,
+    @location(1) @interpolate(flat) draw: u32,
+}
+
+@vertex
+fn vs_main(@location(0) position: vec3<f32>, @builtin(instance_index) instance: u32) -> VertexOut {
+    let rel = position + view.offset.xyz;
+    var out: VertexOut;
+    out.clip = view.view_proj * vec4<f32>(rel, 1.0);
+    out.rel = rel;
+    out.draw = instance;
+    return out;
+}
+
+// PCG hash: a stable colour per object.
+fn hash(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+@fragment
+fn fs_color(in: VertexOut) -> @location(0) vec4<f32> {
+    // Flat shading from screen-space derivatives: no normals stored in the scene file.
+    let n = normalize(cross(dpdx(in.rel), dpdy(in.rel)));
+    let h = hash(draws[in.draw].object);
+    let base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
+    let light = 0.35 + 0.65 * abs(dot(n, normalize(vec3<f32>(0.4, 0.8, 0.3))));
+    return vec4<f32>(base * light, 1.0);
+}

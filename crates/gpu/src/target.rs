@@ -1,0 +1,83 @@
+//! Offscreen attachments: colour (RVG frames), depth (reversed Z: cleared to 0, nearer is
+//! greater), item ids (exact visibility), and their readback.
+
+use crate::device::{Gpu, GpuError};
+
+pub const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub const ITEM: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Uint;
+
+pub struct Target {
+    pub width: u32,
+    pub height: u32,
+    pub color: wgpu::TextureView,
+    pub depth: wgpu::TextureView,
+    pub item: wgpu::TextureView,
+    color_tex: wgpu::Texture,
+    item_tex: wgpu::Texture,
+}
+
+fn texture(gpu: &Gpu, label: &str, w: u32, h: u32, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// Rows of a texture copy are padded to 256 bytes.
+fn padded_row(bytes_per_row: u32) -> u32 {
+    bytes_per_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
+}
+
+impl Target {
+    pub fn new(gpu: &Gpu, width: u32, height: u32) -> Target {
+        use wgpu::TextureUsages as U;
+        let color_tex = texture(gpu, "color", width, height, COLOR, U::RENDER_ATTACHMENT | U::COPY_SRC);
+        let depth_tex = texture(gpu, "depth", width, height, DEPTH, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
+        let item_tex = texture(gpu, "item", width, height, ITEM, U::RENDER_ATTACHMENT | U::COPY_SRC);
+        Target {
+            width,
+            height,
+            color: color_tex.create_view(&Default::default()),
+            depth: depth_tex.create_view(&Default::default()),
+            item: item_tex.create_view(&Default::default()),
+            color_tex,
+            item_tex,
+        }
+    }
+
+    /// The colour attachment as tightly packed RGBA8 rows, top row first.
+    pub fn read_color(&self, gpu: &Gpu) -> Result<Vec<u8>, GpuError> {
+        self.read(gpu, &self.color_tex, 4)
+    }
+
+    /// The item attachment as (id + 1, triangle) pairs, row by row.
+    pub fn read_item(&self, gpu: &Gpu) -> Result<Vec<[u32; 2]>, GpuError> {
+        let bytes = self.read(gpu, &self.item_tex, 8)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
+    fn read(&self, gpu: &Gpu, tex: &wgpu::Texture, texel: u32) -> Result<Vec<u8>, GpuError> {
+        let row = padded_row(self.width * texel);
+        let size = row as u64 * self.height as u64;
+        let staging = crate::readback::staging(gpu, "readback", size);
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo { texture: tex, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: None },
+            },
+            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+        );
+        gpu.queue.submit([enc.finish()]);
+        let tight = (self.width * texel) as usize;
+        crate::readback::read(gpu, &staging, size, |b| b.chunks(row as usize).flat_map(|r| r[..tight].iter().copied()).collect())
+    }
+}

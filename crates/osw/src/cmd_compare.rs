@@ -1,0 +1,155 @@
+//! `osw compare`: image error between two runs frame by frame and, given `osw exact` output,
+//! each run's culling error (false-culled leaves, PVS/exact for leaves and triangles).
+
+use anyhow::{Context, bail};
+use osw_render::compare::{CullError, ImageError, cull_error, image_error};
+use osw_render::output::{frame_path, read_ids, read_png};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A run directory (of `osw render` or `osw run`).
+    #[arg(long)]
+    a: PathBuf,
+    /// The run to compare it with (e.g. vfc at tau 0, the reference image).
+    #[arg(long)]
+    b: PathBuf,
+    /// `osw exact` output for the same scene and path: adds culling error.
+    #[arg(long)]
+    exact: Option<PathBuf>,
+    /// Output directory: compare.json and compare.csv.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Serialize, Default)]
+struct FrameRow {
+    frame: usize,
+    image: Option<ImageError>,
+    a: Option<CullError>,
+    b: Option<CullError>,
+}
+
+#[derive(Serialize, Default)]
+struct Side {
+    false_culled_leaves_total: u64,
+    frames_with_false_culling: u64,
+    pvs_exact_leaves_ratio_mean: f64,
+    pvs_exact_triangles_ratio_mean: f64,
+}
+
+#[derive(Serialize, Default)]
+struct Report {
+    a: String,
+    b: String,
+    exact: Option<String>,
+    frames: usize,
+    identical_frames: usize,
+    psnr_db_min: Option<f64>,
+    psnr_db_median: Option<f64>,
+    differing_fraction_mean: f64,
+    differing_fraction_max: f64,
+    max_channel_diff: u8,
+    culling_a: Option<Side>,
+    culling_b: Option<Side>,
+}
+
+fn summary(dir: &Path) -> anyhow::Result<serde_json::Value> {
+    let p = dir.join("summary.json");
+    serde_json::from_str(&std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?)
+        .with_context(|| format!("parsing {}", p.display()))
+}
+
+fn side(errors: &[CullError]) -> Side {
+    let n = errors.len().max(1) as f64;
+    Side {
+        false_culled_leaves_total: errors.iter().map(|e| e.false_culled_leaves as u64).sum(),
+        frames_with_false_culling: errors.iter().filter(|e| e.false_culled_leaves > 0).count() as u64,
+        pvs_exact_leaves_ratio_mean: errors.iter().map(CullError::leaf_ratio).sum::<f64>() / n,
+        pvs_exact_triangles_ratio_mean: errors.iter().map(CullError::triangle_ratio).sum::<f64>() / n,
+    }
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let (sa, sb) = (summary(&a.a)?, summary(&a.b)?);
+    if sa["scene_hash"] != sb["scene_hash"] {
+        bail!("{} and {} were rendered from different scenes ({} vs {})", a.a.display(), a.b.display(), sa["scene_hash"], sb["scene_hash"]);
+    }
+    let frames = sa["frames"].as_u64().unwrap_or(0).min(sb["frames"].as_u64().unwrap_or(0)) as usize;
+    let mut rows: Vec<FrameRow> = (0..frames).map(|frame| FrameRow { frame, ..Default::default() }).collect();
+    let have_frames = frame_path(&a.a, 0).exists() && frame_path(&a.b, 0).exists();
+    if have_frames {
+        for row in &mut rows {
+            let (wa, ha, pa) = read_png(&frame_path(&a.a, row.frame as u64)).map_err(anyhow::Error::msg)?;
+            let (wb, hb, pb) = read_png(&frame_path(&a.b, row.frame as u64)).map_err(anyhow::Error::msg)?;
+            if (wa, ha) != (wb, hb) {
+                bail!("frame {}: {wa}x{ha} in {} but {wb}x{hb} in {}", row.frame, a.a.display(), a.b.display());
+            }
+            row.image = Some(image_error(&pa, &pb));
+        }
+    }
+    let mut report = Report { a: a.a.display().to_string(), b: a.b.display().to_string(), frames, ..Default::default() };
+    if let Some(exact) = &a.exact {
+        let scene_path = sa["scene"].as_str().context("summary.json of --a names no scene")?;
+        let scene = osw_scene::SceneFile::open(Path::new(scene_path))?;
+        let leaves = read_ids(&exact.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
+        let tris: Vec<u64> = std::fs::read_to_string(exact.join("exact.csv"))?
+            .lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().and_then(|t| t.parse().ok()).unwrap_or(0))
+            .collect();
+        if leaves.len() < frames {
+            bail!("{} has {} frames, the runs have {frames}", exact.display(), leaves.len());
+        }
+        for (which, dir) in [(0, &a.a), (1, &a.b)] {
+            let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
+            let mut errs = Vec::with_capacity(frames);
+            for row in rows.iter_mut() {
+                let e = cull_error(&scene, &pvs[row.frame], &leaves[row.frame], tris[row.frame]).map_err(anyhow::Error::msg)?;
+                errs.push(e);
+                if which == 0 { row.a = Some(e) } else { row.b = Some(e) }
+            }
+            if which == 0 { report.culling_a = Some(side(&errs)) } else { report.culling_b = Some(side(&errs)) }
+        }
+        report.exact = Some(exact.display().to_string());
+    }
+    let images: Vec<ImageError> = rows.iter().filter_map(|r| r.image).collect();
+    let mut psnr: Vec<f64> = images.iter().filter_map(|i| i.psnr_db).collect();
+    psnr.sort_by(f64::total_cmp);
+    report.identical_frames = images.iter().filter(|i| i.psnr_db.is_none()).count();
+    report.psnr_db_min = psnr.first().copied();
+    report.psnr_db_median = (!psnr.is_empty()).then(|| psnr[psnr.len() / 2]);
+    report.differing_fraction_mean = images.iter().map(|i| i.differing_fraction).sum::<f64>() / images.len().max(1) as f64;
+    report.differing_fraction_max = images.iter().map(|i| i.differing_fraction).fold(0.0, f64::max);
+    report.max_channel_diff = images.iter().map(|i| i.max_channel_diff).max().unwrap_or(0);
+
+    std::fs::create_dir_all(&a.out)?;
+    std::fs::write(a.out.join("compare.json"), serde_json::to_string_pretty(&report)?)?;
+    let mut csv = String::from(
+        "frame,psnr_db,differing_fraction,max_channel_diff,a_false_culled,a_leaf_ratio,a_triangle_ratio,b_false_culled,b_leaf_ratio,b_triangle_ratio\n",
+    );
+    let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
+    for r in &rows {
+        let i = r.image.unwrap_or_default();
+        let c = |e: Option<CullError>| {
+            (opt(e.map(|e| e.false_culled_leaves as f64)), opt(e.map(|e| e.leaf_ratio())), opt(e.map(|e| e.triangle_ratio())))
+        };
+        let ((af, al, at), (bf, bl, bt)) = (c(r.a), c(r.b));
+        let psnr = if r.image.is_some() { i.psnr_db.map_or("inf".to_string(), |p| p.to_string()) } else { String::new() };
+        csv.push_str(&format!("{},{psnr},{},{},{af},{al},{at},{bf},{bl},{bt}\n", r.frame, i.differing_fraction, i.max_channel_diff));
+    }
+    std::fs::write(a.out.join("compare.csv"), csv)?;
+    println!(
+        "compare: {frames} frames, {} identical, PSNR min {}, differing pixels up to {:.4}%{} → {}",
+        report.identical_frames,
+        report.psnr_db_min.map_or("inf".into(), |p| format!("{p:.1} dB")),
+        report.differing_fraction_max * 100.0,
+        report.culling_a.as_ref().map_or(String::new(), |s| format!(
+            ", a: {} false-culled leaves, PVS/exact leaves {:.2}",
+            s.false_culled_leaves_total, s.pvs_exact_leaves_ratio_mean
+        )),
+        a.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,38 @@
+//! Command-line arguments shared by the commands that render: image size and adapter.
+
+use std::sync::Arc;
+
+#[derive(clap::Args, Clone)]
+pub struct GpuArgs {
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x1024", value_parser = parse_size, value_name = "WxH")]
+    pub size: (u32, u32),
+    /// Adapter to use: the first whose name contains this text (default: a hardware GPU if
+    /// there is one, else the software one, lavapipe).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+    /// Geometry residency budget in MiB (least recently used geometry is dropped above it).
+    #[arg(long, default_value_t = 1024, value_name = "MIB")]
+    pub residency_mib: u64,
+}
+
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 1024x1024"))?;
+    let parse = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{s:?}: {t:?} is not a whole number"));
+    let (w, h) = (parse(w)?, parse(h)?);
+    let max = osw_gpu::limits::MAX_SIZE;
+    if w == 0 || h == 0 || w > max || h > max {
+        return Err(format!("{s:?}: each side must be 1..={max}"));
+    }
+    Ok((w, h))
+}
+
+impl GpuArgs {
+    /// Opens the scene and a renderer for it.
+    pub fn renderer(&self, scene: &std::path::Path) -> anyhow::Result<osw_gpu::Renderer> {
+        let scene = Arc::new(osw_scene::SceneFile::open(scene)?);
+        let gpu = osw_gpu::Gpu::new(self.adapter.as_deref())?;
+        tracing::info!("adapter: {} ({:?})", gpu.info.name, gpu.info.device_type);
+        Ok(osw_gpu::Renderer::new(gpu, scene, self.size.0, self.size.1, self.residency_mib << 20)?)
+    }
+}

@@ -1,0 +1,107 @@
+//! `osw compare`: per-frame image error between two runs, and culling error of each run
+//! against exact visibility (paper 000 sec. 5: "PVS / exactly visible", false culling).
+
+use osw_scene::format::NodeKind;
+use osw_scene::{NodeId, SceneFile};
+use serde::Serialize;
+
+/// Image error between two RGBA8 images of the same size.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ImageError {
+    /// Peak signal-to-noise ratio over RGB in dB; `None` when the images are identical.
+    pub psnr_db: Option<f64>,
+    /// Fraction of pixels whose RGB differs at all.
+    pub differing_fraction: f64,
+    /// Largest difference of one channel (0..=255).
+    pub max_channel_diff: u8,
+}
+
+/// `a` and `b` are RGBA8 pixels of the same image size; alpha is ignored.
+pub fn image_error(a: &[u8], b: &[u8]) -> ImageError {
+    let (mut sq, mut differing, mut max) = (0u64, 0u64, 0u8);
+    for (p, q) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+        let mut any = false;
+        for k in 0..3 {
+            let d = p[k].abs_diff(q[k]);
+            sq += d as u64 * d as u64;
+            max = max.max(d);
+            any |= d != 0;
+        }
+        differing += any as u64;
+    }
+    let pixels = (a.len() / 4).max(1) as f64;
+    let mse = sq as f64 / (pixels * 3.0);
+    ImageError {
+        psnr_db: (mse > 0.0).then(|| 10.0 * (255.0 * 255.0 / mse).log10()),
+        differing_fraction: differing as f64 / pixels,
+        max_channel_diff: max,
+    }
+}
+
+/// Culling error of one frame against exact visibility.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct CullError {
+    /// Exactly visible leaves that the PVS does not draw (neither their own LOD nor an
+    /// ancestor's HLOD): must be 0 for a conservative method at tau = 0.
+    pub false_culled_leaves: u32,
+    /// Leaves the PVS draws (directly or under a drawn HLOD).
+    pub pvs_leaves: u32,
+    pub exact_leaves: u32,
+    /// Triangles the PVS draws over exactly visible triangles.
+    pub pvs_triangles: u64,
+    pub exact_triangles: u64,
+}
+
+impl CullError {
+    pub fn leaf_ratio(&self) -> f64 {
+        self.pvs_leaves as f64 / self.exact_leaves.max(1) as f64
+    }
+
+    pub fn triangle_ratio(&self) -> f64 {
+        self.pvs_triangles as f64 / self.exact_triangles.max(1) as f64
+    }
+}
+
+/// Compares a drawn set (LOD ids) with the exactly visible leaves of the same frame.
+pub fn cull_error(scene: &SceneFile, pvs: &[NodeId], exact_leaves: &[NodeId], exact_triangles: u64) -> Result<CullError, String> {
+    let n = scene.nodes();
+    let bad = |id: NodeId| format!("id {id} is not a node of this scene ({} nodes): wrong scene?", n.len());
+    // Mark the BVH owners of drawn LODs, then every leaf under a marked node.
+    let mut drawn = vec![false; scene.bvh_count() as usize];
+    let mut pvs_triangles = 0;
+    for &id in pvs {
+        let node = n.get(id as usize).filter(|x| x.kind() == NodeKind::Lod).ok_or_else(|| bad(id))?;
+        drawn[node.parent as usize] = true;
+        pvs_triangles += node.triangles as u64;
+    }
+    // BVH ids are breadth first: parents before children.
+    let mut covered = drawn.clone();
+    for id in 1..covered.len() {
+        covered[id] |= covered[n[id].parent as usize];
+    }
+    let pvs_leaves = (0..covered.len()).filter(|&i| covered[i] && n[i].kind() == NodeKind::Leaf).count() as u32;
+    let mut false_culled = 0;
+    for &leaf in exact_leaves {
+        if !*covered.get(leaf as usize).ok_or_else(|| bad(leaf))? {
+            false_culled += 1;
+        }
+    }
+    Ok(CullError { false_culled_leaves: false_culled, pvs_leaves, exact_leaves: exact_leaves.len() as u32, pvs_triangles, exact_triangles })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identical_and_different_images() {
+        let a = vec![10u8, 20, 30, 255, 0, 0, 0, 255];
+        assert_eq!(image_error(&a, &a), ImageError { psnr_db: None, differing_fraction: 0.0, max_channel_diff: 0 });
+        let mut b = a.clone();
+        b[0] = 13; // one channel of one pixel off by 3: mse = 9 / 6
+        let e = image_error(&a, &b);
+        assert_eq!(e.differing_fraction, 0.5);
+        assert_eq!(e.max_channel_diff, 3);
+        assert!((e.psnr_db.unwrap() - 10.0 * (255.0f64 * 255.0 / 1.5).log10()).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,16 @@
+//! osw single-process rendering: the per-frame algorithm of every culling mode on one GPU, so
+//! that every method runs in the same renderer on the same scene and camera path.
+//!
+//! - [`mode`]: the modes and their per-frame algorithms (a list of named, timed passes).
+//! - [`stats`]: per-frame statistics, `stats.csv` and `summary.json`.
+//! - [`output`]: frame PNGs and the per-frame PVS / exact-visibility files.
+//! - [`run`]: the loops over a camera path for `osw render` and `osw exact`.
+
+pub mod compare;
+pub mod mode;
+pub mod output;
+pub mod run;
+pub mod stats;
+
+pub use mode::Mode;
+pub use stats::{FrameStats, Summary};

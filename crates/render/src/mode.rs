@@ -1,0 +1,112 @@
+//! Culling modes and their per-frame algorithms. Each frame reads as a list of passes, each
+//! timed: OR (occluders), HC (the cull), RVG (drawing the visible set).
+//!
+//! - `vfc`: frustum culling only, LODs at tau.
+//! - `prev`: the occlusion switch's algorithm on one GPU (paper 004 fig. 5, paper 000 alg.
+//!   4.2): OR draws last frame's visible set, re-selected for this frame's camera (front update,
+//!   paper 000 sec. 4.6), into the depth buffer; HC tests the hierarchy against it level by
+//!   level (alg. 4.1, sec. 4.7.1-4.7.2); RVG draws the result.
+
+use crate::stats::FrameStats;
+use osw_cull::front::update_front;
+use osw_cull::{AllVisible, HcStats, View, hardware_cull};
+use osw_gpu::draw::Pass;
+use osw_gpu::renderer::{GpuTester, RenderError, Renderer};
+use osw_scene::NodeId;
+use std::time::Instant;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    Vfc,
+    Prev,
+}
+
+impl Mode {
+    pub const ALL: [Mode; 2] = [Mode::Vfc, Mode::Prev];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Vfc => "vfc",
+            Mode::Prev => "prev",
+        }
+    }
+}
+
+impl std::str::FromStr for Mode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Mode, String> {
+        Mode::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = Mode::ALL.iter().map(|m| m.name()).collect();
+            format!("unknown mode {s:?}: expected one of {}", names.join(", "))
+        })
+    }
+}
+
+/// A mode's state across frames.
+pub struct ModeState {
+    pub mode: Mode,
+    pub tau: f64,
+    /// V(i-1): last frame's visible set (LOD ids, sorted).
+    visible: Vec<NodeId>,
+    occluders: Vec<NodeId>,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+impl ModeState {
+    pub fn new(mode: Mode, tau: f64) -> ModeState {
+        ModeState { mode, tau, visible: Vec::new(), occluders: Vec::new() }
+    }
+
+    /// The visible set of the last frame rendered (LOD ids, sorted).
+    pub fn visible(&self) -> &[NodeId] {
+        &self.visible
+    }
+
+    /// Renders one frame for `view` into the renderer's colour target.
+    pub fn frame(&mut self, r: &mut Renderer, view: &View) -> Result<FrameStats, RenderError> {
+        r.begin_frame();
+        let mut s = FrameStats::default();
+        let scene = std::sync::Arc::clone(&r.scene);
+        let nodes = scene.nodes();
+        let mut pvs = Vec::new();
+        let hc: HcStats = match self.mode {
+            Mode::Vfc => {
+                let t = Instant::now();
+                let hc = hardware_cull(nodes, view, self.tau, &mut AllVisible, &mut pvs);
+                s.hc_ms = ms(t);
+                hc
+            }
+            Mode::Prev => {
+                let t = Instant::now();
+                update_front(nodes, &self.visible, view, self.tau, &mut self.occluders);
+                let or = r.draw(view, &self.occluders, Pass::Depth, true)?;
+                (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
+                let t = Instant::now();
+                // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
+                let mut tester = GpuTester { renderer: r, count_pixels: self.tau > 0.0, error: None };
+                let hc = hardware_cull(nodes, view, self.tau, &mut tester, &mut pvs);
+                if let Some(e) = tester.error {
+                    return Err(e);
+                }
+                s.hc_ms = ms(t);
+                hc
+            }
+        };
+        // One draw order for every mode: sorted ids, so equal sets give equal pixels even
+        // where surfaces tie in depth.
+        pvs.sort_unstable();
+        pvs.dedup();
+        let t = Instant::now();
+        let drawn = r.draw(view, &pvs, Pass::Color, true)?;
+        s.rvg_ms = ms(t);
+        s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
+        (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
+        (s.tests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
+            (hc.tests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
+        self.visible = pvs;
+        Ok(s)
+    }
+}

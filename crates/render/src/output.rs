@@ -1,0 +1,47 @@
+//! Files a run writes: `frames/NNNNN.png`, and id lists one line per frame (`pvs.txt`: the LOD
+//! ids drawn; `exact_leaves.txt`: the exactly visible leaves), read back by `osw compare`.
+
+use osw_scene::NodeId;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The PNG of frame `i` in run directory `dir`.
+pub fn frame_path(dir: &Path, i: u64) -> PathBuf {
+    dir.join("frames").join(format!("{i:05}.png"))
+}
+
+/// Writes an RGBA8 image as PNG.
+pub fn write_png(path: &Path, width: u32, height: u32, rgba: Vec<u8>) -> Result<(), String> {
+    let img = image::RgbaImage::from_raw(width, height, rgba).ok_or("image buffer of the wrong size")?;
+    img.save(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Reads a PNG as RGBA8: (width, height, pixels).
+pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>), String> {
+    let img = image::open(path).map_err(|e| format!("{}: {e}", path.display()))?.to_rgba8();
+    Ok((img.width(), img.height(), img.into_raw()))
+}
+
+/// Appends one line of ids.
+pub fn push_ids(out: &mut String, ids: &[NodeId]) {
+    for (k, id) in ids.iter().enumerate() {
+        if k > 0 {
+            out.push(' ');
+        }
+        let _ = write!(out, "{id}");
+    }
+    out.push('\n');
+}
+
+/// Reads an id-list file: one line per frame.
+pub fn read_ids(path: &Path) -> Result<Vec<Vec<NodeId>>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    text.lines()
+        .enumerate()
+        .map(|(i, line)| {
+            line.split_ascii_whitespace()
+                .map(|t| t.parse::<NodeId>().map_err(|_| format!("{}:{}: bad id {t:?}", path.display(), i + 1)))
+                .collect()
+        })
+        .collect()
+}

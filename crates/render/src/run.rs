@@ -1,0 +1,94 @@
+//! Loops over a camera path: `osw render` (one mode) and `osw exact` (item buffer).
+
+use crate::mode::{Mode, ModeState};
+use crate::output::{frame_path, push_ids, write_png};
+use crate::stats::{FrameStats, Summary, to_csv};
+use osw_gpu::renderer::{RenderError, Renderer};
+use osw_scene::Camera;
+use std::path::Path;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error("{0}")]
+    Output(String),
+}
+
+fn write(path: &Path, text: &str) -> Result<(), RunError> {
+    std::fs::write(path, text).map_err(|e| RunError::Output(format!("{}: {e}", path.display())))
+}
+
+/// What identifies a run in its summary.
+pub struct RunInfo<'a> {
+    pub scene: &'a Path,
+    pub path: &'a Path,
+}
+
+/// Renders every camera of `cams` with `mode` at `tau` into `out`: frames (unless
+/// `!write_frames`), `stats.csv`, `pvs.txt`, `summary.json`. Calls `tick` after each frame.
+pub fn render_path(
+    r: &mut Renderer,
+    cams: &[Camera],
+    mode: Mode,
+    tau: f64,
+    out: &Path,
+    write_frames: bool,
+    info: &RunInfo,
+    tick: &dyn Fn(),
+) -> Result<Summary, RunError> {
+    if write_frames {
+        std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
+    }
+    let mut state = ModeState::new(mode, tau);
+    let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
+    let mut pvs = String::new();
+    for (i, cam) in cams.iter().enumerate() {
+        let view = r.view(cam);
+        let mut s = state.frame(r, &view)?;
+        s.frame = i as u64;
+        frames.push(s);
+        push_ids(&mut pvs, state.visible());
+        if write_frames {
+            write_png(&frame_path(out, i as u64), r.target.width, r.target.height, r.read_color()?).map_err(RunError::Output)?;
+        }
+        tick();
+    }
+    write(&out.join("stats.csv"), &to_csv(&frames))?;
+    write(&out.join("pvs.txt"), &pvs)?;
+    let [lo, hi] = r.scene.content_hash();
+    let summary = Summary {
+        mode: mode.name().to_owned(),
+        tau,
+        scene: spec.scene.display().to_string(),
+        scene_hash: format!("{hi:016x}{lo:016x}"),
+        path: spec.path.display().to_string(),
+        width: r.target.width,
+        height: r.target.height,
+        adapter: r.gpu.info.name.clone(),
+        uploads: r.residency.stats.uploads,
+        upload_bytes: r.residency.stats.upload_bytes,
+        evictions: r.residency.stats.evictions,
+        ..Summary::of(&frames)
+    };
+    write(&out.join("summary.json"), &serde_json::to_string_pretty(&summary).expect("plain data"))?;
+    Ok(summary)
+}
+
+/// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles)
+/// and `exact_leaves.txt` (the visible leaves of each frame).
+pub fn exact_path(r: &mut Renderer, cams: &[Camera], out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
+    let mut csv = String::from("frame,visible_leaves,visible_triangles\n");
+    let mut leaves = String::new();
+    for (i, cam) in cams.iter().enumerate() {
+        r.begin_frame();
+        let view = r.view(cam);
+        let e = r.exact(&view)?;
+        csv.push_str(&format!("{i},{},{}\n", e.leaves.len(), e.triangles));
+        push_ids(&mut leaves, &e.leaves);
+        tick();
+    }
+    write(&out.join("exact.csv"), &csv)?;
+    write(&out.join("exact_leaves.txt"), &leaves)?;
+    Ok(())
+}

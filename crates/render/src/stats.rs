@@ -1,0 +1,134 @@
+//! Per-frame statistics: one struct, written to `stats.csv` by one function, summarised into
+//! `summary.json` by another.
+
+use serde::Serialize;
+
+/// One frame. Times in milliseconds.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct FrameStats {
+    pub frame: u64,
+    /// OR + HC + RVG: the frame's time without writing its PNG.
+    pub total_ms: f64,
+    pub or_ms: f64,
+    pub hc_ms: f64,
+    pub rvg_ms: f64,
+    /// Nodes (LOD/HLOD) and triangles RVG drew: the PVS.
+    pub pvs_nodes: u32,
+    pub triangles_drawn: u64,
+    /// Nodes and triangles OR drew as occluders.
+    pub or_nodes: u32,
+    pub or_triangles: u64,
+    /// Box tests HC issued, levels (batches), and what it culled.
+    pub tests: u32,
+    pub levels: u32,
+    pub frustum_culled: u32,
+    pub occlusion_culled: u32,
+    pub pixel_stops: u32,
+}
+
+/// The summary of a run: the keys first.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Summary {
+    pub mode: String,
+    pub tau: f64,
+    pub frames: u64,
+    pub frame_ms_median: f64,
+    pub frame_ms_p95: f64,
+    pub triangles_drawn_mean: f64,
+    pub pvs_nodes_mean: f64,
+    pub tests_mean: f64,
+    pub or_ms_median: f64,
+    pub hc_ms_median: f64,
+    pub rvg_ms_median: f64,
+    /// Box tests per second of HC time (tests / hc_ms), median over frames with tests.
+    pub hc_tests_per_second_median: f64,
+    pub scene: String,
+    pub scene_hash: String,
+    pub path: String,
+    pub width: u32,
+    pub height: u32,
+    pub adapter: String,
+    pub uploads: u64,
+    pub upload_bytes: u64,
+    pub evictions: u64,
+}
+
+/// The `q` quantile (0..=1) of `v` by nearest rank; 0 for no values.
+pub fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((s.len() - 1) as f64 * q).round() as usize]
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
+impl Summary {
+    /// Fills the statistics from `frames`; the caller fills the run's identity.
+    pub fn of(frames: &[FrameStats]) -> Summary {
+        let col = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
+        let total = col(|f| f.total_ms);
+        let rates: Vec<f64> = frames.iter().filter(|f| f.tests > 0 && f.hc_ms > 0.0).map(|f| f.tests as f64 / (f.hc_ms / 1e3)).collect();
+        Summary {
+            frames: frames.len() as u64,
+            frame_ms_median: quantile(&total, 0.5),
+            frame_ms_p95: quantile(&total, 0.95),
+            triangles_drawn_mean: mean(frames.iter().map(|f| f.triangles_drawn as f64)),
+            pvs_nodes_mean: mean(frames.iter().map(|f| f.pvs_nodes as f64)),
+            tests_mean: mean(frames.iter().map(|f| f.tests as f64)),
+            or_ms_median: quantile(&col(|f| f.or_ms), 0.5),
+            hc_ms_median: quantile(&col(|f| f.hc_ms), 0.5),
+            rvg_ms_median: quantile(&col(|f| f.rvg_ms), 0.5),
+            hc_tests_per_second_median: quantile(&rates, 0.5),
+            ..Summary::default()
+        }
+    }
+}
+
+/// `stats.csv`: a header from the struct's fields, then one row per frame.
+pub fn to_csv(frames: &[FrameStats]) -> String {
+    let mut out = String::new();
+    let header: Vec<String> = match serde_json::to_value(FrameStats::default()) {
+        Ok(serde_json::Value::Object(m)) => m.keys().cloned().collect(),
+        _ => Vec::new(),
+    };
+    out.push_str(&header.join(","));
+    out.push('\n');
+    for f in frames {
+        if let Ok(serde_json::Value::Object(m)) = serde_json::to_value(f) {
+            let row: Vec<String> = header.iter().map(|k| m[k].to_string()).collect();
+            out.push_str(&row.join(","));
+            out.push('\n');
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_by_nearest_rank() {
+        let v = [5.0, 1.0, 3.0, 2.0, 4.0];
+        assert_eq!(quantile(&v, 0.5), 3.0);
+        assert_eq!(quantile(&v, 0.95), 5.0);
+        assert_eq!(quantile(&[], 0.5), 0.0);
+    }
+
+    #[test]
+    fn csv_has_a_column_per_field_in_order() {
+        let csv = to_csv(&[FrameStats { frame: 3, tests: 7, ..Default::default() }]);
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header[0], "frame");
+        let row: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(row.len(), header.len());
+        assert_eq!(row[header.iter().position(|h| *h == "tests").unwrap()], "7");
+    }
+}
