@@ -19,24 +19,22 @@ fn write(path: &Path, text: &str) -> Result<(), RunError> {
     std::fs::write(path, text).map_err(|e| RunError::Output(format!("{}: {e}", path.display())))
 }
 
-/// What identifies a run in its summary.
-pub struct RunInfo<'a> {
+/// One run of `osw render`.
+pub struct RunSpec<'a> {
+    /// Scene and path files, named in the summary.
     pub scene: &'a Path,
     pub path: &'a Path,
+    pub mode: Mode,
+    pub tau: f64,
+    /// Output directory.
+    pub out: &'a Path,
+    pub write_frames: bool,
 }
 
-/// Renders every camera of `cams` with `mode` at `tau` into `out`: frames (unless
-/// `!write_frames`), `stats.csv`, `pvs.txt`, `summary.json`. Calls `tick` after each frame.
-pub fn render_path(
-    r: &mut Renderer,
-    cams: &[Camera],
-    mode: Mode,
-    tau: f64,
-    out: &Path,
-    write_frames: bool,
-    info: &RunInfo,
-    tick: &dyn Fn(),
-) -> Result<Summary, RunError> {
+/// Renders every camera of `cams` as `spec` says: frames (when `write_frames`), `stats.csv`,
+/// `pvs.txt`, `summary.json`. Calls `tick` after each frame.
+pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn Fn()) -> Result<Summary, RunError> {
+    let (mode, tau, out, write_frames) = (spec.mode, spec.tau, spec.out, spec.write_frames);
     if write_frames {
         std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
     }
