@@ -1,0 +1,165 @@
+//! Rendering on the GPU (lavapipe in CI): every mode at tau = 0 draws frames pixel-identical
+//! to frustum-only rendering and culls no exactly visible leaf (item-buffer reference); at
+//! tau > 0 the image error is reported; extreme cameras stay conservative and finite.
+
+mod common;
+use common::*;
+use glam::{DQuat, DVec3};
+use osw_scene::{Camera, SceneFile};
+use std::path::{Path, PathBuf};
+
+const MODES: [&str; 1] = ["prev"];
+const SIZE: &str = "256x256";
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn render(scene: &Path, path: &Path, mode: &str, tau: &str, out: &Path) {
+    osw_ok(&["render", "--scene", s(scene), "--path", s(path), "--mode", mode, "--tau", tau, "--size", SIZE, "--out", s(out)]);
+}
+
+fn compare(a: &Path, b: &Path, exact: &Path, out: &Path) -> serde_json::Value {
+    osw_ok(&["compare", "--a", s(a), "--b", s(b), "--exact", s(exact), "--out", s(out)]);
+    serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap()
+}
+
+/// Renders `path` with vfc and every mode at tau 0, computes exact visibility, and checks
+/// each mode against both. Returns the run directory.
+fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) -> PathBuf {
+    let run = dir.join(label);
+    let exact = run.join("exact");
+    osw_ok(&["exact", "--scene", s(scene), "--path", s(path), "--size", SIZE, "--out", s(&exact)]);
+    render(scene, path, "vfc", "0", &run.join("vfc"));
+    let frames = osw_scene::path::read(path).unwrap().len();
+    for mode in MODES {
+        render(scene, path, mode, "0", &run.join(mode));
+        let c = compare(&run.join(mode), &run.join("vfc"), &exact, &run.join(format!("cmp-{mode}")));
+        assert_eq!(c["identical_frames"], frames, "{label} {mode}: frames differ from vfc: {c}");
+        assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{label} {mode}: false culling: {c}");
+        // vfc draws every leaf in the frustum: it cannot miss one either (checks the checker).
+        assert_eq!(c["culling_b"]["false_culled_leaves_total"], 0, "{label} vfc: {c}");
+        let summary = std::fs::read_to_string(run.join(mode).join("summary.json")).unwrap();
+        assert!(!summary.contains("NaN") && !summary.contains("null"), "{label} {mode}: {summary}");
+    }
+    run
+}
+
+#[test]
+fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
+    let d = tempfile::tempdir().unwrap();
+    for kind in ["plant", "city", "teapots"] {
+        let scene = build_gen(d.path(), kind, 150_000, 4);
+        let path = d.path().join(format!("{kind}.csv"));
+        osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "24", "-o", s(&path)]);
+        let run = check_conservative(d.path(), &scene, &path, kind);
+        // prev culls: on a walk it draws fewer triangles than vfc.
+        let tri = |m: &str| -> f64 {
+            let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(run.join(m).join("summary.json")).unwrap()).unwrap();
+            v["triangles_drawn_mean"].as_f64().unwrap()
+        };
+        assert!(tri("prev") < tri("vfc"), "{kind}: prev draws {} triangles, vfc {}", tri("prev"), tri("vfc"));
+    }
+}
+
+#[test]
+fn image_error_is_reported_at_tau_above_zero() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "city", 150_000, 1);
+    let path = d.path().join("orbit.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "6", "-o", s(&path)]);
+    let exact = d.path().join("exact");
+    osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);
+    render(&scene, &path, "vfc", "0", &d.path().join("ref"));
+    render(&scene, &path, "prev", "8", &d.path().join("prev8"));
+    let c = compare(&d.path().join("prev8"), &d.path().join("ref"), &exact, &d.path().join("cmp"));
+    // From the orbit, coarse levels are chosen: the image differs and the error says by how much.
+    assert!(c["identical_frames"].as_u64().unwrap() < 6, "{c}");
+    assert!(c["psnr_db_min"].as_f64().unwrap() > 10.0, "{c}");
+    assert!(c["differing_fraction_max"].as_f64().unwrap() > 0.0);
+    let csv = std::fs::read_to_string(d.path().join("cmp/compare.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 7);
+}
+
+fn write_path(p: &Path, cams: &[Camera]) {
+    osw_scene::path::write(p, cams).unwrap();
+}
+
+#[test]
+fn extreme_cameras_stay_conservative_and_finite() {
+    let d = tempfile::tempdir().unwrap();
+    let scene_path = build_gen(d.path(), "teapots", 60_000, 1);
+    let scene = SceneFile::open(&scene_path).unwrap();
+    let o = scene.origin();
+    let root = scene.node(0).aabb();
+    let (c, diag) = (root.center().as_dvec3(), root.extent().length() as f64);
+    // A leaf box in the middle of the field.
+    let leaf = (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).min_by(|a, b| {
+        let d = |n: &&osw_scene::NodeRecord| n.aabb().center().as_dvec3().distance(c);
+        d(a).total_cmp(&d(b))
+    });
+    let lb = leaf.unwrap().aabb();
+    let (lc, lmin) = (lb.center().as_dvec3(), lb.min.as_dvec3());
+    let near = osw_cull_near(diag);
+    let cams = vec![
+        // Inside a leaf's box, looking along the field.
+        Camera::look_along(o + lc, DVec3::Z, 60.0),
+        // Half a near plane in front of a box face, looking at it: the box crosses the near plane.
+        Camera::look_along(o + DVec3::new(lc.x, lc.y, lmin.z - near * 0.5), DVec3::Z, 60.0),
+        // A camera exactly on a box face.
+        Camera::look_along(o + DVec3::new(lc.x, lc.y, lmin.z), DVec3::Z, 60.0),
+        // Field of view 1 and 170 degrees.
+        Camera::look_along(o + c + DVec3::new(0.0, 3.0, -0.6 * diag), DVec3::Z, 1.0),
+        Camera::look_along(o + c + DVec3::new(0.0, 3.0, -0.6 * diag), DVec3::Z, 170.0),
+        // So far away that every object is sub-pixel.
+        Camera::look_at(o + c + DVec3::new(200.0 * diag, 30.0 * diag, 0.0), o + c, 30.0),
+        // Teleport: looking straight down from above, no coherence with the frame before.
+        Camera { position: o + c + DVec3::new(0.0, 40.0, 0.0), orientation: DQuat::from_rotation_x(-std::f64::consts::FRAC_PI_2), fovy_deg: 60.0 },
+    ];
+    let path = d.path().join("extreme.csv");
+    write_path(&path, &cams);
+    check_conservative(d.path(), &scene_path, &path, "extreme");
+
+    // Aspect 1:16 and 16:1.
+    for size in ["16x256", "256x16"] {
+        let out = d.path().join(format!("aspect{size}"));
+        for mode in ["vfc", "prev"] {
+            osw_ok(&["render", "--scene", s(&scene_path), "--path", s(&path), "--mode", mode, "--size", size, "--out", s(&out.join(mode))]);
+        }
+        osw_ok(&["exact", "--scene", s(&scene_path), "--path", s(&path), "--size", size, "--out", s(&out.join("exact"))]);
+        let c = compare(&out.join("prev"), &out.join("vfc"), &out.join("exact"), &out.join("cmp"));
+        assert_eq!(c["identical_frames"], cams.len(), "aspect {size}: {c}");
+        assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "aspect {size}: {c}");
+    }
+}
+
+/// The renderer's near plane for a scene diagonal (see osw_cull::view::near_for).
+fn osw_cull_near(diag: f64) -> f64 {
+    (diag * 1e-5).clamp(1e-6, 0.05)
+}
+
+#[test]
+fn a_scene_far_from_the_origin_renders_like_one_at_the_origin() {
+    let d = tempfile::tempdir().unwrap();
+    let (near, far) = (d.path().join("near.osw"), d.path().join("far.osw"));
+    osw_ok(&["build", "--gen", "plant", "--triangles", "100000", "-o", s(&near)]);
+    osw_ok(&["build", "--gen", "plant", "--triangles", "100000", "--offset", "1e7,-1e7,1e7", "-o", s(&far)]);
+    for (scene, name) in [(&near, "near"), (&far, "far")] {
+        let p = d.path().join(format!("{name}.csv"));
+        osw_ok(&["path", "--scene", s(scene), "--kind", "walk", "--frames", "8", "-o", s(&p)]);
+        render(scene, &p, "prev", "0", &d.path().join(name));
+    }
+    for i in 0..8 {
+        let f = |n: &str| std::fs::read(d.path().join(n).join(format!("frames/{i:05}.png"))).unwrap();
+        assert!(f("near") == f("far"), "frame {i} differs 1e7 units from the origin");
+    }
+    for scale in ["1e6", "1e7"] {
+        let out = d.path().join(format!("cons{scale}"));
+        std::fs::create_dir_all(&out).unwrap();
+        let sc = out.join("s.osw");
+        osw_ok(&["build", "--gen", "city", "--triangles", "60000", "--offset", &format!("{scale},0,{scale}"), "-o", s(&sc)]);
+        let p = out.join("w.csv");
+        osw_ok(&["path", "--scene", s(&sc), "--kind", "walk", "--frames", "6", "-o", s(&p)]);
+        check_conservative(&out, &sc, &p, "run");
+    }
+}
