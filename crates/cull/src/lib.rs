@@ -6,15 +6,21 @@
 //! - [`tester`]: the visibility-test interface (GPU implementations live in `osw-gpu`).
 //! - [`hc`]: the hardware cull traversal, paper 000 alg. 4.1 with level batches (sec. 4.7.1)
 //!   and the pixel-count LOD stop (sec. 4.7.2).
+//! - [`sw`], [`chc`], [`hzb`]: the baselines of papers 001 and 002 (stop-and-wait, coherent
+//!   hierarchical culling, a software Z pyramid).
 //! - [`front`]: the front update that re-selects last frame's visible set for a new camera
 //!   (paper 000 sec. 4.6), used to draw occluders.
 
+pub mod chc;
+pub mod distance_queue;
 pub mod front;
 pub mod frustum;
 pub mod hc;
+pub mod hzb;
+pub mod sw;
 pub mod tester;
 pub mod view;
 
 pub use hc::{HcStats, hardware_cull};
-pub use tester::{AllVisible, Visibility, VisibilityTester};
+pub use tester::{AllVisible, Occluders, Visibility, VisibilityTester};
 pub use view::View;

@@ -18,6 +18,18 @@ pub trait VisibilityTester {
     /// Tests the boxes of BVH nodes `ids` for `view`; appends one answer per id to `out`, in
     /// order. One call is one batch: paper 000 sec. 4.7.1 issues a whole level at once.
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>);
+
+    /// Whether an answer costs an occlusion test (counted in the statistics).
+    fn tests(&self) -> bool {
+        true
+    }
+}
+
+/// A tester that also draws: the interleaved traversals of paper 001 (S&W, CHC) draw visible
+/// nodes into the occluder depth buffer as they find them.
+pub trait Occluders: VisibilityTester {
+    /// Adds LOD nodes to the occluder depth buffer; every test issued afterwards sees them.
+    fn render(&mut self, lods: &[NodeId]);
 }
 
 /// Frustum culling only: every box that reaches the tester is visible.
@@ -26,5 +38,9 @@ pub struct AllVisible;
 impl VisibilityTester for AllVisible {
     fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
         out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
+    }
+
+    fn tests(&self) -> bool {
+        false
     }
 }

@@ -2,7 +2,7 @@
 //! against the occluder depth buffer, one instance per box, with forced early depth so that
 //! only passing fragments write (see shaders/boxtest.wgsl). Exact per pixel: a box is visible
 //! when any of its pixels is nearer than the occluders. With `count_pixels` each box gets its
-//! number of passing fragments (front and back faces; an upper bound for sec. 4.7.2).
+//! number of passing front-face fragments (sec. 4.7.2).
 
 use crate::draw::depth_state;
 
@@ -57,7 +57,14 @@ impl BoxTestPipelines {
                     compilation_options: options.clone(),
                     buffers: &[],
                 },
-                primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
+                // Front faces only: with the eye outside the box (boxes around the eye are not
+                // tested) every back-face fragment lies behind a front-face fragment of the same
+                // pixel, so it can never be the only one to pass. Halves the fill.
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    cull_mode: Some(wgpu::Face::Back),
+                    ..Default::default()
+                },
                 // GreaterEqual: a box face exactly at the occluder's depth counts as visible.
                 depth_stencil: Some(depth_state(false, wgpu::CompareFunction::GreaterEqual)),
                 multisample: Default::default(),

@@ -7,6 +7,7 @@
 //!   exact visibility).
 //! - [`boxtest`]: the HC primitive: node boxes tested against the depth buffer (paper 000
 //!   sec. 4.2), exact per pixel with forced early depth, optionally counting pixels (4.7.2).
+//! - [`pyramid`]: the fast HC test: a farthest-depth pyramid and a compute box test.
 //! - [`exact`]: item-buffer exact visibility (paper 000 sec. 5) for verification.
 //! - [`renderer`]: the above bound to one scene and one image size.
 
@@ -15,6 +16,7 @@ pub mod device;
 pub mod draw;
 pub mod exact;
 pub mod limits;
+pub mod pyramid;
 pub mod readback;
 pub mod renderer;
 pub mod residency;

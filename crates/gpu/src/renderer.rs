@@ -5,9 +5,10 @@
 use crate::boxtest::{BoxTestPipelines, GpuBox};
 use crate::device::{Gpu, GpuError};
 use crate::draw::{DrawData, DrawPipelines, Pass, ViewUniform};
+use crate::pyramid::Pyramid;
 use crate::residency::Residency;
 use crate::target::Target;
-use osw_cull::{View, Visibility, VisibilityTester};
+use osw_cull::{Occluders, View, Visibility, VisibilityTester};
 use osw_scene::{NodeId, SceneError, SceneFile};
 use std::sync::Arc;
 
@@ -19,6 +20,17 @@ pub enum RenderError {
     Scene(#[from] SceneError),
     #[error("image size {0}x{1} is out of range (1..={max} a side)", max = crate::limits::MAX_SIZE)]
     Size(u32, u32),
+}
+
+/// How HC tests boxes (issue 3: both measured, see the closing note).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HcTest {
+    /// Rasterised boxes against the depth buffer, exact per pixel (forced early depth).
+    Exact,
+    /// As `Exact`, counting each box's visible pixels (paper 000 sec. 4.7.2).
+    ExactCount,
+    /// The farthest-depth pyramid in a compute pass: conservative, no pixel counts.
+    Pyramid,
 }
 
 /// Counts of one draw call list.
@@ -35,6 +47,7 @@ pub struct Renderer {
     pub residency: Residency,
     draw: DrawPipelines,
     boxtest: BoxTestPipelines,
+    pyramid: Pyramid,
     view_buf: wgpu::Buffer,
     draws_buf: wgpu::Buffer,
     draw_group: wgpu::BindGroup,
@@ -73,7 +86,9 @@ impl Renderer {
         let draw_group = bind(&draw.layout, &[&view_buf, &draws_buf]);
         let box_group = bind(&boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
         let target = Target::new(&gpu, width, height);
+        let pyramid = Pyramid::new(&gpu, &target, &view_buf, &boxes_buf, &results_buf);
         Ok(Renderer {
+            pyramid,
             target,
             residency: Residency::new(residency_bytes),
             draw,
@@ -167,9 +182,17 @@ impl Renderer {
         Ok(stats)
     }
 
-    /// Tests the boxes of BVH nodes `ids` against the depth buffer as it is now. Returns one
-    /// answer per id; with `count_pixels`, visible pixel counts too.
-    pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], count_pixels: bool, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
+    /// Records the farthest-depth pyramid of the depth buffer as it is now, for
+    /// [`HcTest::Pyramid`] (after the occluders are drawn, before the boxes are tested).
+    pub fn build_pyramid(&mut self) {
+        let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+        self.pyramid.encode_build(&mut enc);
+        self.gpu.queue.submit([enc.finish()]);
+    }
+
+    /// Tests the boxes of BVH nodes `ids` against the occluders: the depth buffer as it is now
+    /// (exact tests) or the pyramid last built from it. Appends one answer per id.
+    pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: HcTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
         self.gpu.queue.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
         for chunk in ids.chunks(crate::limits::MAX_BOXES as usize) {
             self.gpu_boxes.clear();
@@ -186,7 +209,10 @@ impl Renderer {
             self.gpu.queue.write_buffer(&self.boxes_buf, 0, bytemuck::cast_slice(&self.gpu_boxes));
             let mut enc = self.gpu.device.create_command_encoder(&Default::default());
             enc.clear_buffer(&self.results_buf, 0, Some(n * 4));
-            {
+            let count_pixels = test == HcTest::ExactCount;
+            if test == HcTest::Pyramid {
+                self.pyramid.encode_cull(&self.gpu, &mut enc, n as u32);
+            } else {
                 let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("boxtest"),
                     color_attachments: &[],
@@ -223,7 +249,7 @@ impl Renderer {
 /// (conservative) and is kept in `error` for the caller to report.
 pub struct GpuTester<'a> {
     pub renderer: &'a mut Renderer,
-    pub count_pixels: bool,
+    pub test: HcTest,
     pub error: Option<RenderError>,
 }
 
@@ -231,7 +257,7 @@ impl VisibilityTester for GpuTester<'_> {
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
         let start = out.len();
         if self.error.is_none()
-            && let Err(e) = self.renderer.test_boxes(view, ids, self.count_pixels, out)
+            && let Err(e) = self.renderer.test_boxes(view, ids, self.test, out)
         {
             self.error = Some(e);
         }
@@ -239,5 +265,48 @@ impl VisibilityTester for GpuTester<'_> {
             out.truncate(start);
             out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
         }
+    }
+}
+
+/// An [`Occluders`] tester for the interleaved traversals (S&W, CHC): nodes to draw are
+/// collected and drawn depth-only into the occluder buffer right before the next test, so
+/// every test sees everything drawn before it was issued, in as few submissions as possible.
+pub struct InterleavedTester<'a> {
+    pub tester: GpuTester<'a>,
+    pending: Vec<NodeId>,
+}
+
+impl<'a> InterleavedTester<'a> {
+    pub fn new(renderer: &'a mut Renderer) -> InterleavedTester<'a> {
+        InterleavedTester { tester: GpuTester { renderer, test: HcTest::Exact, error: None }, pending: Vec::new() }
+    }
+
+    /// Draws what is still pending; returns the first error of the traversal.
+    pub fn finish(mut self, view: &View) -> Result<(), RenderError> {
+        self.flush(view);
+        self.tester.error.map_or(Ok(()), Err)
+    }
+
+    fn flush(&mut self, view: &View) {
+        if !self.pending.is_empty()
+            && self.tester.error.is_none()
+            && let Err(e) = self.tester.renderer.draw(view, &self.pending, crate::draw::Pass::Depth, false)
+        {
+            self.tester.error = Some(e);
+        }
+        self.pending.clear();
+    }
+}
+
+impl VisibilityTester for InterleavedTester<'_> {
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        self.flush(view);
+        self.tester.test(view, ids, out);
+    }
+}
+
+impl Occluders for InterleavedTester<'_> {
+    fn render(&mut self, lods: &[NodeId]) {
+        self.pending.extend_from_slice(lods);
     }
 }

@@ -14,6 +14,7 @@ pub struct Target {
     pub depth: wgpu::TextureView,
     pub item: wgpu::TextureView,
     color_tex: wgpu::Texture,
+    depth_tex: wgpu::Texture,
     item_tex: wgpu::Texture,
 }
 
@@ -39,7 +40,7 @@ impl Target {
     pub fn new(gpu: &Gpu, width: u32, height: u32) -> Target {
         use wgpu::TextureUsages as U;
         let color_tex = texture(gpu, "color", width, height, COLOR, U::RENDER_ATTACHMENT | U::COPY_SRC);
-        let depth_tex = texture(gpu, "depth", width, height, DEPTH, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
+        let depth_tex = texture(gpu, "depth", width, height, DEPTH, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
         let item_tex = texture(gpu, "item", width, height, ITEM, U::RENDER_ATTACHMENT | U::COPY_SRC);
         Target {
             width,
@@ -48,6 +49,7 @@ impl Target {
             depth: depth_tex.create_view(&Default::default()),
             item: item_tex.create_view(&Default::default()),
             color_tex,
+            depth_tex,
             item_tex,
         }
     }
@@ -63,13 +65,25 @@ impl Target {
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 
+    /// The depth attachment (reversed Z), row by row: the readback the `hzb` baseline makes
+    /// (paper 002 sec. 5.3; paper 000 avoids it).
+    pub fn read_depth(&self, gpu: &Gpu) -> Result<Vec<f32>, GpuError> {
+        let bytes = self.read(gpu, &self.depth_tex, 4)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
     fn read(&self, gpu: &Gpu, tex: &wgpu::Texture, texel: u32) -> Result<Vec<u8>, GpuError> {
         let row = padded_row(self.width * texel);
         let size = row as u64 * self.height as u64;
         let staging = crate::readback::staging(gpu, "readback", size);
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo { texture: tex, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyTextureInfo {
+                texture: tex,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: if tex.format() == DEPTH { wgpu::TextureAspect::DepthOnly } else { wgpu::TextureAspect::All },
+            },
             wgpu::TexelCopyBufferInfo {
                 buffer: &staging,
                 layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: None },

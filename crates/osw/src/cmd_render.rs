@@ -1,6 +1,7 @@
 //! `osw render`: one culling mode over a camera path, single process.
 
 use crate::gpu_args::GpuArgs;
+use osw_gpu::renderer::HcTest;
 use osw_render::Mode;
 use osw_render::run::{RunSpec, render_path};
 use std::path::PathBuf;
@@ -13,12 +14,19 @@ pub struct Args {
     /// Camera path CSV.
     #[arg(long)]
     path: PathBuf,
-    /// Culling mode: vfc (frustum only) or prev (the switch's algorithm on one GPU).
+    /// Culling mode: vfc (frustum only), sw (stop and wait), chc (coherent hierarchical
+    /// culling), hzb (software Z pyramid, GigaWalk-like) or prev (the switch's algorithm on
+    /// one GPU).
     #[arg(long)]
     mode: Mode,
     /// Pixels of error allowed by LOD selection (0 = full detail).
     #[arg(long, default_value_t = 0.0)]
     tau: f64,
+    /// How prev's HC tests boxes: pyramid (a farthest-depth pyramid in compute, conservative)
+    /// or exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
+    /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0).
+    #[arg(long, default_value = "pyramid", value_parser = parse_hc)]
+    hc: HcTest,
     #[command(flatten)]
     gpu: GpuArgs,
     /// Do not write frame PNGs (statistics only).
@@ -29,6 +37,14 @@ pub struct Args {
     out: PathBuf,
 }
 
+fn parse_hc(s: &str) -> Result<HcTest, String> {
+    match s {
+        "exact" => Ok(HcTest::Exact),
+        "pyramid" => Ok(HcTest::Pyramid),
+        _ => Err(format!("unknown HC test {s:?}: expected exact or pyramid")),
+    }
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
     if !(a.tau >= 0.0 && a.tau.is_finite()) {
         anyhow::bail!("--tau must be a finite number >= 0, got {}", a.tau);
@@ -37,7 +53,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut r = a.gpu.renderer(&a.scene)?;
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, a.mode.name());
-    let spec = RunSpec { scene: &a.scene, path: &a.path, mode: a.mode, tau: a.tau, out: &a.out, write_frames: !a.no_frames };
+    let spec = RunSpec { scene: &a.scene, path: &a.path, mode: a.mode, tau: a.tau, hc: a.hc, out: &a.out, write_frames: !a.no_frames };
     let s = render_path(&mut r, &cams, &spec, &|| bar.inc(1));
     bar.finish_and_clear();
     let s = s?;

@@ -8,15 +8,16 @@ use glam::{DQuat, DVec3};
 use osw_scene::{Camera, SceneFile};
 use std::path::{Path, PathBuf};
 
-const MODES: [&str; 1] = ["prev"];
+/// Every mode, and prev with each HC box test.
+const MODES: [(&str, &str); 5] = [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid")];
 const SIZE: &str = "256x256";
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-fn render(scene: &Path, path: &Path, mode: &str, tau: &str, out: &Path) {
-    osw_ok(&["render", "--scene", s(scene), "--path", s(path), "--mode", mode, "--tau", tau, "--size", SIZE, "--out", s(out)]);
+fn render(scene: &Path, path: &Path, (mode, hc): (&str, &str), tau: &str, out: &Path) {
+    osw_ok(&["render", "--scene", s(scene), "--path", s(path), "--mode", mode, "--hc", hc, "--tau", tau, "--size", SIZE, "--out", s(out)]);
 }
 
 fn compare(a: &Path, b: &Path, exact: &Path, out: &Path) -> serde_json::Value {
@@ -30,16 +31,17 @@ fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) -> Pat
     let run = dir.join(label);
     let exact = run.join("exact");
     osw_ok(&["exact", "--scene", s(scene), "--path", s(path), "--size", SIZE, "--out", s(&exact)]);
-    render(scene, path, "vfc", "0", &run.join("vfc"));
+    render(scene, path, ("vfc", "exact"), "0", &run.join("vfc"));
     let frames = osw_scene::path::read(path).unwrap().len();
-    for mode in MODES {
-        render(scene, path, mode, "0", &run.join(mode));
-        let c = compare(&run.join(mode), &run.join("vfc"), &exact, &run.join(format!("cmp-{mode}")));
+    for (mode, hc) in MODES {
+        let name = format!("{mode}-{hc}");
+        render(scene, path, (mode, hc), "0", &run.join(&name));
+        let c = compare(&run.join(&name), &run.join("vfc"), &exact, &run.join(format!("cmp-{name}")));
         assert_eq!(c["identical_frames"], frames, "{label} {mode}: frames differ from vfc: {c}");
         assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{label} {mode}: false culling: {c}");
         // vfc draws every leaf in the frustum: it cannot miss one either (checks the checker).
         assert_eq!(c["culling_b"]["false_culled_leaves_total"], 0, "{label} vfc: {c}");
-        let summary = std::fs::read_to_string(run.join(mode).join("summary.json")).unwrap();
+        let summary = std::fs::read_to_string(run.join(&name).join("summary.json")).unwrap();
         assert!(!summary.contains("NaN") && !summary.contains("null"), "{label} {mode}: {summary}");
     }
     run
@@ -58,7 +60,9 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
             let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(run.join(m).join("summary.json")).unwrap()).unwrap();
             v["triangles_drawn_mean"].as_f64().unwrap()
         };
-        assert!(tri("prev") < tri("vfc"), "{kind}: prev draws {} triangles, vfc {}", tri("prev"), tri("vfc"));
+        for m in ["sw-exact", "chc-exact", "prev-exact", "prev-pyramid"] {
+            assert!(tri(m) < tri("vfc"), "{kind}: {m} draws {} triangles, vfc {}", tri(m), tri("vfc"));
+        }
     }
 }
 
@@ -70,8 +74,8 @@ fn image_error_is_reported_at_tau_above_zero() {
     osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "6", "-o", s(&path)]);
     let exact = d.path().join("exact");
     osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);
-    render(&scene, &path, "vfc", "0", &d.path().join("ref"));
-    render(&scene, &path, "prev", "8", &d.path().join("prev8"));
+    render(&scene, &path, ("vfc", "exact"), "0", &d.path().join("ref"));
+    render(&scene, &path, ("prev", "exact"), "8", &d.path().join("prev8"));
     let c = compare(&d.path().join("prev8"), &d.path().join("ref"), &exact, &d.path().join("cmp"));
     // From the orbit, coarse levels are chosen: the image differs and the error says by how much.
     assert!(c["identical_frames"].as_u64().unwrap() < 6, "{c}");
@@ -114,7 +118,11 @@ fn extreme_cameras_stay_conservative_and_finite() {
         // So far away that every object is sub-pixel.
         Camera::look_at(o + c + DVec3::new(200.0 * diag, 30.0 * diag, 0.0), o + c, 30.0),
         // Teleport: looking straight down from above, no coherence with the frame before.
-        Camera { position: o + c + DVec3::new(0.0, 40.0, 0.0), orientation: DQuat::from_rotation_x(-std::f64::consts::FRAC_PI_2), fovy_deg: 60.0 },
+        Camera {
+            position: o + c + DVec3::new(0.0, 40.0, 0.0),
+            orientation: DQuat::from_rotation_x(-std::f64::consts::FRAC_PI_2),
+            fovy_deg: 60.0,
+        },
     ];
     let path = d.path().join("extreme.csv");
     write_path(&path, &cams);
@@ -124,7 +132,21 @@ fn extreme_cameras_stay_conservative_and_finite() {
     for size in ["16x256", "256x16"] {
         let out = d.path().join(format!("aspect{size}"));
         for mode in ["vfc", "prev"] {
-            osw_ok(&["render", "--scene", s(&scene_path), "--path", s(&path), "--mode", mode, "--size", size, "--out", s(&out.join(mode))]);
+            osw_ok(&[
+                "render",
+                "--scene",
+                s(&scene_path),
+                "--path",
+                s(&path),
+                "--mode",
+                mode,
+                "--hc",
+                "exact",
+                "--size",
+                size,
+                "--out",
+                s(&out.join(mode)),
+            ]);
         }
         osw_ok(&["exact", "--scene", s(&scene_path), "--path", s(&path), "--size", size, "--out", s(&out.join("exact"))]);
         let c = compare(&out.join("prev"), &out.join("vfc"), &out.join("exact"), &out.join("cmp"));
@@ -147,7 +169,7 @@ fn a_scene_far_from_the_origin_renders_like_one_at_the_origin() {
     for (scene, name) in [(&near, "near"), (&far, "far")] {
         let p = d.path().join(format!("{name}.csv"));
         osw_ok(&["path", "--scene", s(scene), "--kind", "walk", "--frames", "8", "-o", s(&p)]);
-        render(scene, &p, "prev", "0", &d.path().join(name));
+        render(scene, &p, ("prev", "pyramid"), "0", &d.path().join(name));
     }
     for i in 0..8 {
         let f = |n: &str| std::fs::read(d.path().join(n).join(format!("frames/{i:05}.png"))).unwrap();

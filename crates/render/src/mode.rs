@@ -2,31 +2,44 @@
 //! timed: OR (occluders), HC (the cull), RVG (drawing the visible set).
 //!
 //! - `vfc`: frustum culling only, LODs at tau.
+//! - `sw`: hierarchical stop-and-wait tests, front to back (paper 001 sec. 3.3).
+//! - `chc`: coherent hierarchical culling (paper 001 fig. 2), batched for wgpu's readback.
+//! - `hzb`: GigaWalk-like (paper 002 sec. 5.2-5.3): occluders picked by eq. 3 drawn at full
+//!   detail, depth read back, a Z pyramid built and boxes tested on the CPU.
 //! - `prev`: the occlusion switch's algorithm on one GPU (paper 004 fig. 5, paper 000 alg.
 //!   4.2): OR draws last frame's visible set, re-selected for this frame's camera (front update,
 //!   paper 000 sec. 4.6), into the depth buffer; HC tests the hierarchy against it level by
 //!   level (alg. 4.1, sec. 4.7.1-4.7.2); RVG draws the result.
 
 use crate::stats::FrameStats;
+use osw_cull::chc::ChcState;
 use osw_cull::front::update_front;
+use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
+use osw_cull::sw::stop_and_wait;
 use osw_cull::{AllVisible, HcStats, View, hardware_cull};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{GpuTester, RenderError, Renderer};
+use osw_gpu::renderer::{GpuTester, HcTest, InterleavedTester, RenderError, Renderer};
 use osw_scene::NodeId;
 use std::time::Instant;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
     Vfc,
+    Sw,
+    Chc,
+    Hzb,
     Prev,
 }
 
 impl Mode {
-    pub const ALL: [Mode; 2] = [Mode::Vfc, Mode::Prev];
+    pub const ALL: [Mode; 5] = [Mode::Vfc, Mode::Sw, Mode::Chc, Mode::Hzb, Mode::Prev];
 
     pub fn name(self) -> &'static str {
         match self {
             Mode::Vfc => "vfc",
+            Mode::Sw => "sw",
+            Mode::Chc => "chc",
+            Mode::Hzb => "hzb",
             Mode::Prev => "prev",
         }
     }
@@ -46,9 +59,12 @@ impl std::str::FromStr for Mode {
 pub struct ModeState {
     pub mode: Mode,
     pub tau: f64,
+    /// How `prev` tests boxes: `Exact` (counting pixels when tau > 0) or `Pyramid`.
+    pub hc: HcTest,
     /// V(i-1): last frame's visible set (LOD ids, sorted).
     visible: Vec<NodeId>,
     occluders: Vec<NodeId>,
+    chc: Option<ChcState>,
 }
 
 fn ms(t: Instant) -> f64 {
@@ -56,8 +72,8 @@ fn ms(t: Instant) -> f64 {
 }
 
 impl ModeState {
-    pub fn new(mode: Mode, tau: f64) -> ModeState {
-        ModeState { mode, tau, visible: Vec::new(), occluders: Vec::new() }
+    pub fn new(mode: Mode, tau: f64, hc: HcTest) -> ModeState {
+        ModeState { mode, tau, hc, visible: Vec::new(), occluders: Vec::new(), chc: None }
     }
 
     /// The visible set of the last frame rendered (LOD ids, sorted).
@@ -79,14 +95,47 @@ impl ModeState {
                 s.hc_ms = ms(t);
                 hc
             }
+            Mode::Sw | Mode::Chc => {
+                let t = Instant::now();
+                r.draw(view, &[], Pass::Depth, true)?;
+                let chc = self.chc.get_or_insert_with(|| ChcState::new(scene.bvh_count()));
+                let mut occ = InterleavedTester::new(r);
+                let hc = match self.mode {
+                    Mode::Sw => stop_and_wait(nodes, view, self.tau, &mut occ, &mut pvs),
+                    _ => chc.frame(nodes, view, self.tau, &mut occ, &mut pvs),
+                };
+                occ.finish(view)?;
+                s.hc_ms = ms(t);
+                hc
+            }
+            Mode::Hzb => {
+                let t = Instant::now();
+                let occluders = select_occluders(nodes, scene.bvh_count(), view, ACTIVE_OCCLUDERS);
+                let or = r.draw(view, &occluders, Pass::Depth, true)?;
+                let depth = r.target.read_depth(&r.gpu)?;
+                (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
+                let t = Instant::now();
+                let pyramid = Pyramid::new(view.width, view.height, depth);
+                let hc = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, finer: 0 }, &mut pvs);
+                s.hc_ms = ms(t);
+                hc
+            }
             Mode::Prev => {
                 let t = Instant::now();
                 update_front(nodes, &self.visible, view, self.tau, &mut self.occluders);
                 let or = r.draw(view, &self.occluders, Pass::Depth, true)?;
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
                 let t = Instant::now();
-                // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
-                let mut tester = GpuTester { renderer: r, count_pixels: self.tau > 0.0, error: None };
+                let test = match self.hc {
+                    HcTest::Pyramid => {
+                        r.build_pyramid();
+                        HcTest::Pyramid
+                    }
+                    // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
+                    _ if self.tau > 0.0 => HcTest::ExactCount,
+                    _ => HcTest::Exact,
+                };
+                let mut tester = GpuTester { renderer: r, test, error: None };
                 let hc = hardware_cull(nodes, view, self.tau, &mut tester, &mut pvs);
                 if let Some(e) = tester.error {
                     return Err(e);

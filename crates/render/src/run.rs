@@ -3,7 +3,7 @@
 use crate::mode::{Mode, ModeState};
 use crate::output::{frame_path, push_ids, write_png};
 use crate::stats::{FrameStats, Summary, to_csv};
-use osw_gpu::renderer::{RenderError, Renderer};
+use osw_gpu::renderer::{HcTest, RenderError, Renderer};
 use osw_scene::Camera;
 use std::path::Path;
 
@@ -26,6 +26,7 @@ pub struct RunSpec<'a> {
     pub path: &'a Path,
     pub mode: Mode,
     pub tau: f64,
+    pub hc: HcTest,
     /// Output directory.
     pub out: &'a Path,
     pub write_frames: bool,
@@ -38,7 +39,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     if write_frames {
         std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
     }
-    let mut state = ModeState::new(mode, tau);
+    let mut state = ModeState::new(mode, tau, spec.hc);
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
     let mut pvs = String::new();
     for (i, cam) in cams.iter().enumerate() {
@@ -58,6 +59,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     let summary = Summary {
         mode: mode.name().to_owned(),
         tau,
+        hc_test: format!("{:?}", spec.hc).to_lowercase(),
         scene: spec.scene.display().to_string(),
         scene_hash: format!("{hi:016x}{lo:016x}"),
         path: spec.path.display().to_string(),

@@ -37,6 +37,8 @@ pub struct Summary {
     pub triangles_drawn_mean: f64,
     pub pvs_nodes_mean: f64,
     pub tests_mean: f64,
+    /// The HC box test `prev` used: exact or pyramid.
+    pub hc_test: String,
     pub or_ms_median: f64,
     pub hc_ms_median: f64,
     pub rvg_ms_median: f64,

@@ -26,8 +26,8 @@ struct VertexOut {
     @location(0) @interpolate(flat) box: u32,
 }
 
-// 12 triangles over the 8 corners (bit 0 = x, bit 1 = y, bit 2 = z); culling is off, so
-// winding does not matter.
+// 12 triangles over the 8 corners (bit 0 = x, bit 1 = y, bit 2 = z), counter-clockwise seen
+// from outside (the same faces as the generators' boxes): back faces are culled.
 const CORNERS = array<u32, 36>(
     0u, 4u, 6u, 0u, 6u, 2u,  1u, 3u, 7u, 1u, 7u, 5u,
     0u, 1u, 5u, 0u, 5u, 4u,  2u, 6u, 7u, 2u, 7u, 3u,

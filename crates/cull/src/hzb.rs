@@ -1,0 +1,157 @@
+//! The software Z pyramid of the `hzb` baseline (GigaWalk, paper 002 sec. 5.3 eq. 4): the
+//! occluders' depth is read back, reduced on the CPU to a pyramid of farthest depths, and
+//! boxes are tested on the CPU against the 2x2 texels of the level where the box's screen
+//! rectangle spans at most two texels. Reversed Z: farther is smaller, so each texel keeps the
+//! minimum of the four below it, and a box is hidden when its nearest depth (its maximum) is
+//! below the farthest occluder depth over its rectangle.
+
+use crate::frustum::Containment;
+use crate::tester::{Visibility, VisibilityTester};
+use crate::view::View;
+use glam::{DMat4, DVec3, DVec4};
+use osw_scene::{NodeId, NodeRecord};
+
+/// Size of the active occluder set: paper 002 fixes it so that the cost per frame does not
+/// change at run time; 128 full-detail leaves of at most 4096 triangles cost at most ~0.5M
+/// triangles of depth-only drawing.
+pub const ACTIVE_OCCLUDERS: usize = 128;
+
+/// The active occluder set of paper 002 sec. 5.2: leaves in the frustum weighted by eq. 3,
+/// weight = V |N . E| / D^3 (V the box volume, N the normal of the box's largest face, E the
+/// view direction, D the distance from the eye to the box), the `count` heaviest at full detail
+/// (their level 0). The compactness pre-selection (eq. 2) is left out: every leaf is a
+/// candidate.
+pub fn select_occluders(nodes: &[NodeRecord], bvh_count: u32, view: &View, count: usize) -> Vec<NodeId> {
+    let e = view.orientation * DVec3::NEG_Z;
+    let mut weighted: Vec<(f64, NodeId)> = (0..bvh_count)
+        .map(|id| &nodes[id as usize])
+        .filter(|n| n.child_count == 0 && view.frustum.classify(&n.aabb()) != Containment::Outside)
+        .map(|n| {
+            let b = n.aabb();
+            let x = b.extent().as_dvec3();
+            // The largest face is normal to the smallest extent.
+            let normal = match x.min_position() {
+                0 => DVec3::X,
+                1 => DVec3::Y,
+                _ => DVec3::Z,
+            };
+            let d = osw_scene::error_metric::distance_to_box(view.eye, &b).max(view.near);
+            (x.x * x.y * x.z * normal.dot(e).abs() / (d * d * d), n.first_lod)
+        })
+        .collect();
+    weighted.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut out: Vec<NodeId> = weighted.into_iter().take(count).map(|w| w.1).collect();
+    out.sort_unstable();
+    out
+}
+
+/// Farthest-depth pyramid; level 0 is the depth buffer (row 0 at the top).
+pub struct Pyramid {
+    levels: Vec<(u32, u32, Vec<f32>)>,
+}
+
+impl Pyramid {
+    /// Builds the pyramid from a `width` x `height` reversed-Z depth image.
+    pub fn new(width: u32, height: u32, depth: Vec<f32>) -> Pyramid {
+        assert_eq!(depth.len(), (width * height) as usize, "depth image size");
+        let mut levels = vec![(width, height, depth)];
+        while let Some((w, h, d)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
+            let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
+            let at = |x: u32, y: u32| d[(y.min(h - 1) * w + x.min(w - 1)) as usize];
+            let next = (0..nh)
+                .flat_map(|y| (0..nw).map(move |x| (x, y)))
+                .map(|(x, y)| at(2 * x, 2 * y).min(at(2 * x + 1, 2 * y)).min(at(2 * x, 2 * y + 1)).min(at(2 * x + 1, 2 * y + 1)))
+                .collect();
+            levels.push((nw, nh, next));
+        }
+        Pyramid { levels }
+    }
+
+    /// Farthest depth over the level-0 pixel rectangle [x0, x1] x [y0, y1] (inclusive), read
+    /// at the level where the rectangle spans at most 2^(1 + finer) texels a side (finer = 0:
+    /// GigaWalk's 2x2): conservative, the texels cover the rectangle.
+    pub fn farthest(&self, x0: u32, y0: u32, x1: u32, y1: u32, finer: u32) -> f32 {
+        let span = (x1 - x0).max(y1 - y0) + 1;
+        let level = (u32::BITS - (span.max(1) - 1).leading_zeros()).saturating_sub(finer) as usize;
+        let (w, h, d) = &self.levels[level.min(self.levels.len() - 1)];
+        let s = level.min(self.levels.len() - 1);
+        let (tx0, ty0, tx1, ty1) = (x0 >> s, y0 >> s, (x1 >> s).min(w - 1), (y1 >> s).min(h - 1));
+        let mut far = f32::INFINITY;
+        for y in ty0..=ty1 {
+            for x in tx0..=tx1 {
+                far = far.min(d[(y * w + x) as usize]);
+            }
+        }
+        far
+    }
+}
+
+/// Tests boxes against a [`Pyramid`] on the CPU.
+pub struct HzbTester<'a> {
+    pub nodes: &'a [NodeRecord],
+    pub pyramid: &'a Pyramid,
+    /// Levels below GigaWalk's 2x2-texel choice to read (see [`Pyramid::farthest`]).
+    pub finer: u32,
+}
+
+impl VisibilityTester for HzbTester<'_> {
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        let vp = view.view_proj().as_dmat4();
+        for &id in ids {
+            out.push(Visibility { visible: self.visible(&vp, view, id), pixels: None });
+        }
+    }
+}
+
+impl HzbTester<'_> {
+    fn visible(&self, vp: &DMat4, view: &View, id: NodeId) -> bool {
+        let b = self.nodes[id as usize].aabb();
+        let (lo, hi) = (b.min.as_dvec3() - view.eye, b.max.as_dvec3() - view.eye);
+        let (w, h) = (view.width as f64, view.height as f64);
+        let (mut x0, mut y0, mut x1, mut y1, mut nearest) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY, 0.0f64);
+        for c in 0..8 {
+            let p = DVec3::new(
+                if c & 1 != 0 { hi.x } else { lo.x },
+                if c & 2 != 0 { hi.y } else { lo.y },
+                if c & 4 != 0 { hi.z } else { lo.z },
+            );
+            let clip = *vp * DVec4::new(p.x, p.y, p.z, 1.0);
+            if clip.w <= 0.0 {
+                // Behind the eye: the traversal sends such boxes only when they straddle it.
+                return true;
+            }
+            let (nx, ny, nz) = (clip.x / clip.w, clip.y / clip.w, clip.z / clip.w);
+            x0 = x0.min((nx + 1.0) * 0.5 * w);
+            x1 = x1.max((nx + 1.0) * 0.5 * w);
+            y0 = y0.min((1.0 - ny) * 0.5 * h);
+            y1 = y1.max((1.0 - ny) * 0.5 * h);
+            nearest = nearest.max(nz);
+        }
+        if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
+            return false;
+        }
+        let clamp = |v: f64, m: f64| v.clamp(0.0, m - 1.0) as u32;
+        let far = self.pyramid.farthest(clamp(x0.floor(), w), clamp(y0.floor(), h), clamp(x1.floor(), w), clamp(y1.floor(), h), self.finer);
+        // Rounding margin: f32 depth against an f64 corner depth.
+        nearest as f32 >= far - 1e-7
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pyramid_keeps_the_farthest_depth() {
+        // 3x2 image; level 1 is 2x1: min over the 2x2 blocks (clamped at the edge).
+        let p = Pyramid::new(3, 2, vec![0.9, 0.5, 0.7, 0.8, 0.6, 0.4]);
+        assert_eq!(p.levels[1], (2, 1, vec![0.5, 0.4]));
+        assert_eq!(p.levels[2], (1, 1, vec![0.4]));
+        assert_eq!(p.farthest(0, 0, 0, 0, 0), 0.9);
+        assert_eq!(p.farthest(0, 0, 1, 1, 0), 0.5);
+        assert_eq!(p.farthest(0, 0, 2, 1, 0), 0.4);
+        // One level finer: the 2x2 rectangle is read at level 0, texel by texel.
+        assert_eq!(p.farthest(0, 0, 1, 0, 1), 0.5);
+        assert_eq!(p.farthest(0, 0, 0, 1, 1), 0.8);
+    }
+}

@@ -1,0 +1,190 @@
+//! The fast HC test: a farthest-depth pyramid built from the occluder depth buffer by compute
+//! passes (shaders/depthreduce.comp.wgsl), and boxes tested against it by one compute dispatch
+//! per batch (shaders/boxcull.comp.wgsl). Conservative, like the exact test, but it cannot count
+//! visible pixels, so the LOD stop of paper 000 sec. 4.7.2 does not apply with it.
+
+use crate::device::Gpu;
+use crate::target::Target;
+use bytemuck::{Pod, Zeroable};
+
+/// One pyramid level in the packed buffer: 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Eq)]
+pub struct Level {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub pad: u32,
+}
+
+/// The level table for a `width` x `height` depth buffer: halving (rounding up) down to 1x1.
+pub fn levels(width: u32, height: u32) -> Vec<Level> {
+    let mut out = vec![Level { offset: 0, width, height, pad: 0 }];
+    while let Some(&l) = out.last().filter(|l| l.width > 1 || l.height > 1) {
+        out.push(Level { offset: l.offset + l.width * l.height, width: l.width.div_ceil(2), height: l.height.div_ceil(2), pad: 0 });
+    }
+    out
+}
+
+pub struct Pyramid {
+    pub levels: Vec<Level>,
+    reduce: wgpu::ComputePipeline,
+    cull: wgpu::ComputePipeline,
+    reduce_groups: Vec<wgpu::BindGroup>,
+    cull_group: wgpu::BindGroup,
+    batch_buf: wgpu::Buffer,
+}
+
+fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None }
+}
+
+fn buffer(ty: wgpu::BufferBindingType) -> wgpu::BindingType {
+    wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None }
+}
+
+impl Pyramid {
+    /// `view_buf`, `boxes_buf` and `results_buf` are the renderer's (shared with the exact test).
+    pub fn new(gpu: &Gpu, target: &Target, view_buf: &wgpu::Buffer, boxes_buf: &wgpu::Buffer, results_buf: &wgpu::Buffer) -> Pyramid {
+        use wgpu::BufferBindingType as B;
+        use wgpu::util::DeviceExt;
+        let d = &gpu.device;
+        let levels = levels(target.width, target.height);
+        let texels: u32 = levels.iter().map(|l| l.width * l.height).sum();
+        let levels_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("pyramid levels"),
+            contents: bytemuck::cast_slice(&levels),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let pyramid_buf = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pyramid"),
+            size: texels as u64 * 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let batch_buf = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cull batch"),
+            size: 16,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+
+        let module = |label: &str, src: &str| {
+            d.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(src.into()) })
+        };
+        let pipeline = |label: &str, layout: &wgpu::BindGroupLayout, m: &wgpu::ShaderModule, entry_point: &str| {
+            let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: &[Some(layout)],
+                immediate_size: 0,
+            });
+            d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pl),
+                module: m,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+
+        let reduce_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("depthreduce"),
+            entries: &[
+                entry(
+                    0,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                ),
+                entry(1, buffer(B::Storage { read_only: true })),
+                entry(2, buffer(B::Storage { read_only: false })),
+                entry(3, buffer(B::Uniform)),
+            ],
+        });
+        let reduce = pipeline(
+            "depthreduce",
+            &reduce_layout,
+            &module("depthreduce.comp.wgsl", include_str!("shaders/depthreduce.comp.wgsl")),
+            "reduce",
+        );
+        // One small uniform per level naming it: the dispatches of one frame go in one
+        // submission, so each needs its own.
+        let reduce_groups = (0..levels.len() as u32)
+            .map(|k| {
+                let step = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("reduce step"),
+                    contents: bytemuck::cast_slice(&[k, 0, 0, 0]),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("depthreduce"),
+                    layout: &reduce_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&target.depth) },
+                        wgpu::BindGroupEntry { binding: 1, resource: levels_buf.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: pyramid_buf.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 3, resource: step.as_entire_binding() },
+                    ],
+                })
+            })
+            .collect();
+
+        let cull_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("boxcull"),
+            entries: &[
+                entry(0, buffer(B::Uniform)),
+                entry(1, buffer(B::Storage { read_only: true })),
+                entry(2, buffer(B::Storage { read_only: false })),
+                entry(3, buffer(B::Storage { read_only: true })),
+                entry(4, buffer(B::Storage { read_only: true })),
+                entry(5, buffer(B::Uniform)),
+            ],
+        });
+        let cull = pipeline("boxcull", &cull_layout, &module("boxcull.comp.wgsl", include_str!("shaders/boxcull.comp.wgsl")), "cull");
+        let cull_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("boxcull"),
+            layout: &cull_layout,
+            entries: &[view_buf, boxes_buf, results_buf, &levels_buf, &pyramid_buf, &batch_buf]
+                .iter()
+                .enumerate()
+                .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+                .collect::<Vec<_>>(),
+        });
+        Pyramid { levels, reduce, cull, reduce_groups, cull_group, batch_buf }
+    }
+
+    /// Records the reduction of the current depth buffer into the pyramid.
+    pub fn encode_build(&self, enc: &mut wgpu::CommandEncoder) {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("depthreduce"), timestamp_writes: None });
+        pass.set_pipeline(&self.reduce);
+        for (l, group) in self.levels.iter().zip(&self.reduce_groups) {
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(l.width.div_ceil(8), l.height.div_ceil(8), 1);
+        }
+    }
+
+    /// Records the test of the first `count` boxes of the box buffer into the results buffer.
+    pub fn encode_cull(&self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder, count: u32) {
+        gpu.queue.write_buffer(&self.batch_buf, 0, bytemuck::cast_slice(&[count, self.levels.len() as u32, 0, 0]));
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("boxcull"), timestamp_writes: None });
+        pass.set_pipeline(&self.cull);
+        pass.set_bind_group(0, &self.cull_group, &[]);
+        pass.dispatch_workgroups(count.div_ceil(64), 1, 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn level_table_packs_halving_levels() {
+        let l = levels(5, 3);
+        let dims: Vec<(u32, u32, u32)> = l.iter().map(|l| (l.offset, l.width, l.height)).collect();
+        assert_eq!(dims, vec![(0, 5, 3), (15, 3, 2), (21, 2, 1), (23, 1, 1)]);
+        assert_eq!(std::mem::size_of::<Level>(), 16);
+    }
+}
