@@ -31,7 +31,13 @@ pub enum HcTest {
     ExactCount,
     /// The farthest-depth pyramid in a compute pass: conservative, no pixel counts.
     Pyramid,
+    /// One occlusion query per box (paper 000 sec. 4.7.1: GL_NV_occlusion_query), the
+    /// paper-faithful reference. wgpu documents only zero / non-zero results.
+    Queries,
 }
+
+/// Most occlusion queries in one query set (wgpu's limit).
+const QUERIES: u32 = 4096;
 
 /// Counts of one draw call list.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -55,6 +61,9 @@ pub struct Renderer {
     results_buf: wgpu::Buffer,
     results_staging: wgpu::Buffer,
     box_group: wgpu::BindGroup,
+    queries: wgpu::QuerySet,
+    query_resolve: wgpu::Buffer,
+    query_staging: wgpu::Buffer,
     draw_data: Vec<DrawData>,
     gpu_boxes: Vec<GpuBox>,
 }
@@ -87,7 +96,17 @@ impl Renderer {
         let box_group = bind(&boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
         let target = Target::new(&gpu, width, height);
         let pyramid = Pyramid::new(&gpu, &target, &view_buf, &boxes_buf, &results_buf);
+        let queries = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("box queries"),
+            ty: wgpu::QueryType::Occlusion,
+            count: QUERIES,
+        });
+        let query_resolve = storage(&gpu, "query resolve", QUERIES as u64 * 8, U::QUERY_RESOLVE | U::COPY_SRC);
+        let query_staging = crate::readback::staging(&gpu, "query readback", QUERIES as u64 * 8);
         Ok(Renderer {
+            queries,
+            query_resolve,
+            query_staging,
             pyramid,
             target,
             residency: Residency::new(residency_bytes),
@@ -194,7 +213,8 @@ impl Renderer {
     /// (exact tests) or the pyramid last built from it. Appends one answer per id.
     pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: HcTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
         self.gpu.queue.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
-        for chunk in ids.chunks(crate::limits::MAX_BOXES as usize) {
+        let chunk_len = if test == HcTest::Queries { QUERIES } else { crate::limits::MAX_BOXES };
+        for chunk in ids.chunks(chunk_len as usize) {
             self.gpu_boxes.clear();
             for &id in chunk {
                 let b = self.scene.node(id).aabb();
@@ -222,12 +242,30 @@ impl Renderer {
                         stencil_ops: None,
                     }),
                     timestamp_writes: None,
-                    occlusion_query_set: None,
+                    occlusion_query_set: (test == HcTest::Queries).then_some(&self.queries),
                     multiview_mask: None,
                 });
                 rp.set_pipeline(if count_pixels { &self.boxtest.count } else { &self.boxtest.flag });
                 rp.set_bind_group(0, &self.box_group, &[]);
-                rp.draw(0..36, 0..n as u32);
+                if test == HcTest::Queries {
+                    for i in 0..n as u32 {
+                        rp.begin_occlusion_query(i);
+                        rp.draw(0..36, i..i + 1);
+                        rp.end_occlusion_query();
+                    }
+                } else {
+                    rp.draw(0..36, 0..n as u32);
+                }
+            }
+            if test == HcTest::Queries {
+                enc.resolve_query_set(&self.queries, 0..n as u32, &self.query_resolve, 0);
+                enc.copy_buffer_to_buffer(&self.query_resolve, 0, &self.query_staging, 0, Some(n * 8));
+                self.gpu.queue.submit([enc.finish()]);
+                crate::readback::read(&self.gpu, &self.query_staging, n * 8, |bytes| {
+                    let samples: &[u64] = bytemuck::cast_slice(bytes);
+                    out.extend(samples.iter().map(|&q| Visibility { visible: q > 0, pixels: None }));
+                })?;
+                continue;
             }
             enc.copy_buffer_to_buffer(&self.results_buf, 0, &self.results_staging, 0, Some(n * 4));
             self.gpu.queue.submit([enc.finish()]);

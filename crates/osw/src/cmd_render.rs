@@ -22,9 +22,10 @@ pub struct Args {
     /// Pixels of error allowed by LOD selection (0 = full detail).
     #[arg(long, default_value_t = 0.0)]
     tau: f64,
-    /// How prev's HC tests boxes: pyramid (a farthest-depth pyramid in compute, conservative)
-    /// or exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
-    /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0).
+    /// How prev's HC tests boxes: pyramid (a farthest-depth pyramid in compute, conservative),
+    /// exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
+    /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0) or queries (one occlusion query
+    /// per box, as the paper; the slow reference).
     #[arg(long, default_value = "pyramid", value_parser = parse_hc)]
     hc: HcTest,
     #[command(flatten)]
@@ -41,7 +42,8 @@ fn parse_hc(s: &str) -> Result<HcTest, String> {
     match s {
         "exact" => Ok(HcTest::Exact),
         "pyramid" => Ok(HcTest::Pyramid),
-        _ => Err(format!("unknown HC test {s:?}: expected exact or pyramid")),
+        "queries" => Ok(HcTest::Queries),
+        _ => Err(format!("unknown HC test {s:?}: expected pyramid, exact or queries")),
     }
 }
 

@@ -9,7 +9,8 @@ use osw_scene::{Camera, SceneFile};
 use std::path::{Path, PathBuf};
 
 /// Every mode, and prev with each HC box test.
-const MODES: [(&str, &str); 5] = [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid")];
+const MODES: [(&str, &str); 6] =
+    [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid"), ("prev", "queries")];
 const SIZE: &str = "256x256";
 
 fn s(p: &Path) -> &str {

@@ -59,7 +59,7 @@ impl std::str::FromStr for Mode {
 pub struct ModeState {
     pub mode: Mode,
     pub tau: f64,
-    /// How `prev` tests boxes: `Exact` (counting pixels when tau > 0) or `Pyramid`.
+    /// How `prev` tests boxes: `Exact` (counting pixels when tau > 0), `Pyramid` or `Queries`.
     pub hc: HcTest,
     /// V(i-1): last frame's visible set (LOD ids, sorted).
     visible: Vec<NodeId>,
@@ -131,6 +131,7 @@ impl ModeState {
                         r.build_pyramid();
                         HcTest::Pyramid
                     }
+                    HcTest::Queries => HcTest::Queries,
                     // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
                     _ if self.tau > 0.0 => HcTest::ExactCount,
                     _ => HcTest::Exact,
