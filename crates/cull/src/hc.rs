@@ -83,6 +83,64 @@ pub fn hardware_cull(nodes: &[NodeRecord], view: &View, tau: f64, tester: &mut d
     stats
 }
 
+/// HC with every test in one batch: first collects every BVH node the level-by-level
+/// traversal could visit (in the frustum, under ancestors that do not meet tau), tests them all
+/// at once, then runs [`hardware_cull`] on the answers. Same answers per node, so the same PVS
+/// as level by level; it tests more boxes (also those under occluded nodes) in one round trip
+/// instead of one per level. Pays when a test is cheap and a round trip is not (the pyramid
+/// test: sec. 4.7.1 batches per level because 2003 queries were the other way round).
+pub fn hardware_cull_one_batch(
+    nodes: &[NodeRecord],
+    view: &View,
+    tau: f64,
+    tester: &mut dyn VisibilityTester,
+    pvs: &mut Vec<NodeId>,
+) -> HcStats {
+    let mut candidates = Vec::new();
+    let mut stack = vec![0u32];
+    while let Some(id) = stack.pop() {
+        let n = &nodes[id as usize];
+        let b = n.aabb();
+        if view.frustum.classify(&b) == Containment::Outside {
+            continue;
+        }
+        if !view.frustum.needs_no_test(&b) {
+            candidates.push(id);
+        }
+        if select_lod(nodes, id, view.eye, view.focal_px, tau).is_none() {
+            stack.extend(n.children());
+        }
+    }
+    candidates.sort_unstable();
+    let mut answers = Vec::with_capacity(candidates.len());
+    if !candidates.is_empty() {
+        tester.test(view, &candidates, &mut answers);
+        assert_eq!(answers.len(), candidates.len(), "tester must answer every box");
+    }
+    let mut answered = Answered { ids: &candidates, answers: &answers };
+    let mut stats = hardware_cull(nodes, view, tau, &mut answered, pvs);
+    (stats.tests, stats.levels) = (if tester.tests() { candidates.len() as u32 } else { 0 }, 1);
+    stats
+}
+
+/// Answers looked up from a batch tested beforehand.
+struct Answered<'a> {
+    /// Sorted.
+    ids: &'a [NodeId],
+    answers: &'a [Visibility],
+}
+
+impl VisibilityTester for Answered<'_> {
+    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        // Every node the traversal tests was collected: same frustum and tau rules.
+        out.extend(ids.iter().map(|id| self.ids.binary_search(id).map_or(Visibility { visible: true, pixels: None }, |k| self.answers[k])));
+    }
+
+    fn tests(&self) -> bool {
+        false
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -184,6 +242,26 @@ mod tests {
         assert_eq!(s.frustum_culled, 1);
         assert_eq!(s.untested, 2);
         assert!(t.batches.is_empty());
+    }
+
+    #[test]
+    fn one_batch_gives_the_same_pvs_as_level_batches() {
+        let n = scene();
+        for (eye, visible) in
+            [(DVec3::new(5.5, 0.5, 30.0), vec![0, 2]), (DVec3::new(5.5, 0.5, 30.0), vec![0, 1, 2]), (DVec3::new(5.5, 0.5, 1e4), vec![0])]
+        {
+            let v = view_from(eye, DVec3::new(5.5, 0.5, 0.0));
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            let mut t = Fixed { visible: visible.clone(), pixels: None, batches: Vec::new() };
+            hardware_cull(&n, &v, 0.0, &mut t, &mut a);
+            let mut t = Fixed { visible, pixels: None, batches: Vec::new() };
+            let s = hardware_cull_one_batch(&n, &v, 0.0, &mut t, &mut b);
+            a.sort();
+            b.sort();
+            assert_eq!(a, b);
+            assert_eq!(t.batches.len(), 1, "one round trip");
+            assert_eq!(s.tests, 3, "root and both leaves tested at once");
+        }
     }
 
     #[test]

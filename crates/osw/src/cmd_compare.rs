@@ -140,11 +140,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         csv.push_str(&format!("{},{psnr},{},{},{af},{al},{at},{bf},{bl},{bt}\n", r.frame, i.differing_fraction, i.max_channel_diff));
     }
     std::fs::write(a.out.join("compare.csv"), csv)?;
+    let image = if images.is_empty() {
+        "no frames to compare".to_string()
+    } else {
+        format!(
+            "{} identical, PSNR min {}, differing pixels up to {:.4}%",
+            report.identical_frames,
+            report.psnr_db_min.map_or("inf".into(), |p| format!("{p:.1} dB")),
+            report.differing_fraction_max * 100.0
+        )
+    };
     println!(
-        "compare: {frames} frames, {} identical, PSNR min {}, differing pixels up to {:.4}%{} → {}",
-        report.identical_frames,
-        report.psnr_db_min.map_or("inf".into(), |p| format!("{p:.1} dB")),
-        report.differing_fraction_max * 100.0,
+        "compare: {frames} frames, {image}{} → {}",
         report.culling_a.as_ref().map_or(String::new(), |s| format!(
             ", a: {} false-culled leaves, PVS/exact leaves {:.2}",
             s.false_culled_leaves_total, s.pvs_exact_leaves_ratio_mean

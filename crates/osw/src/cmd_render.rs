@@ -22,11 +22,12 @@ pub struct Args {
     /// Pixels of error allowed by LOD selection (0 = full detail).
     #[arg(long, default_value_t = 0.0)]
     tau: f64,
-    /// How prev's HC tests boxes: pyramid (a farthest-depth pyramid in compute, conservative),
+    /// How prev's HC tests boxes: hybrid (pyramid, then exact for boxes it finds visible that
+    /// are small on screen), pyramid (a farthest-depth pyramid in compute, conservative),
     /// exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
     /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0) or queries (one occlusion query
     /// per box, as the paper; the slow reference).
-    #[arg(long, default_value = "pyramid", value_parser = parse_hc)]
+    #[arg(long, default_value = "hybrid", value_parser = parse_hc)]
     hc: HcTest,
     #[command(flatten)]
     gpu: GpuArgs,
@@ -43,7 +44,8 @@ fn parse_hc(s: &str) -> Result<HcTest, String> {
         "exact" => Ok(HcTest::Exact),
         "pyramid" => Ok(HcTest::Pyramid),
         "queries" => Ok(HcTest::Queries),
-        _ => Err(format!("unknown HC test {s:?}: expected pyramid, exact or queries")),
+        "hybrid" => Ok(HcTest::Hybrid),
+        _ => Err(format!("unknown HC test {s:?}: expected hybrid, pyramid, exact or queries")),
     }
 }
 

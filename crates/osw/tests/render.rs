@@ -9,8 +9,8 @@ use osw_scene::{Camera, SceneFile};
 use std::path::{Path, PathBuf};
 
 /// Every mode, and prev with each HC box test.
-const MODES: [(&str, &str); 6] =
-    [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid"), ("prev", "queries")];
+const MODES: [(&str, &str); 7] =
+    [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid"), ("prev", "queries"), ("prev", "hybrid")];
 const SIZE: &str = "256x256";
 
 fn s(p: &Path) -> &str {
@@ -58,12 +58,33 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
         let run = check_conservative(d.path(), &scene, &path, kind);
         // prev culls: on a walk it draws fewer triangles than vfc.
         let tri = |m: &str| -> f64 {
-            let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(run.join(m).join("summary.json")).unwrap()).unwrap();
+            let p = run.join(m).join("summary.json");
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))).unwrap();
             v["triangles_drawn_mean"].as_f64().unwrap()
         };
-        for m in ["sw-exact", "chc-exact", "prev-exact", "prev-pyramid"] {
+        for m in ["sw-exact", "chc-exact", "prev-exact", "prev-pyramid", "prev-hybrid"] {
             assert!(tri(m) < tri("vfc"), "{kind}: {m} draws {} triangles, vfc {}", tri(m), tri("vfc"));
         }
+        // Residency: vfc draws only its PVS, so it uploads exactly the distinct LODs it drew
+        // (geometry never drawn is never read or uploaded).
+        let pvs = std::fs::read_to_string(run.join("vfc").join("pvs.txt")).unwrap();
+        let distinct: std::collections::BTreeSet<&str> = pvs.split_ascii_whitespace().collect();
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(run.join("vfc").join("summary.json")).unwrap()).unwrap();
+        assert_eq!(v["uploads"].as_u64().unwrap(), distinct.len() as u64, "{kind}: uploads");
+        // The culling check can fail: a run that draws nothing culls every visible leaf.
+        let broken = run.join("broken");
+        std::fs::create_dir_all(&broken).unwrap();
+        std::fs::copy(run.join("vfc").join("summary.json"), broken.join("summary.json")).unwrap();
+        std::fs::write(broken.join("pvs.txt"), "\n".repeat(24)).unwrap();
+        let c = compare(&broken, &run.join("vfc"), &run.join("exact"), &run.join("cmp-broken"));
+        let exact_leaves: u64 = std::fs::read_to_string(run.join("exact").join("exact.csv"))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse::<u64>().unwrap())
+            .sum();
+        assert_eq!(c["culling_a"]["false_culled_leaves_total"], exact_leaves, "{kind}: {c}");
     }
 }
 

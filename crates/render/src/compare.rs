@@ -44,7 +44,9 @@ pub struct CullError {
     /// Exactly visible leaves that the PVS does not draw (neither their own LOD nor an
     /// ancestor's HLOD): must be 0 for a conservative method at tau = 0.
     pub false_culled_leaves: u32,
-    /// Leaves the PVS draws (directly or under a drawn HLOD).
+    /// Leaves the PVS draws at one of their own LODs, plus exactly visible leaves it covers
+    /// with an ancestor's HLOD (an HLOD stands for the leaves it covers, so the hidden ones
+    /// under it are not counted against the culling).
     pub pvs_leaves: u32,
     pub exact_leaves: u32,
     /// Triangles the PVS draws over exactly visible triangles.
@@ -66,7 +68,7 @@ impl CullError {
 pub fn cull_error(scene: &SceneFile, pvs: &[NodeId], exact_leaves: &[NodeId], exact_triangles: u64) -> Result<CullError, String> {
     let n = scene.nodes();
     let bad = |id: NodeId| format!("id {id} is not a node of this scene ({} nodes): wrong scene?", n.len());
-    // Mark the BVH owners of drawn LODs, then every leaf under a marked node.
+    // Mark the BVH owners of drawn LODs, then every node under a marked node.
     let mut drawn = vec![false; scene.bvh_count() as usize];
     let mut pvs_triangles = 0;
     for &id in pvs {
@@ -79,13 +81,17 @@ pub fn cull_error(scene: &SceneFile, pvs: &[NodeId], exact_leaves: &[NodeId], ex
     for id in 1..covered.len() {
         covered[id] |= covered[n[id].parent as usize];
     }
-    let pvs_leaves = (0..covered.len()).filter(|&i| covered[i] && n[i].kind() == NodeKind::Leaf).count() as u32;
+    let own = (0..drawn.len()).filter(|&i| drawn[i] && n[i].kind() == NodeKind::Leaf).count() as u32;
     let mut false_culled = 0;
+    let mut under_hlod = 0;
     for &leaf in exact_leaves {
-        if !*covered.get(leaf as usize).ok_or_else(|| bad(leaf))? {
-            false_culled += 1;
+        match covered.get(leaf as usize).ok_or_else(|| bad(leaf))? {
+            false => false_culled += 1,
+            true if !drawn[leaf as usize] => under_hlod += 1,
+            true => {}
         }
     }
+    let pvs_leaves = own + under_hlod;
     Ok(CullError { false_culled_leaves: false_culled, pvs_leaves, exact_leaves: exact_leaves.len() as u32, pvs_triangles, exact_triangles })
 }
 

@@ -16,7 +16,7 @@ use osw_cull::chc::ChcState;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
 use osw_cull::sw::stop_and_wait;
-use osw_cull::{AllVisible, HcStats, View, hardware_cull};
+use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_one_batch};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{GpuTester, HcTest, InterleavedTester, RenderError, Renderer};
 use osw_scene::NodeId;
@@ -59,7 +59,8 @@ impl std::str::FromStr for Mode {
 pub struct ModeState {
     pub mode: Mode,
     pub tau: f64,
-    /// How `prev` tests boxes: `Exact` (counting pixels when tau > 0), `Pyramid` or `Queries`.
+    /// How `prev` tests boxes: `Hybrid`, `Pyramid`, `Exact` (counting pixels when tau > 0) or
+    /// `Queries`.
     pub hc: HcTest,
     /// V(i-1): last frame's visible set (LOD ids, sorted).
     visible: Vec<NodeId>,
@@ -127,9 +128,9 @@ impl ModeState {
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
                 let t = Instant::now();
                 let test = match self.hc {
-                    HcTest::Pyramid => {
+                    HcTest::Pyramid | HcTest::Hybrid => {
                         r.build_pyramid();
-                        HcTest::Pyramid
+                        self.hc
                     }
                     HcTest::Queries => HcTest::Queries,
                     // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
@@ -137,7 +138,13 @@ impl ModeState {
                     _ => HcTest::Exact,
                 };
                 let mut tester = GpuTester { renderer: r, test, error: None };
-                let hc = hardware_cull(nodes, view, self.tau, &mut tester, &mut pvs);
+                // The pyramid test is cheap per box and a round trip is not: one batch (the
+                // hybrid's exact re-test only sees the small boxes). The rasterised tests pay
+                // per pixel: level by level (paper 000 sec. 4.7.1).
+                let hc = match test {
+                    HcTest::Pyramid | HcTest::Hybrid => hardware_cull_one_batch(nodes, view, self.tau, &mut tester, &mut pvs),
+                    _ => hardware_cull(nodes, view, self.tau, &mut tester, &mut pvs),
+                };
                 if let Some(e) = tester.error {
                     return Err(e);
                 }

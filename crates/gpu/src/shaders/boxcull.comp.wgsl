@@ -51,7 +51,7 @@ fn cull(@builtin(global_invocation_id) id: vec3<u32>) {
         let p = vec3<f32>(select(b.lo.x, b.hi.x, (c & 1u) != 0u), select(b.lo.y, b.hi.y, (c & 2u) != 0u), select(b.lo.z, b.hi.z, (c & 4u) != 0u));
         let clip = view.view_proj * vec4<f32>(p, 1.0);
         if clip.w <= 0.0 {
-            results[i] = 1u;
+            results[i] = 0xffffffffu;
             return;
         }
         let ndc = clip.xyz / clip.w;
@@ -83,6 +83,7 @@ fn cull(@builtin(global_invocation_id) id: vec3<u32>) {
             far = min(far, pyramid[l.offset + y * l.width + x]);
         }
     }
-    // The same rounding margin as the CPU reference.
-    results[i] = select(0u, 1u, nearest >= far - 1e-7);
+    // The same rounding margin as the CPU reference. A visible box reports 1 + the level it
+    // was read at, so that the hybrid test can send small boxes on to the exact test.
+    results[i] = select(0u, 1u + s, nearest >= far - 1e-7);
 }
