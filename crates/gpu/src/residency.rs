@@ -23,10 +23,15 @@ pub struct ResidencyStats {
     pub uploads: u64,
     pub upload_bytes: u64,
     pub evictions: u64,
+    /// Distinct LOD nodes ever uploaded, and their bytes: the rest of the file was never read.
+    pub distinct: u64,
+    pub distinct_bytes: u64,
 }
 
 pub struct Residency {
     map: HashMap<NodeId, Resident>,
+    /// Per node id: uploaded at least once.
+    ever: Vec<bool>,
     budget: u64,
     bytes: u64,
     frame: u64,
@@ -35,7 +40,7 @@ pub struct Residency {
 
 impl Residency {
     pub fn new(budget: u64) -> Residency {
-        Residency { map: HashMap::new(), budget, bytes: 0, frame: 0, stats: ResidencyStats::default() }
+        Residency { map: HashMap::new(), ever: Vec::new(), budget, bytes: 0, frame: 0, stats: ResidencyStats::default() }
     }
 
     /// Bytes resident now.
@@ -74,6 +79,13 @@ impl Residency {
         self.bytes += bytes;
         self.stats.uploads += 1;
         self.stats.upload_bytes += bytes;
+        if self.ever.len() <= id as usize {
+            self.ever.resize(id as usize + 1, false);
+        }
+        if !std::mem::replace(&mut self.ever[id as usize], true) {
+            self.stats.distinct += 1;
+            self.stats.distinct_bytes += bytes;
+        }
         self.map.insert(id, Resident { vertices, indices, format, index_count: g.indices.len() as u32, bytes, last_used: self.frame });
         Ok(())
     }

@@ -53,6 +53,11 @@ pub struct Summary {
     pub uploads: u64,
     pub upload_bytes: u64,
     pub evictions: u64,
+    /// What the run left out: geometry blocks (LOD/HLOD nodes) never drawn, so never read
+    /// from the file nor uploaded, and their share of the scene's geometry.
+    pub blocks_never_loaded: u64,
+    pub blocks_total: u64,
+    pub geometry_never_loaded_fraction: f64,
 }
 
 /// The `q` quantile (0..=1) of `v` by nearest rank; 0 for no values.

@@ -1,0 +1,149 @@
+//! Frames: `[u32 LE payload length][bincode payload]`. The length is checked against
+//! MAX_FRAME_BYTES before anything is allocated; a frame whose payload does not decode to
+//! exactly one valid message, with no bytes left over, is refused.
+
+use crate::limits::MAX_FRAME_BYTES;
+use crate::messages::Message;
+
+/// What is wrong with bytes from a peer.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum WireError {
+    #[error("frame of {len} bytes is over the {max}-byte limit")]
+    FrameTooLarge { len: u64, max: u32 },
+    #[error("malformed message: {0}")]
+    Malformed(String),
+    #[error("{0} bytes left over after the message in a frame")]
+    TrailingBytes(usize),
+    #[error("unusable camera: {0}")]
+    BadCamera(String),
+    #[error("node id {id} out of range (the scene has {max} nodes)")]
+    IdOutOfRange { id: u64, max: u32 },
+    #[error("bad id list: {0}")]
+    BadIds(String),
+}
+
+fn config() -> impl bincode::config::Config {
+    bincode::config::standard().with_limit::<{ MAX_FRAME_BYTES as usize }>()
+}
+
+/// Appends the frame of `msg` to `out`.
+pub fn encode_frame(msg: &Message, out: &mut Vec<u8>) {
+    let start = out.len();
+    out.extend_from_slice(&[0; 4]);
+    // Writing plain data into a Vec cannot fail.
+    let payload = bincode::serde::encode_to_vec(msg, config()).expect("messages always encode");
+    out.extend_from_slice(&payload);
+    let len = (out.len() - start - 4) as u32;
+    out[start..start + 4].copy_from_slice(&len.to_le_bytes());
+}
+
+/// Decodes one frame from the front of `buf`: `Ok(None)` when the frame is incomplete,
+/// `Ok(Some((message, bytes used)))`, or the error that makes the stream unusable.
+pub fn decode_frame(buf: &[u8]) -> Result<Option<(Message, usize)>, WireError> {
+    let Some(head) = buf.get(..4) else { return Ok(None) };
+    let len = u32::from_le_bytes(head.try_into().expect("4 bytes"));
+    if len > MAX_FRAME_BYTES {
+        return Err(WireError::FrameTooLarge { len: len as u64, max: MAX_FRAME_BYTES });
+    }
+    let Some(payload) = buf.get(4..4 + len as usize) else { return Ok(None) };
+    let (msg, used): (Message, usize) =
+        bincode::serde::decode_from_slice(payload, config()).map_err(|e| WireError::Malformed(e.to_string()))?;
+    if used != payload.len() {
+        return Err(WireError::TrailingBytes(payload.len() - used));
+    }
+    msg.validate()?;
+    Ok(Some((msg, 4 + len as usize)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::messages::*;
+    use proptest::prelude::*;
+
+    fn samples() -> Vec<Message> {
+        vec![
+            Message::Hello(Hello { version: 1, scene_hash: [1, 2], name: "a".into(), role: Role::Node, token: Some("t".into()) }),
+            Message::Camera(CameraPacket {
+                frame: 7,
+                position: [1e7, 2.0, -3.5],
+                orientation: [0.0, 0.0, 0.0, 1.0],
+                fovy_deg: 60.0,
+                sampled_us: 123,
+            }),
+            Message::Delta(Delta { frame: 7, added: IdList::from_ids(&[1, 5, 900]), removed: IdList::from_ids(&[2]) }),
+            Message::EndOfFrame(EndOfFrame { frame: 7, stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, or_us: 6, pvs: 3 } }),
+            Message::Keyframe(Keyframe { frame: 8, ids: IdList::from_ids(&[0, 1, 2]) }),
+            Message::Goodbye(Goodbye { reason: "done".into() }),
+        ]
+    }
+
+    #[test]
+    fn every_message_round_trips() {
+        for m in samples() {
+            let mut b = Vec::new();
+            encode_frame(&m, &mut b);
+            assert_eq!(decode_frame(&b).unwrap(), Some((m, b.len())));
+        }
+    }
+
+    #[test]
+    fn golden_bytes_of_version_1() {
+        // An end of frame: length 7, variant 3, frame 7, tests 10, levels 2, hc_us 5, or_us 6,
+        // pvs 3 (bincode standard: varint integers). A change here changes the protocol:
+        // bump PROTOCOL_VERSION.
+        let mut b = Vec::new();
+        encode_frame(&samples()[3], &mut b);
+        assert_eq!(b, vec![7, 0, 0, 0, 3, 7, 10, 2, 5, 6, 3]);
+    }
+
+    #[test]
+    fn every_truncation_is_incomplete_never_an_error_or_a_message() {
+        for m in samples() {
+            let mut b = Vec::new();
+            encode_frame(&m, &mut b);
+            for n in 0..b.len() {
+                assert_eq!(decode_frame(&b[..n]), Ok(None), "{m:?} cut at {n}");
+            }
+        }
+    }
+
+    #[test]
+    fn refuses_oversized_trailing_unknown_and_bad_cameras() {
+        let big = (MAX_FRAME_BYTES + 1).to_le_bytes();
+        assert!(matches!(decode_frame(&big), Err(WireError::FrameTooLarge { .. })));
+        let mut b = Vec::new();
+        encode_frame(&samples()[5], &mut b);
+        b.push(0);
+        b[0] += 1;
+        assert!(matches!(decode_frame(&b), Err(WireError::TrailingBytes(1))));
+        assert!(matches!(decode_frame(&[1, 0, 0, 0, 99]), Err(WireError::Malformed(_))));
+        for bad in [[f64::NAN, 0.0, 0.0], [f64::INFINITY, 0.0, 0.0]] {
+            let mut b = Vec::new();
+            encode_frame(
+                &Message::Camera(CameraPacket {
+                    frame: 1,
+                    position: bad,
+                    orientation: [0.0, 0.0, 0.0, 1.0],
+                    fovy_deg: 60.0,
+                    sampled_us: 0,
+                }),
+                &mut b,
+            );
+            assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))));
+        }
+        let mut b = Vec::new();
+        encode_frame(
+            &Message::Camera(CameraPacket { frame: 1, position: [0.0; 3], orientation: [0.0; 4], fovy_deg: 60.0, sampled_us: 0 }),
+            &mut b,
+        );
+        assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))));
+    }
+
+    proptest! {
+        #[test]
+        fn garbage_never_panics(b in proptest::collection::vec(any::<u8>(), 0..256)) {
+            let _ = decode_frame(&b);
+        }
+    }
+}

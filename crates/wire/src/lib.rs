@@ -1,0 +1,22 @@
+//! osw wire protocol (paper 000 sec. 3.4-3.5): what the switch nodes and the display send each
+//! other over TCP. No GPU and no runtime in the core: [`frame`] turns bytes into [`Message`]s
+//! and back; [`codec`] adapts that to tokio-util for the binaries.
+//!
+//! - [`messages`]: handshake, camera packets, visible-set deltas, end of frame, keyframe,
+//!   goodbye. bincode (2.0.1) is used only inside this crate.
+//! - [`ids`]: sorted node ids coded as LEB128 varints of their gaps (well under the paper's
+//!   4 bytes an id).
+//! - [`delta`]: V(i) = (V(i-1) - removed) ∪ added, and the difference that produces it.
+//! - [`frame`]: `[u32 LE length][payload]` frames with a maximum size checked before any
+//!   allocation; incomplete input is not an error, invalid input is.
+//! - [`limits`]: the protocol version and the limits, each with its reason.
+
+pub mod codec;
+pub mod delta;
+pub mod frame;
+pub mod ids;
+pub mod limits;
+pub mod messages;
+
+pub use frame::{WireError, decode_frame, encode_frame};
+pub use messages::{CameraPacket, Delta, EndOfFrame, Goodbye, Hello, IdList, Keyframe, Message, Role};

@@ -1,0 +1,130 @@
+//! The messages (paper 000 alg. 4.2 and sec. 3.4-3.5). Per frame i the HC node sends the
+//! camera of frame i to RVG first, then deltas as it finds them, then end of frame; RVG sends
+//! every camera to both nodes.
+
+use crate::frame::WireError;
+use crate::limits::{MAX_NAME_BYTES, MAX_TOKEN_BYTES};
+use serde::{Deserialize, Serialize};
+
+/// What a peer is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Role {
+    /// A switch node (OR / HC).
+    Node,
+    /// The display client (RVG).
+    Display,
+}
+
+/// The first message on every connection, both ways.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Hello {
+    pub version: u32,
+    /// Content hash of the scene file: every process must hold the same scene.
+    pub scene_hash: [u64; 2],
+    pub name: String,
+    pub role: Role,
+    /// Shared cluster token, when the configuration sets one.
+    pub token: Option<String>,
+}
+
+/// A camera: 80 bytes of fields (the paper counts 72; we add the sample time for latency).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraPacket {
+    pub frame: u64,
+    /// World position (f64: scenes far from the origin).
+    pub position: [f64; 3],
+    /// Unit quaternion x, y, z, w.
+    pub orientation: [f64; 4],
+    pub fovy_deg: f64,
+    /// When RVG sampled this camera, microseconds on RVG's clock.
+    pub sampled_us: u64,
+}
+
+/// Sorted node ids, coded by [`crate::ids`].
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct IdList(pub Vec<u8>);
+
+impl IdList {
+    pub fn from_ids(ids: &[u32]) -> IdList {
+        let mut b = Vec::with_capacity(ids.len() * 2);
+        crate::ids::encode(ids, &mut b);
+        IdList(b)
+    }
+
+    /// The ids, each checked to be below `max_id`.
+    pub fn ids(&self, max_id: u32) -> Result<Vec<u32>, WireError> {
+        crate::ids::decode(&self.0, max_id)
+    }
+}
+
+/// Part of frame `frame`'s visible-set change (one batch of at most b ids).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Delta {
+    pub frame: u64,
+    pub added: IdList,
+    pub removed: IdList,
+}
+
+/// HC's statistics of one frame, sent with its end.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HcWireStats {
+    pub tests: u32,
+    pub levels: u32,
+    pub hc_us: u64,
+    pub or_us: u64,
+    pub pvs: u32,
+}
+
+/// The end of frame `frame` (the paper's sentinel).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EndOfFrame {
+    pub frame: u64,
+    pub stats: HcWireStats,
+}
+
+/// The whole visible set of frame `frame`: at start-up and to resynchronise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Keyframe {
+    pub frame: u64,
+    pub ids: IdList,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Goodbye {
+    pub reason: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Message {
+    Hello(Hello),
+    Camera(CameraPacket),
+    Delta(Delta),
+    EndOfFrame(EndOfFrame),
+    Keyframe(Keyframe),
+    Goodbye(Goodbye),
+}
+
+impl Message {
+    /// Checks what bincode cannot: finite cameras with a usable field of view, bounded names.
+    pub fn validate(&self) -> Result<(), WireError> {
+        match self {
+            Message::Camera(c) => {
+                let finite = c.position.iter().chain(&c.orientation).all(|v| v.is_finite()) && c.fovy_deg.is_finite();
+                let q = c.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if !finite || q < 1e-6 || !(c.fovy_deg > 0.0 && c.fovy_deg < 180.0) {
+                    return Err(WireError::BadCamera(format!(
+                        "frame {}: position {:?}, orientation {:?}, fovy {}",
+                        c.frame, c.position, c.orientation, c.fovy_deg
+                    )));
+                }
+            }
+            Message::Hello(h) => {
+                if h.name.len() > MAX_NAME_BYTES || h.token.as_ref().is_some_and(|t| t.len() > MAX_TOKEN_BYTES) {
+                    return Err(WireError::Malformed("hello: name or token too long".into()));
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
