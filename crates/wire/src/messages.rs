@@ -118,10 +118,8 @@ impl Message {
                     )));
                 }
             }
-            Message::Hello(h) => {
-                if h.name.len() > MAX_NAME_BYTES || h.token.as_ref().is_some_and(|t| t.len() > MAX_TOKEN_BYTES) {
-                    return Err(WireError::Malformed("hello: name or token too long".into()));
-                }
+            Message::Hello(h) if h.name.len() > MAX_NAME_BYTES || h.token.as_ref().is_some_and(|t| t.len() > MAX_TOKEN_BYTES) => {
+                return Err(WireError::Malformed("hello: name or token too long".into()));
             }
             _ => {}
         }
