@@ -22,10 +22,7 @@ pub struct BoxTestPipelines {
 
 impl BoxTestPipelines {
     pub fn new(device: &wgpu::Device) -> BoxTestPipelines {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("boxtest.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/boxtest.wgsl").into()),
-        });
+        let module = crate::shaders::module(device, "boxtest.wgsl", "", include_str!("shaders/boxtest.wgsl"));
         let buffer = |binding, ty, visibility| wgpu::BindGroupLayoutEntry {
             binding,
             visibility,

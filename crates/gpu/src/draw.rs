@@ -57,13 +57,9 @@ pub fn depth_state(write: bool, compare: wgpu::CompareFunction) -> wgpu::DepthSt
 impl DrawPipelines {
     pub fn new(device: &wgpu::Device) -> DrawPipelines {
         let src = include_str!("shaders/draw.wgsl");
-        let module = device
-            .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("draw.wgsl"), source: wgpu::ShaderSource::Wgsl(src.into()) });
-        let item_src = format!("enable primitive_index;\n{src}\n{}", include_str!("shaders/item.frag.wgsl"));
-        let item_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("item.frag.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(item_src.into()),
-        });
+        let module = crate::shaders::module(device, "draw.wgsl", "", src);
+        let item_body = format!("{src}\n{}", include_str!("shaders/item.frag.wgsl"));
+        let item_module = crate::shaders::module(device, "item.frag.wgsl", "enable primitive_index;\n", &item_body);
         let entry = |binding, ty, vis| wgpu::BindGroupLayoutEntry { binding, visibility: vis, ty, count: None };
         let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

@@ -20,6 +20,7 @@ pub mod pyramid;
 pub mod readback;
 pub mod renderer;
 pub mod residency;
+pub mod shaders;
 pub mod target;
 
 pub use device::{Gpu, GpuError};

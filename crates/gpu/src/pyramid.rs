@@ -69,9 +69,7 @@ impl Pyramid {
             mapped_at_creation: false,
         });
 
-        let module = |label: &str, src: &str| {
-            d.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(src.into()) })
-        };
+        let module = |label: &str, src: &str| crate::shaders::module(d, label, "", src);
         let pipeline = |label: &str, layout: &wgpu::BindGroupLayout, m: &wgpu::ShaderModule, entry_point: &str| {
             let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(label),

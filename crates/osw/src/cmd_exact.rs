@@ -1,16 +1,12 @@
 //! `osw exact`: exact visibility (item buffer at full detail) for every frame of a path.
 
-use crate::gpu_args::GpuArgs;
+use crate::walk_args::WalkArgs;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    #[arg(long)]
-    scene: PathBuf,
-    #[arg(long)]
-    path: PathBuf,
     #[command(flatten)]
-    gpu: GpuArgs,
+    walk: WalkArgs,
     /// Output directory: exact.csv (frame, visible_leaves, visible_triangles) and
     /// exact_leaves.txt (the visible leaves of each frame, one line per frame).
     #[arg(long)]
@@ -18,8 +14,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let cams = osw_scene::path::read(&a.path)?;
-    let mut r = a.gpu.renderer(&a.scene)?;
+    let (cams, mut r) = a.walk.open()?;
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, "exact");
     let res = osw_render::run::exact_path(&mut r, &cams, &a.out, &|| bar.inc(1));

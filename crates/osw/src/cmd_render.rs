@@ -1,6 +1,6 @@
 //! `osw render`: one culling mode over a camera path, single process.
 
-use crate::gpu_args::GpuArgs;
+use crate::walk_args::WalkArgs;
 use osw_gpu::renderer::HcTest;
 use osw_render::Mode;
 use osw_render::run::{RunSpec, render_path};
@@ -8,12 +8,8 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene file.
-    #[arg(long)]
-    scene: PathBuf,
-    /// Camera path CSV.
-    #[arg(long)]
-    path: PathBuf,
+    #[command(flatten)]
+    walk: WalkArgs,
     /// Culling mode: vfc (frustum only), sw (stop and wait), chc (coherent hierarchical
     /// culling), hzb (software Z pyramid, GigaWalk-like) or prev (the switch's algorithm on
     /// one GPU).
@@ -29,8 +25,6 @@ pub struct Args {
     /// per box, as the paper; the slow reference).
     #[arg(long, default_value = "hybrid", value_parser = parse_hc)]
     hc: HcTest,
-    #[command(flatten)]
-    gpu: GpuArgs,
     /// Do not write frame PNGs (statistics only).
     #[arg(long)]
     no_frames: bool,
@@ -53,11 +47,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !(a.tau >= 0.0 && a.tau.is_finite()) {
         anyhow::bail!("--tau must be a finite number >= 0, got {}", a.tau);
     }
-    let cams = osw_scene::path::read(&a.path)?;
-    let mut r = a.gpu.renderer(&a.scene)?;
+    let (cams, mut r) = a.walk.open()?;
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, a.mode.name());
-    let spec = RunSpec { scene: &a.scene, path: &a.path, mode: a.mode, tau: a.tau, hc: a.hc, out: &a.out, write_frames: !a.no_frames };
+    let spec =
+        RunSpec { scene: &a.walk.scene, path: &a.walk.path, mode: a.mode, tau: a.tau, hc: a.hc, out: &a.out, write_frames: !a.no_frames };
     let s = render_path(&mut r, &cams, &spec, &|| bar.inc(1));
     bar.finish_and_clear();
     let s = s?;

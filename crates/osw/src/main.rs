@@ -9,8 +9,8 @@ mod cmd_exact;
 mod cmd_info;
 mod cmd_path;
 mod cmd_render;
-mod gpu_args;
 mod progress;
+mod walk_args;
 
 use clap::{Parser, Subcommand};
 

@@ -7,23 +7,6 @@
 
 override finer: u32 = 3u;
 
-struct ViewUniform {
-    view_proj: mat4x4<f32>,
-    offset: vec4<f32>,
-}
-
-struct Box {
-    lo: vec4<f32>,
-    hi: vec4<f32>,
-}
-
-struct Level {
-    offset: u32,
-    width: u32,
-    height: u32,
-    pad: u32,
-}
-
 struct Batch {
     count: u32,
     level_count: u32,

@@ -6,17 +6,6 @@
 
 override count_pixels: bool = false;
 
-struct ViewUniform {
-    view_proj: mat4x4<f32>,
-    offset: vec4<f32>,
-}
-
-// Camera-relative box corners.
-struct Box {
-    lo: vec4<f32>,
-    hi: vec4<f32>,
-}
-
 @group(0) @binding(0) var<uniform> view: ViewUniform;
 @group(0) @binding(1) var<storage, read> boxes: array<Box>;
 @group(0) @binding(2) var<storage, read_write> results: array<atomic<u32>>;

@@ -3,13 +3,6 @@
 // 2x2 texels below it (reversed Z: minimum = farthest), edges clamped. One dispatch per
 // level; `step.level` says which level this dispatch writes (0 = copy from the texture).
 
-struct Level {
-    offset: u32,
-    width: u32,
-    height: u32,
-    pad: u32,
-}
-
 struct Step {
     level: u32,
 }

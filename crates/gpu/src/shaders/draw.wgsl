@@ -2,11 +2,6 @@
 // Positions are scene-local; view.offset makes them camera-relative (issue 3: precision far
 // from the origin), view.view_proj is reversed Z with an infinite far plane.
 
-struct ViewUniform {
-    view_proj: mat4x4<f32>,
-    offset: vec4<f32>,
-}
-
 // One per draw, indexed by instance_index (each draw has one instance).
 struct Draw {
     id: u32,

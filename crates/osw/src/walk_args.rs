@@ -1,9 +1,17 @@
-//! Command-line arguments shared by the commands that render: image size and adapter.
+//! Command-line arguments shared by the commands that render a path: scene, path, image size,
+//! adapter, residency budget.
 
+use std::path::PathBuf;
 use std::sync::Arc;
 
 #[derive(clap::Args, Clone)]
-pub struct GpuArgs {
+pub struct WalkArgs {
+    /// Scene file.
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Camera path CSV.
+    #[arg(long)]
+    pub path: PathBuf,
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "1024x1024", value_parser = parse_size, value_name = "WxH")]
     pub size: (u32, u32),
@@ -27,12 +35,13 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-impl GpuArgs {
-    /// Opens the scene and a renderer for it.
-    pub fn renderer(&self, scene: &std::path::Path) -> anyhow::Result<osw_gpu::Renderer> {
-        let scene = Arc::new(osw_scene::SceneFile::open(scene)?);
+impl WalkArgs {
+    /// Reads the path, opens the scene and a renderer for it.
+    pub fn open(&self) -> anyhow::Result<(Vec<osw_scene::Camera>, osw_gpu::Renderer)> {
+        let cams = osw_scene::path::read(&self.path)?;
+        let scene = Arc::new(osw_scene::SceneFile::open(&self.scene)?);
         let gpu = osw_gpu::Gpu::new(self.adapter.as_deref())?;
         tracing::info!("adapter: {} ({:?})", gpu.info.name, gpu.info.device_type);
-        Ok(osw_gpu::Renderer::new(gpu, scene, self.size.0, self.size.1, self.residency_mib << 20)?)
+        Ok((cams, osw_gpu::Renderer::new(gpu, scene, self.size.0, self.size.1, self.residency_mib << 20)?))
     }
 }

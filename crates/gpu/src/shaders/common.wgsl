@@ -1,0 +1,22 @@
+// Shared by every shader (prepended by shaders::source): the view uniform, the box layout and
+// the depth pyramid's level table.
+// Positions are camera-relative: view.offset is added to scene-local positions.
+
+struct ViewUniform {
+    view_proj: mat4x4<f32>,
+    offset: vec4<f32>,
+}
+
+// A camera-relative box (32 bytes, GpuBox on the CPU).
+struct Box {
+    lo: vec4<f32>,
+    hi: vec4<f32>,
+}
+
+// One level of the packed depth pyramid (pyramid::Level on the CPU).
+struct Level {
+    offset: u32,
+    width: u32,
+    height: u32,
+    pad: u32,
+}
