@@ -46,6 +46,9 @@ pub enum HcTest {
 /// 1.67 for HC 17.6 / 21.1 / 50.9 ms a frame.
 const HYBRID_LEVEL: u32 = 5;
 
+/// Background of colour frames: a pale sky, so that what is open to the outside reads as such.
+const SKY: wgpu::Color = wgpu::Color { r: 0.62, g: 0.74, b: 0.86, a: 1.0 };
+
 /// Most occlusion queries in one query set (wgpu's limit).
 const QUERIES: u32 = 4096;
 
@@ -148,7 +151,7 @@ impl Renderer {
     }
 
     /// Draws LOD nodes `ids` (in the given order) for `view`. `clear` clears the pass's
-    /// attachments first (colour to black, depth to 0 = infinitely far), else draws on top.
+    /// attachments first (colour to the sky, item ids to 0, depth to 0 = infinitely far), else draws on top.
     pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
@@ -177,7 +180,10 @@ impl Renderer {
                 view: v,
                 depth_slice: None,
                 resolve_target: None,
-                ops: wgpu::Operations { load: load(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                ops: wgpu::Operations {
+                    load: load(if pass == Pass::Color { SKY } else { wgpu::Color::BLACK }),
+                    store: wgpu::StoreOp::Store,
+                },
             });
             let colors = [color];
             let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
