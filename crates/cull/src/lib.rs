@@ -8,10 +8,12 @@
 //!   and the pixel-count LOD stop (sec. 4.7.2).
 //! - [`sw`], [`chc`], [`hzb`]: the baselines of papers 001 and 002 (stop-and-wait, coherent
 //!   hierarchical culling, a software Z pyramid).
+//! - [`delta`]: visible-set deltas, V(i) = (V(i-1) - removed) ∪ added (paper 000 sec. 3.4).
 //! - [`front`]: the front update that re-selects last frame's visible set for a new camera
 //!   (paper 000 sec. 4.6), used to draw occluders.
 
 pub mod chc;
+pub mod delta;
 pub mod distance_queue;
 pub mod front;
 pub mod frustum;

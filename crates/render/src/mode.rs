@@ -7,12 +7,14 @@
 //! - `hzb`: GigaWalk-like (paper 002 sec. 5.2-5.3): occluders picked by eq. 3 drawn at full
 //!   detail, depth read back, a Z pyramid built and boxes tested on the CPU.
 //! - `prev`: the occlusion switch's algorithm on one GPU (paper 004 fig. 5, paper 000 alg.
-//!   4.2): OR draws last frame's visible set, re-selected for this frame's camera (front update,
-//!   paper 000 sec. 4.6), into the depth buffer; HC tests the hierarchy against it level by
-//!   level (alg. 4.1, sec. 4.7.1-4.7.2); RVG draws the result.
+//!   4.2), exactly as the two switch nodes run it: the OR of frame i happens while HC of frame
+//!   i-1 is still streaming, so it draws the front of V(i-2) updated for camera i (sec. 4.6),
+//!   then the additions of frame i-1 as they arrive, into the depth buffer; HC tests the
+//!   hierarchy against it (alg. 4.1); RVG draws V(i).
 
 use crate::stats::FrameStats;
 use osw_cull::chc::ChcState;
+use osw_cull::delta::diff;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
 use osw_cull::sw::stop_and_wait;
@@ -62,8 +64,11 @@ pub struct ModeState {
     /// How `prev` tests boxes: `Hybrid`, `Pyramid`, `Exact` (counting pixels when tau > 0) or
     /// `Queries`.
     pub hc: HcTest,
-    /// V(i-1): last frame's visible set (LOD ids, sorted).
+    /// V(i-1): last frame's visible set (LOD ids, sorted), and V(i-2).
     visible: Vec<NodeId>,
+    older: Vec<NodeId>,
+    added: Vec<NodeId>,
+    removed: Vec<NodeId>,
     occluders: Vec<NodeId>,
     chc: Option<ChcState>,
 }
@@ -74,7 +79,17 @@ fn ms(t: Instant) -> f64 {
 
 impl ModeState {
     pub fn new(mode: Mode, tau: f64, hc: HcTest) -> ModeState {
-        ModeState { mode, tau, hc, visible: Vec::new(), occluders: Vec::new(), chc: None }
+        ModeState {
+            mode,
+            tau,
+            hc,
+            visible: Vec::new(),
+            older: Vec::new(),
+            added: Vec::new(),
+            removed: Vec::new(),
+            occluders: Vec::new(),
+            chc: None,
+        }
     }
 
     /// The visible set of the last frame rendered (LOD ids, sorted).
@@ -123,7 +138,10 @@ impl ModeState {
             }
             Mode::Prev => {
                 let t = Instant::now();
-                update_front(nodes, &self.visible, view, self.tau, &mut self.occluders);
+                update_front(nodes, &self.older, view, self.tau, &mut self.occluders);
+                diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
+                self.occluders.extend_from_slice(&self.added);
+                // Depth only: the result does not depend on the order of the draws.
                 let or = r.draw(view, &self.occluders, Pass::Depth, true)?;
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
                 let t = Instant::now();
@@ -163,7 +181,7 @@ impl ModeState {
         (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
         (s.tests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
             (hc.tests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
-        self.visible = pvs;
+        self.older = std::mem::replace(&mut self.visible, pvs);
         Ok(s)
     }
 }

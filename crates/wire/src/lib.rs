@@ -6,13 +6,11 @@
 //!   goodbye. bincode (2.0.1) is used only inside this crate.
 //! - [`ids`]: sorted node ids coded as LEB128 varints of their gaps (well under the paper's
 //!   4 bytes an id).
-//! - [`delta`]: V(i) = (V(i-1) - removed) ∪ added, and the difference that produces it.
 //! - [`frame`]: `[u32 LE length][payload]` frames with a maximum size checked before any
 //!   allocation; incomplete input is not an error, invalid input is.
 //! - [`limits`]: the protocol version and the limits, each with its reason.
 
 pub mod codec;
-pub mod delta;
 pub mod frame;
 pub mod ids;
 pub mod limits;
