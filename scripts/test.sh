@@ -5,4 +5,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+# The switch tests start the node and display binaries: build every binary first.
+cargo build --release --workspace --locked --bins
 cargo test --release --workspace --locked

@@ -9,6 +9,7 @@ mod cmd_exact;
 mod cmd_info;
 mod cmd_path;
 mod cmd_render;
+mod cmd_run;
 mod progress;
 mod walk_args;
 
@@ -35,6 +36,8 @@ enum Cmd {
     Exact(cmd_exact::Args),
     /// Image and culling error of one run against another and against exact visibility.
     Compare(cmd_compare::Args),
+    /// Run the occlusion switch on this host: two nodes and the display, three processes.
+    Run(cmd_run::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -50,6 +53,7 @@ fn main() -> std::process::ExitCode {
         Cmd::Render(a) => cmd_render::run(a),
         Cmd::Exact(a) => cmd_exact::run(a),
         Cmd::Compare(a) => cmd_compare::run(a),
+        Cmd::Run(a) => cmd_run::run(a),
     };
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

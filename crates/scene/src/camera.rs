@@ -2,7 +2,7 @@
 //! vertical field of view. Convention: the camera looks down its local -Z with +Y up (as glam
 //! and OpenGL); `orientation` turns local axes into world axes.
 
-use glam::{DQuat, DVec3};
+pub use glam::{DQuat, DVec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {

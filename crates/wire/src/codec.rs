@@ -32,12 +32,12 @@ impl tokio_util::codec::Decoder for WireCodec {
     }
 }
 
-impl tokio_util::codec::Encoder<&Message> for WireCodec {
+impl tokio_util::codec::Encoder<Message> for WireCodec {
     type Error = CodecError;
 
-    fn encode(&mut self, msg: &Message, dst: &mut BytesMut) -> Result<(), CodecError> {
+    fn encode(&mut self, msg: Message, dst: &mut BytesMut) -> Result<(), CodecError> {
         let mut v = Vec::new();
-        encode_frame(msg, &mut v);
+        encode_frame(&msg, &mut v);
         dst.extend_from_slice(&v);
         Ok(())
     }

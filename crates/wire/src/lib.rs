@@ -1,6 +1,7 @@
 //! osw wire protocol (paper 000 sec. 3.4-3.5): what the switch nodes and the display send each
 //! other over TCP. No GPU and no runtime in the core: [`frame`] turns bytes into [`Message`]s
-//! and back; [`codec`] adapts that to tokio-util for the binaries.
+//! and back; [`codec`] adapts that to tokio-util and [`net`] makes the connections and the
+//! handshake for the binaries.
 //!
 //! - [`messages`]: handshake, camera packets, visible-set deltas, end of frame, keyframe,
 //!   goodbye. bincode (2.0.1) is used only inside this crate.
@@ -15,6 +16,7 @@ pub mod frame;
 pub mod ids;
 pub mod limits;
 pub mod messages;
+pub mod net;
 
 pub use frame::{WireError, decode_frame, encode_frame};
 pub use messages::{CameraPacket, Delta, EndOfFrame, Goodbye, Hello, IdList, Keyframe, Message, Role};

@@ -1,0 +1,129 @@
+//! `osw-node`: one switch node (paper 000 sec. 3.2). Run two, named a and b: a listens, b
+//! listens and connects to a; the display connects to both. Prints `listening on ADDR` on
+//! stdout once its socket is bound (so that a launcher can use port 0).
+//!
+//! Exit codes: 0 after the display's goodbye, 1 on any error (message on stderr).
+
+mod link;
+mod switch;
+
+use clap::Parser;
+use osw_wire::limits::{DEFAULT_BATCH_IDS, PROTOCOL_VERSION};
+use osw_wire::messages::{Hello, Role};
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+#[derive(Parser)]
+#[command(name = "osw-node", version, about = "an occlusion-switch node: OR and HC in turn")]
+struct Args {
+    /// a (HC on even frames) or b (HC on odd frames).
+    #[arg(long)]
+    name: String,
+    /// Scene file (the same file, by content hash, as the peer's and the display's).
+    #[arg(long)]
+    scene: PathBuf,
+    /// Address to listen on (port 0: any free port).
+    #[arg(long, default_value = "127.0.0.1:0")]
+    listen: String,
+    /// The peer node's address (node b connects to node a).
+    #[arg(long)]
+    peer: Option<String>,
+    /// Pixels of error for LOD selection.
+    #[arg(long, default_value_t = 0.0)]
+    tau: f64,
+    /// Ids per delta batch (the paper's b).
+    #[arg(long, default_value_t = DEFAULT_BATCH_IDS)]
+    batch: usize,
+    /// Image size, WIDTHxHEIGHT (the display's).
+    #[arg(long, default_value = "1024x1024")]
+    size: String,
+    #[arg(long)]
+    adapter: Option<String>,
+    /// Shared cluster token every connection must present.
+    #[arg(long)]
+    token: Option<String>,
+    /// Send the whole visible set every frame (a keyframe) instead of deltas.
+    #[arg(long)]
+    full: bool,
+    /// Write this node's per-frame statistics (CSV) here.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+}
+
+fn main() -> std::process::ExitCode {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("OSW_LOG").unwrap_or_else(|_| "warn".into()))
+        .init();
+    let a = Args::parse();
+    match run(&a) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("osw-node {}: error: {e:#}", a.name);
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(a: &Args) -> anyhow::Result<()> {
+    let index = match a.name.as_str() {
+        "a" => 0,
+        "b" => 1,
+        n => anyhow::bail!("--name {n:?}: expected a or b"),
+    };
+    if a.batch == 0 {
+        anyhow::bail!("--batch must be at least 1");
+    }
+    let (w, h) = a
+        .size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .ok_or_else(|| anyhow::anyhow!("--size {:?}: expected WIDTHxHEIGHT", a.size))?;
+    let scene = Arc::new(osw_scene::SceneFile::open(&a.scene)?);
+    let me = Hello {
+        version: PROTOCOL_VERSION,
+        scene_hash: scene.content_hash(),
+        name: a.name.clone(),
+        role: Role::Node,
+        token: a.token.clone(),
+    };
+    let gpu = osw_gpu::Gpu::new(a.adapter.as_deref())?;
+    let renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
+
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
+    let (events_tx, events) = std::sync::mpsc::channel();
+    let (to_peer, to_display, queues) = link::queues();
+    let listener = rt.block_on(tokio::net::TcpListener::bind(&a.listen))?;
+    println!("listening on {}", listener.local_addr()?);
+    std::io::stdout().flush()?;
+    rt.spawn(link::accept(listener, me.clone(), events_tx.clone(), queues.clone()));
+    if let Some(peer) = &a.peer {
+        let c = rt.block_on(osw_wire::net::connect(peer, link::HANDSHAKE))?;
+        rt.spawn(link::serve(c, me, events_tx, queues));
+    }
+    let mut sw = switch::Switch::new(index, a.tau, a.batch, a.full, renderer, events, to_peer, to_display);
+    sw.wait_connected()?;
+    let log = sw.run();
+    sw.goodbye(if log.is_ok() { "done" } else { "error" });
+    let log = log?;
+    if let Some(p) = &a.stats {
+        let mut csv = String::from("frame,role,ms,nodes_drawn,tests,ids_sent\n");
+        for f in &log {
+            csv.push_str(&format!(
+                "{},{},{:.3},{},{},{}\n",
+                f.frame,
+                if f.hc { "HC" } else { "OR" },
+                f.ms,
+                f.nodes_drawn,
+                f.tests,
+                f.ids_sent
+            ));
+        }
+        std::fs::write(p, csv)?;
+    }
+    // Let the writers flush the goodbye.
+    std::thread::sleep(std::time::Duration::from_millis(50));
+    rt.shutdown_timeout(std::time::Duration::from_millis(200));
+    Ok(())
+}

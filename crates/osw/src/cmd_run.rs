@@ -1,0 +1,173 @@
+//! `osw run`: the occlusion switch on this host: starts node a, node b and the display as
+//! three processes (the `osw-node` and `osw-display` binaries beside this one), waits for the
+//! display to finish the path, collects the statistics into DIR, and shuts everything down.
+//! When a process fails, the others are stopped and the error names it and its last words.
+
+use anyhow::{Context, bail};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene file.
+    #[arg(long)]
+    scene: PathBuf,
+    /// Camera path CSV.
+    #[arg(long)]
+    path: PathBuf,
+    /// Pixels of error allowed by LOD selection.
+    #[arg(long, default_value_t = 0.0)]
+    tau: f64,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x1024", value_parser = crate::walk_args::parse_size)]
+    size: (u32, u32),
+    /// Do not write frame PNGs.
+    #[arg(long)]
+    no_frames: bool,
+    /// Send the whole visible set every frame instead of deltas (the bandwidth comparison).
+    #[arg(long)]
+    full: bool,
+    /// Output directory: frames/, stats.csv, pvs.txt, summary.json (the display's), node-a.csv
+    /// and node-b.csv (each node's frames), and each process's log.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// A child process with a name for messages; killed when dropped.
+struct Proc {
+    name: &'static str,
+    child: Child,
+    stderr: PathBuf,
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Proc {
+    fn last_words(&self) -> String {
+        std::fs::read_to_string(&self.stderr).unwrap_or_default().lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("").to_owned()
+    }
+}
+
+fn sibling(name: &str) -> anyhow::Result<PathBuf> {
+    let exe = std::env::current_exe()?;
+    let p = exe.with_file_name(name);
+    if !p.exists() {
+        bail!("{} not found beside {} (build it: cargo build --release)", p.display(), exe.display());
+    }
+    Ok(p)
+}
+
+fn spawn(name: &'static str, bin: &Path, args: &[String], out: &Path) -> anyhow::Result<Proc> {
+    let stderr = out.join(format!("{}.log", name.replace(' ', "-")));
+    let child = Command::new(bin)
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(std::fs::File::create(&stderr)?)
+        .spawn()
+        .with_context(|| format!("starting {name} ({})", bin.display()))?;
+    Ok(Proc { name, child, stderr })
+}
+
+/// Reads the node's `listening on ADDR` line.
+fn address(p: &mut Proc) -> anyhow::Result<String> {
+    let out = p.child.stdout.take().context("node stdout")?;
+    let mut line = String::new();
+    BufReader::new(out).read_line(&mut line)?;
+    match line.trim().strip_prefix("listening on ") {
+        Some(a) => Ok(a.to_owned()),
+        None => bail!("node {} did not start: {}", p.name, p.last_words()),
+    }
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    std::fs::create_dir_all(&a.out)?;
+    let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
+    let s = |p: &Path| p.display().to_string();
+    let size = format!("{}x{}", a.size.0, a.size.1);
+    let common = |name: &str| {
+        let mut v: Vec<String> = vec![
+            "--name".into(),
+            name.into(),
+            "--scene".into(),
+            s(&a.scene),
+            "--tau".into(),
+            a.tau.to_string(),
+            "--size".into(),
+            size.clone(),
+        ];
+        if a.full {
+            v.push("--full".into());
+        }
+        v
+    };
+    let mut args_a = common("a");
+    args_a.extend(["--stats".into(), s(&a.out.join("node-a.csv"))]);
+    let mut pa = spawn("node a", &node, &args_a, &a.out)?;
+    let addr_a = address(&mut pa)?;
+    let mut args_b = common("b");
+    args_b.extend(["--peer".into(), addr_a.clone(), "--stats".into(), s(&a.out.join("node-b.csv"))]);
+    let mut pb = spawn("node b", &node, &args_b, &a.out)?;
+    let addr_b = address(&mut pb)?;
+    let mut args_d = vec![
+        "--scene".into(),
+        s(&a.scene),
+        "--path".into(),
+        s(&a.path),
+        "--nodes".into(),
+        format!("{addr_a},{addr_b}"),
+        "--tau".into(),
+        a.tau.to_string(),
+        "--size".into(),
+        size,
+        "--out".into(),
+        s(&a.out),
+    ];
+    if a.no_frames {
+        args_d.push("--no-frames".into());
+    }
+    let pd = spawn("display", &display, &args_d, &a.out)?;
+    let mut procs = [pd, pa, pb];
+    // Wait for all three; the first failure stops the others.
+    let mut done = [false; 3];
+    let mut grace: Option<Instant> = None;
+    while !done.iter().all(|d| *d) {
+        for (k, p) in procs.iter_mut().enumerate() {
+            if done[k] {
+                continue;
+            }
+            if let Some(status) = p.child.try_wait()? {
+                done[k] = true;
+                if !status.success() {
+                    bail!("{} failed ({status}): {}", p.name, p.last_words());
+                }
+                grace.get_or_insert_with(Instant::now);
+            }
+        }
+        // Once one process is done the others follow within seconds, or something hangs.
+        if grace.is_some_and(|g| g.elapsed() > Duration::from_secs(10)) {
+            let stuck: Vec<&str> = procs.iter().zip(done).filter(|(_, d)| !d).map(|(p, _)| p.name).collect();
+            bail!("{} did not finish within 10 s of the others", stuck.join(" and "));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.out.join("summary.json"))?)?;
+    println!(
+        "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median → {}",
+        summary["frames"],
+        summary["frame_ms_median"].as_f64().unwrap_or(0.0),
+        summary["bytes_per_frame_mean"].as_f64().unwrap_or(0.0),
+        summary["ids_sent_mean"].as_f64().unwrap_or(0.0),
+        summary["incremental_saved_fraction"].as_f64().unwrap_or(0.0) * 100.0,
+        summary["latency_ms_median"].as_f64().unwrap_or(0.0),
+        a.out.display()
+    );
+    Ok(())
+}

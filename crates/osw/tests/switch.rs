@@ -1,0 +1,107 @@
+//! The occlusion switch as three processes on loopback (`osw run`): frames and visible sets
+//! identical to single-process `prev`, identical to `vfc` at tau 0 with no false culling,
+//! `--full` sends more for the same frames, and a killed node fails the run by name, promptly,
+//! leaving no process behind.
+
+mod common;
+use common::*;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn the_switch_is_prev_split_across_processes() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "plant", 150_000, 5);
+    let path = d.path().join("walk.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "16", "-o", s(&path)]);
+    let [run, full, prev, vfc, exact] = ["run", "full", "prev", "vfc", "exact"].map(|n| d.path().join(n));
+    osw_ok(&["run", "--scene", s(&scene), "--path", s(&path), "--size", "256x256", "--out", s(&run)]);
+    osw_ok(&["run", "--scene", s(&scene), "--path", s(&path), "--size", "256x256", "--full", "--out", s(&full)]);
+    osw_ok(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "prev", "--size", "256x256", "--out", s(&prev)]);
+    osw_ok(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "vfc", "--size", "256x256", "--out", s(&vfc)]);
+    osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", "256x256", "--out", s(&exact)]);
+    // Same visible set on every frame, same pixels.
+    let pvs = |p: &Path| std::fs::read_to_string(p.join("pvs.txt")).unwrap();
+    assert_eq!(pvs(&run), pvs(&prev), "the switch's visible sets differ from prev's");
+    assert_eq!(pvs(&full), pvs(&prev), "--full changes the visible sets");
+    for i in 0..16 {
+        let f = |p: &Path| std::fs::read(p.join(format!("frames/{i:05}.png"))).unwrap();
+        assert!(f(&run) == f(&prev), "frame {i} differs from prev");
+        assert!(f(&full) == f(&prev), "frame {i} with --full differs from prev");
+    }
+    osw_ok(&["compare", "--a", s(&run), "--b", s(&vfc), "--exact", s(&exact), "--out", s(&d.path().join("cmp"))]);
+    let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("cmp/compare.json")).unwrap()).unwrap();
+    assert_eq!(c["identical_frames"], 16, "{c}");
+    assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{c}");
+    // The statistics: deltas send fewer ids and bytes than full sets, and say how many fewer.
+    let (sd, sf) = (summary(&run), summary(&full));
+    for key in [
+        "bytes_per_frame_mean",
+        "ids_sent_mean",
+        "ids_full_mean",
+        "incremental_saved_fraction",
+        "latency_ms_median",
+        "latency_ms_p95",
+        "frame_ms_median",
+        "hc_ms_median",
+        "rvg_ms_median",
+    ] {
+        assert!(sd[key].is_number(), "summary lacks {key}: {sd}");
+    }
+    let num = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap();
+    assert_eq!(num(&sd, "ids_full_mean"), num(&sf, "ids_full_mean"));
+    assert_eq!(num(&sf, "ids_sent_mean"), num(&sf, "ids_full_mean"), "--full sends every id");
+    assert!(num(&sd, "ids_sent_mean") < num(&sf, "ids_sent_mean"));
+    assert!(num(&sd, "bytes_per_frame_mean") < num(&sf, "bytes_per_frame_mean"));
+    let saved = num(&sd, "incremental_saved_fraction");
+    assert!((saved - (1.0 - num(&sd, "ids_sent_mean") / num(&sd, "ids_full_mean"))).abs() < 1e-9);
+    // Each node did both roles, in turn.
+    let roles = std::fs::read_to_string(run.join("node-a.csv")).unwrap();
+    assert!(roles.lines().skip(1).enumerate().all(|(i, l)| l.split(',').nth(1) == Some(if i % 2 == 0 { "HC" } else { "OR" })), "{roles}");
+}
+
+#[test]
+fn a_killed_node_fails_the_run_by_name_and_leaves_nothing_behind() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "city", 60_000, 1);
+    let path = d.path().join("long.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "3000", "-o", s(&path)]);
+    let out = d.path().join("run");
+    let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
+        .args(["run", "--scene", s(&scene), "--path", s(&path), "--size", "64x64", "--no-frames", "--out", s(&out)])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Let it get going, then kill node b.
+    let pattern = format!("--name b --scene {}", s(&scene));
+    let t = Instant::now();
+    while !out.join("node-b.log").exists() && t.elapsed() < Duration::from_secs(20) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_secs(2));
+    let killed = std::process::Command::new("pkill").args(["-9", "-f", "--", &pattern]).status().unwrap();
+    assert!(killed.success(), "node b was not running");
+    let t = Instant::now();
+    let status = loop {
+        if let Some(s) = run.try_wait().unwrap() {
+            break s;
+        }
+        assert!(t.elapsed() < Duration::from_secs(20), "osw run still running 20 s after node b was killed");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(run.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert!(!status.success());
+    assert!(err.contains("node b"), "the error does not name node b: {err}");
+    std::thread::sleep(Duration::from_millis(300));
+    let left = std::process::Command::new("pgrep").args(["-f", s(&scene)]).output().unwrap();
+    assert!(left.stdout.is_empty(), "processes left behind: {}", String::from_utf8_lossy(&left.stdout));
+}

@@ -1,0 +1,92 @@
+//! Connections: TCP with TCP_NODELAY, frames through [`WireCodec`], and the handshake that
+//! refuses a peer with another protocol version, another scene or another cluster token.
+
+use crate::codec::{CodecError, WireCodec};
+use crate::limits::PROTOCOL_VERSION;
+use crate::messages::{Hello, Message};
+use futures_util::{SinkExt, StreamExt};
+use std::time::Duration;
+use tokio::net::TcpStream;
+use tokio_util::codec::Framed;
+
+pub type Conn = Framed<TcpStream, WireCodec>;
+
+#[derive(Debug, thiserror::Error)]
+pub enum NetError {
+    #[error(transparent)]
+    Codec(#[from] CodecError),
+    #[error("connection closed by {0}")]
+    Closed(String),
+    #[error("refused {peer}: {why}")]
+    Refused { peer: String, why: String },
+    #[error("{0}")]
+    Timeout(String),
+    #[error("cannot connect to {addr}: {source}")]
+    Connect { addr: String, source: std::io::Error },
+}
+
+/// Wraps a connected socket.
+pub fn conn(stream: TcpStream) -> Conn {
+    // Small messages (cameras, end of frame) must not wait for Nagle's algorithm.
+    let _ = stream.set_nodelay(true);
+    Framed::new(stream, WireCodec)
+}
+
+/// Connects to `addr`, retrying with backoff (50 ms doubling to 1 s) until `within` passes.
+pub async fn connect(addr: &str, within: Duration) -> Result<Conn, NetError> {
+    let deadline = tokio::time::Instant::now() + within;
+    let mut wait = Duration::from_millis(50);
+    loop {
+        match TcpStream::connect(addr).await {
+            Ok(s) => return Ok(conn(s)),
+            Err(e) if tokio::time::Instant::now() + wait > deadline => return Err(NetError::Connect { addr: addr.to_owned(), source: e }),
+            Err(_) => {
+                tokio::time::sleep(wait).await;
+                wait = (wait * 2).min(Duration::from_secs(1));
+            }
+        }
+    }
+}
+
+pub async fn send(c: &mut Conn, msg: &Message) -> Result<(), NetError> {
+    Ok(c.send(msg.clone()).await?)
+}
+
+/// The next message; `Closed` at a clean end of stream.
+pub async fn recv(c: &mut Conn, who: &str) -> Result<Message, NetError> {
+    match c.next().await {
+        Some(r) => Ok(r?),
+        None => Err(NetError::Closed(who.to_owned())),
+    }
+}
+
+/// Sends `me`, reads the peer's hello within `within`, and checks that both run the same
+/// protocol version, hold the same scene and share the same cluster token.
+pub async fn handshake(c: &mut Conn, me: &Hello, within: Duration) -> Result<Hello, NetError> {
+    send(c, &Message::Hello(me.clone())).await?;
+    let peer = c.get_ref().peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
+    let msg = tokio::time::timeout(within, recv(c, &peer))
+        .await
+        .map_err(|_| NetError::Timeout(format!("no hello from {peer} within {within:?}")))??;
+    let Message::Hello(h) = msg else {
+        return Err(NetError::Refused { peer, why: "the first message was not a hello".into() });
+    };
+    let refuse = |why: String| Err(NetError::Refused { peer: format!("{} ({peer})", h.name), why });
+    if h.version != PROTOCOL_VERSION {
+        return refuse(format!("protocol version {} (this build speaks {PROTOCOL_VERSION})", h.version));
+    }
+    if h.scene_hash != me.scene_hash {
+        return refuse(format!(
+            "a different scene (content hash {:016x}{:016x}, ours {:016x}{:016x})",
+            h.scene_hash[1], h.scene_hash[0], me.scene_hash[1], me.scene_hash[0]
+        ));
+    }
+    if h.token != me.token {
+        return refuse(if me.token.is_some() {
+            "a wrong or missing cluster token".into()
+        } else {
+            "a cluster token this process was not given".into()
+        });
+    }
+    Ok(h)
+}
