@@ -12,6 +12,7 @@ use osw_cull::delta::apply;
 use osw_gpu::draw::Pass;
 use osw_render::output::{frame_path, push_ids, write_png};
 use osw_render::stats::quantile;
+use osw_wire::config::Config;
 use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{CameraPacket, Goodbye, Hello, Message, Role};
 use serde::Serialize;
@@ -24,19 +25,24 @@ use tokio::sync::mpsc::UnboundedSender;
 #[derive(Parser)]
 #[command(name = "osw-display", version, about = "the occlusion switch's display client (RVG)")]
 struct Args {
+    /// Cluster configuration (configs/*.toml); the flags below override it.
     #[arg(long)]
-    scene: PathBuf,
+    config: Option<PathBuf>,
+    /// Scene file [default: the config's].
+    #[arg(long)]
+    scene: Option<PathBuf>,
     /// Camera path CSV to play back.
     #[arg(long)]
     path: PathBuf,
-    /// Addresses of node a and node b, "A,B".
+    /// Addresses of node a and node b, "A,B" [default: the config's].
     #[arg(long)]
-    nodes: String,
-    /// Pixels of error the nodes use (for the summary).
-    #[arg(long, default_value_t = 0.0)]
-    tau: f64,
-    #[arg(long, default_value = "1024x1024")]
-    size: String,
+    nodes: Option<String>,
+    /// Pixels of error the nodes use, for the summary [default: the config's, else 0].
+    #[arg(long)]
+    tau: Option<f64>,
+    /// Image size, WIDTHxHEIGHT [default: the config's, else 1024x1024].
+    #[arg(long)]
+    size: Option<String>,
     #[arg(long)]
     adapter: Option<String>,
     #[arg(long)]
@@ -112,24 +118,53 @@ fn main() -> std::process::ExitCode {
 /// A connection's reader: messages with their encoded size, or the reason it ended.
 type Inbox = Receiver<Result<(Message, u64), String>>;
 
-fn run(a: &Args) -> anyhow::Result<()> {
-    let (w, h) = a
-        .size
+/// The settings of a run: flags over the configuration over defaults.
+struct Settings {
+    scene: PathBuf,
+    nodes: [String; 2],
+    tau: f64,
+    size: (u32, u32),
+    token: Option<String>,
+}
+
+fn settings(a: &Args) -> anyhow::Result<Settings> {
+    let cfg = match &a.config {
+        Some(p) => Config::load(p).map_err(anyhow::Error::msg)?,
+        None => Config::default(),
+    };
+    let scene =
+        a.scene.clone().or(cfg.scene.clone()).ok_or_else(|| anyhow::anyhow!("no scene: give --scene or a config with scene = ..."))?;
+    let nodes = match (&a.nodes, &a.config) {
+        (Some(n), _) => match n.split(',').map(str::trim).collect::<Vec<_>>().as_slice() {
+            [x, y] => [x.to_string(), y.to_string()],
+            _ => anyhow::bail!("--nodes {n:?}: expected two addresses, node a's and node b's"),
+        },
+        (None, Some(_)) => {
+            let addr = |k: &str| cfg.node(k).map(|n| n.address.clone()).map_err(anyhow::Error::msg);
+            [addr("a")?, addr("b")?]
+        }
+        (None, None) => anyhow::bail!("no nodes: give --nodes A,B or --config"),
+    };
+    let size = a.size.clone().or(cfg.size.clone()).unwrap_or_else(|| "1024x1024".into());
+    let size = size
         .split_once('x')
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .ok_or_else(|| anyhow::anyhow!("--size {:?}: expected WIDTHxHEIGHT", a.size))?;
-    let addrs: Vec<&str> = a.nodes.split(',').map(str::trim).collect();
-    if addrs.len() != 2 {
-        anyhow::bail!("--nodes {:?}: expected two addresses, node a's and node b's", a.nodes);
-    }
+        .ok_or_else(|| anyhow::anyhow!("--size {size:?}: expected WIDTHxHEIGHT"))?;
+    Ok(Settings { scene, nodes, tau: a.tau.or(cfg.tau).unwrap_or(0.0), size, token: a.token.clone().or(cfg.token) })
+}
+
+fn run(a: &Args) -> anyhow::Result<()> {
+    let set = settings(a)?;
+    let (w, h) = set.size;
+    let addrs = &set.nodes;
     let cams = osw_scene::path::read(&a.path)?;
-    let scene = Arc::new(osw_scene::SceneFile::open(&a.scene)?);
+    let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
     let me = Hello {
         version: PROTOCOL_VERSION,
         scene_hash: scene.content_hash(),
         name: "display".into(),
         role: Role::Display,
-        token: a.token.clone(),
+        token: set.token.clone(),
     };
     let gpu = osw_gpu::Gpu::new(a.adapter.as_deref())?;
     let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
@@ -257,7 +292,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         }
     }
     send_both(Message::Goodbye(Goodbye { reason: "path done".into() }));
-    write_outputs(a, &scene, &rows, &pvs_txt, w, h)?;
+    write_outputs(a, &set, &scene, &rows, &pvs_txt)?;
     std::thread::sleep(Duration::from_millis(50));
     rt.shutdown_timeout(Duration::from_millis(200));
     Ok(())
@@ -267,7 +302,8 @@ fn glam_quat(q: [f64; 4]) -> osw_scene::camera::DQuat {
     osw_scene::camera::DQuat::from_array(q).normalize()
 }
 
-fn write_outputs(a: &Args, scene: &osw_scene::SceneFile, rows: &[FrameRow], pvs: &str, w: u32, h: u32) -> anyhow::Result<()> {
+fn write_outputs(a: &Args, set: &Settings, scene: &osw_scene::SceneFile, rows: &[FrameRow], pvs: &str) -> anyhow::Result<()> {
+    let (w, h) = set.size;
     let col = |f: fn(&FrameRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let mean = |f: fn(&FrameRow) -> f64| col(f).iter().sum::<f64>() / rows.len().max(1) as f64;
     // The first frame waits for start-up: frame times from the second on.
@@ -278,7 +314,7 @@ fn write_outputs(a: &Args, scene: &osw_scene::SceneFile, rows: &[FrameRow], pvs:
     let [lo, hi] = scene.content_hash();
     let s = Summary {
         mode: "switch".into(),
-        tau: a.tau,
+        tau: set.tau,
         frames: rows.len() as u64,
         frame_ms_median: quantile(&frame_ms, 0.5),
         frame_ms_p95: quantile(&frame_ms, 0.95),
@@ -294,7 +330,7 @@ fn write_outputs(a: &Args, scene: &osw_scene::SceneFile, rows: &[FrameRow], pvs:
         latency_ms_p95: quantile(&col(|r| r.latency_ms), 0.95),
         hc_ms_median: quantile(&col(|r| r.hc_ms), 0.5),
         rvg_ms_median: quantile(&col(|r| r.rvg_ms), 0.5),
-        scene: a.scene.display().to_string(),
+        scene: set.scene.display().to_string(),
         scene_hash: format!("{hi:016x}{lo:016x}"),
         path: a.path.display().to_string(),
         width: w,

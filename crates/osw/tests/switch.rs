@@ -105,3 +105,39 @@ fn a_killed_node_fails_the_run_by_name_and_leaves_nothing_behind() {
     let left = std::process::Command::new("pgrep").args(["-f", s(&scene)]).output().unwrap();
     assert!(left.stdout.is_empty(), "processes left behind: {}", String::from_utf8_lossy(&left.stdout));
 }
+
+#[test]
+fn the_handshake_refuses_another_scene_and_a_wrong_token() {
+    let d = tempfile::tempdir().unwrap();
+    let one = build_gen(d.path(), "city", 20_000, 1);
+    let two = build_gen(d.path(), "city", 20_000, 2);
+    let path = d.path().join("p.csv");
+    osw_ok(&["path", "--scene", s(&one), "--kind", "orbit", "--frames", "4", "-o", s(&path)]);
+    let bin = |n: &str| Path::new(env!("CARGO_BIN_EXE_osw")).with_file_name(n);
+    for (node_args, display_args, needle) in [
+        (vec!["--scene", s(&one)], vec!["--scene", s(&two)], "different scene"),
+        (vec!["--scene", s(&one), "--token", "right"], vec!["--scene", s(&one), "--token", "wrong"], "token"),
+        (vec!["--scene", s(&one), "--token", "right"], vec!["--scene", s(&one)], "token"),
+    ] {
+        let mut node = std::process::Command::new(bin("osw-node"))
+            .args(["--name", "a", "--size", "32x32"])
+            .args(&node_args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        std::io::BufRead::read_line(&mut std::io::BufReader::new(node.stdout.take().unwrap()), &mut line).unwrap();
+        let addr = line.trim().strip_prefix("listening on ").unwrap().to_owned();
+        let out = std::process::Command::new(bin("osw-display"))
+            .args(["--path", s(&path), "--nodes", &format!("{addr},{addr}"), "--size", "32x32", "--out", s(&d.path().join("o"))])
+            .args(&display_args)
+            .output()
+            .unwrap();
+        let _ = node.kill();
+        let _ = node.wait();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains(needle) && err.contains("refused"), "expected {needle:?}: {err}");
+    }
+}

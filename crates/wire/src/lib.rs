@@ -12,6 +12,7 @@
 //! - [`limits`]: the protocol version and the limits, each with its reason.
 
 pub mod codec;
+pub mod config;
 pub mod frame;
 pub mod ids;
 pub mod limits;
