@@ -158,7 +158,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.out.join("summary.json"))?)?;
+    let mut summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.out.join("summary.json"))?)?;
+    // Per-role stage times from the nodes' own logs.
+    for (name, file) in [("a", "node-a.csv"), ("b", "node-b.csv")] {
+        let text = std::fs::read_to_string(a.out.join(file))?;
+        for role in ["HC", "OR"] {
+            let ms: Vec<f64> = text
+                .lines()
+                .skip(1)
+                .filter(|l| l.split(',').nth(1) == Some(role))
+                .filter_map(|l| l.split(',').nth(2)?.parse().ok())
+                .collect();
+            summary[format!("node_{name}_{}_ms_median", role.to_lowercase())] = osw_render::stats::quantile(&ms, 0.5).into();
+        }
+    }
+    std::fs::write(a.out.join("summary.json"), serde_json::to_string_pretty(&summary)?)?;
     println!(
         "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median → {}",
         summary["frames"],
