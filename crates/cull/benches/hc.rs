@@ -1,0 +1,56 @@
+//! HC traversal on the CPU with fake testers (no GPU): the cost of the traversal itself per
+//! frame of a 2M-triangle plant, level by level and in one batch.
+//! Run: `cargo bench -p osw-cull --bench hc`.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::DVec3;
+use osw_cull::{AllVisible, View, Visibility, VisibilityTester, hardware_cull, hardware_cull_one_batch};
+use osw_scene::build::{BuildOptions, BuildReport, make_scene};
+use osw_scene::generators::{GenKind, generate};
+use osw_scene::{Camera, NodeId};
+
+/// Every other box visible: a deterministic stand-in for occlusion.
+struct Alternate;
+
+impl VisibilityTester for Alternate {
+    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        out.extend(ids.iter().map(|id| Visibility { visible: id % 2 == 0 || *id < 64, pixels: None }));
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let scene = make_scene(generate(GenKind::Plant, 2_000_000, 1).objects, &BuildOptions::default(), &mut BuildReport::default(), &())
+        .expect("scene");
+    let nodes = &scene.nodes;
+    let root = nodes[0].aabb();
+    let eye = root.center().as_dvec3() + DVec3::new(0.0, 0.0, -0.3 * root.extent().z as f64);
+    let view = View::new(&Camera::look_along(eye, DVec3::Z, 60.0), DVec3::ZERO, 1024, 1024, 0.01);
+    let mut pvs = Vec::new();
+    let stats = hardware_cull(nodes, &view, 1.0, &mut Alternate, &mut pvs);
+    println!("hc: {} nodes, {} boxes tested in {} levels, PVS {}", nodes.len(), stats.tests, stats.levels, pvs.len());
+    let mut g = c.benchmark_group("hc traversal");
+    for tau in [0.0, 5.0] {
+        g.bench_function(format!("levels, frustum only, tau {tau}"), |b| {
+            b.iter(|| {
+                pvs.clear();
+                hardware_cull(nodes, &view, tau, &mut AllVisible, &mut pvs)
+            })
+        });
+        g.bench_function(format!("levels, every other box, tau {tau}"), |b| {
+            b.iter(|| {
+                pvs.clear();
+                hardware_cull(nodes, &view, tau, &mut Alternate, &mut pvs)
+            })
+        });
+        g.bench_function(format!("one batch, every other box, tau {tau}"), |b| {
+            b.iter(|| {
+                pvs.clear();
+                hardware_cull_one_batch(nodes, &view, tau, &mut Alternate, &mut pvs)
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,51 @@
+//! HC box tests per second on this machine's adapter (lavapipe here): one batch of every BVH
+//! box of a 2M-triangle plant, against the depth of a frame's occluders, with each test.
+//! Run: `cargo bench -p osw-gpu --bench boxtests` (needs a Vulkan driver).
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::DVec3;
+use osw_gpu::draw::Pass;
+use osw_gpu::renderer::{HcTest, Renderer};
+use osw_scene::Camera;
+use std::sync::Arc;
+
+fn bench(c: &mut Criterion) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("plant.osw");
+    let objects = osw_scene::generators::generate(osw_scene::generators::GenKind::Plant, 2_000_000, 1).objects;
+    osw_scene::build_scene(objects, "bench", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).expect("scene");
+    let scene = Arc::new(osw_scene::SceneFile::open(&path).expect("open"));
+    let gpu = match osw_gpu::Gpu::new(None) {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("boxtests: skipped: {e}");
+            return;
+        }
+    };
+    let mut r = Renderer::new(gpu, Arc::clone(&scene), 1024, 1024, osw_gpu::limits::RESIDENCY_BYTES).expect("renderer");
+    let root = scene.node(0).aabb();
+    let eye = root.center().as_dvec3() + DVec3::new(0.0, 1.7 - root.center().y as f64, -0.3 * root.extent().z as f64);
+    let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0));
+    // Occluders: every leaf's coarsest level in the frustum.
+    let occluders: Vec<u32> =
+        (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod + n.lod_count - 1).collect();
+    r.draw(&view, &occluders, Pass::Depth, true).expect("occluders");
+    r.build_pyramid();
+    let boxes: Vec<u32> = (0..scene.bvh_count()).collect();
+    let mut g = c.benchmark_group("hc box tests");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(boxes.len() as u64));
+    for test in [HcTest::Pyramid, HcTest::Hybrid, HcTest::Exact, HcTest::Queries] {
+        let mut out = Vec::with_capacity(boxes.len());
+        g.bench_function(format!("{test:?}, {} boxes", boxes.len()), |b| {
+            b.iter(|| {
+                out.clear();
+                r.test_boxes(&view, &boxes, test, &mut out).expect("test")
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
