@@ -15,7 +15,7 @@ fn ids(n: usize) -> Vec<u32> {
             x ^= x << 13;
             x ^= x >> 17;
             x ^= x << 5;
-            id += 1 + if x % 4 == 0 { x % 2000 } else { x % 16 };
+            id += 1 + if x.is_multiple_of(4) { x % 2000 } else { x % 16 };
             id
         })
         .collect()
