@@ -20,6 +20,8 @@ pub enum RenderError {
     Scene(#[from] SceneError),
     #[error("image size {0}x{1} is out of range (1..={max} a side)", max = crate::limits::MAX_SIZE)]
     Size(u32, u32),
+    #[error("{0} draws in one pass, over the limit of {max}", max = crate::limits::MAX_DRAWS)]
+    TooManyDraws(usize),
 }
 
 /// How HC tests boxes (issue 3: both measured, see the closing note).
@@ -156,7 +158,10 @@ impl Renderer {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
         self.draw_data.clear();
-        for &id in ids.iter().take(crate::limits::MAX_DRAWS as usize) {
+        if ids.len() > crate::limits::MAX_DRAWS as usize {
+            return Err(RenderError::TooManyDraws(ids.len()));
+        }
+        for &id in ids {
             self.residency.ensure(&self.gpu, &scene, id)?;
             let n = scene.node(id);
             self.draw_data.push(DrawData { id, object: n.object, pad: [0; 2] });

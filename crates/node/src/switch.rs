@@ -15,9 +15,9 @@
 use crate::link::Event;
 use osw_cull::delta::{apply, diff};
 use osw_cull::front::update_front;
-use osw_cull::hardware_cull_one_batch;
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{GpuTester, HcTest, Renderer};
+use osw_gpu::renderer::{HcTest, Renderer};
+use osw_render::mode::hc_pass;
 use osw_scene::{Camera, NodeId};
 use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, Message, Role};
 use std::collections::{BTreeMap, VecDeque};
@@ -178,16 +178,8 @@ impl Switch {
             // No OR before the first frame: no occluders.
             r.draw(&view, &[], Pass::Depth, true)?;
         }
-        r.build_pyramid();
-        let scene = std::sync::Arc::clone(&r.scene);
         let mut pvs = Vec::new();
-        let mut tester = GpuTester { renderer: r, test: HcTest::Hybrid, error: None };
-        let hc = hardware_cull_one_batch(scene.nodes(), &view, self.tau, &mut tester, &mut pvs);
-        if let Some(e) = tester.error {
-            return Err(e.into());
-        }
-        pvs.sort_unstable();
-        pvs.dedup();
+        let hc = hc_pass(r, &view, self.tau, HcTest::Hybrid, &mut pvs)?;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         diff(&self.visible, &pvs, &mut added, &mut removed);
         // Batches of at most b ids (sec. 3.5), additions first: OR draws them.

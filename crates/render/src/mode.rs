@@ -77,6 +77,36 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
+/// The HC pass of the switch (paper 000 alg. 4.1) against the depth buffer as the OR pass left
+/// it, shared by `prev` and the switch node: appends the PVS, sorted and without duplicates.
+pub fn hc_pass(r: &mut Renderer, view: &View, tau: f64, hc: HcTest, pvs: &mut Vec<NodeId>) -> Result<HcStats, RenderError> {
+    let scene = std::sync::Arc::clone(&r.scene);
+    let test = match hc {
+        HcTest::Pyramid | HcTest::Hybrid => {
+            r.build_pyramid();
+            hc
+        }
+        HcTest::Queries => HcTest::Queries,
+        // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
+        _ if tau > 0.0 => HcTest::ExactCount,
+        _ => HcTest::Exact,
+    };
+    let mut tester = GpuTester { renderer: r, test, error: None };
+    // The pyramid test is cheap per box and a round trip is not: one batch (the hybrid's
+    // exact re-test only sees the small boxes). The rasterised tests pay per pixel: level by
+    // level (paper 000 sec. 4.7.1).
+    let stats = match test {
+        HcTest::Pyramid | HcTest::Hybrid => hardware_cull_one_batch(scene.nodes(), view, tau, &mut tester, pvs),
+        _ => hardware_cull(scene.nodes(), view, tau, &mut tester, pvs),
+    };
+    if let Some(e) = tester.error {
+        return Err(e);
+    }
+    pvs.sort_unstable();
+    pvs.dedup();
+    Ok(stats)
+}
+
 impl ModeState {
     pub fn new(mode: Mode, tau: f64, hc: HcTest) -> ModeState {
         ModeState {
@@ -145,27 +175,7 @@ impl ModeState {
                 let or = r.draw(view, &self.occluders, Pass::Depth, true)?;
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
                 let t = Instant::now();
-                let test = match self.hc {
-                    HcTest::Pyramid | HcTest::Hybrid => {
-                        r.build_pyramid();
-                        self.hc
-                    }
-                    HcTest::Queries => HcTest::Queries,
-                    // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
-                    _ if self.tau > 0.0 => HcTest::ExactCount,
-                    _ => HcTest::Exact,
-                };
-                let mut tester = GpuTester { renderer: r, test, error: None };
-                // The pyramid test is cheap per box and a round trip is not: one batch (the
-                // hybrid's exact re-test only sees the small boxes). The rasterised tests pay
-                // per pixel: level by level (paper 000 sec. 4.7.1).
-                let hc = match test {
-                    HcTest::Pyramid | HcTest::Hybrid => hardware_cull_one_batch(nodes, view, self.tau, &mut tester, &mut pvs),
-                    _ => hardware_cull(nodes, view, self.tau, &mut tester, &mut pvs),
-                };
-                if let Some(e) = tester.error {
-                    return Err(e);
-                }
+                let hc = hc_pass(r, view, self.tau, self.hc, &mut pvs)?;
                 s.hc_ms = ms(t);
                 hc
             }
