@@ -12,7 +12,7 @@ use osw_cull::delta::apply;
 use osw_gpu::draw::Pass;
 use osw_render::output::{frame_path, push_ids, write_png};
 use osw_render::stats::quantile;
-use osw_wire::config::Config;
+use osw_wire::config::{ClusterArgs, Settings};
 use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{CameraPacket, Goodbye, Hello, Message, Role};
 use serde::Serialize;
@@ -25,28 +25,14 @@ use tokio::sync::mpsc::UnboundedSender;
 #[derive(Parser)]
 #[command(name = "osw-display", version, about = "the occlusion switch's display client (RVG)")]
 struct Args {
-    /// Cluster configuration (configs/*.toml); the flags below override it.
-    #[arg(long)]
-    config: Option<PathBuf>,
-    /// Scene file [default: the config's].
-    #[arg(long)]
-    scene: Option<PathBuf>,
+    #[command(flatten)]
+    cluster: ClusterArgs,
     /// Camera path CSV to play back.
     #[arg(long)]
     path: PathBuf,
     /// Addresses of node a and node b, "A,B" [default: the config's].
     #[arg(long)]
     nodes: Option<String>,
-    /// Pixels of error the nodes use, for the summary [default: the config's, else 0].
-    #[arg(long)]
-    tau: Option<f64>,
-    /// Image size, WIDTHxHEIGHT [default: the config's, else 1024x1024].
-    #[arg(long)]
-    size: Option<String>,
-    #[arg(long)]
-    adapter: Option<String>,
-    #[arg(long)]
-    token: Option<String>,
     /// Do not write frame PNGs.
     #[arg(long)]
     no_frames: bool,
@@ -118,45 +104,25 @@ fn main() -> std::process::ExitCode {
 /// A connection's reader: messages with their encoded size, or the reason it ended.
 type Inbox = Receiver<Result<(Message, u64), String>>;
 
-/// The settings of a run: flags over the configuration over defaults.
-struct Settings {
-    scene: PathBuf,
-    nodes: [String; 2],
-    tau: f64,
-    size: (u32, u32),
-    token: Option<String>,
-}
-
-fn settings(a: &Args) -> anyhow::Result<Settings> {
-    let cfg = match &a.config {
-        Some(p) => Config::load(p).map_err(anyhow::Error::msg)?,
-        None => Config::default(),
-    };
-    let scene =
-        a.scene.clone().or(cfg.scene.clone()).ok_or_else(|| anyhow::anyhow!("no scene: give --scene or a config with scene = ..."))?;
-    let nodes = match (&a.nodes, &a.config) {
+/// Node a's and node b's addresses: `--nodes`, else the configuration's.
+fn node_addresses(a: &Args, set: &Settings) -> anyhow::Result<[String; 2]> {
+    Ok(match (&a.nodes, &a.cluster.config) {
         (Some(n), _) => match n.split(',').map(str::trim).collect::<Vec<_>>().as_slice() {
             [x, y] => [x.to_string(), y.to_string()],
             _ => anyhow::bail!("--nodes {n:?}: expected two addresses, node a's and node b's"),
         },
         (None, Some(_)) => {
-            let addr = |k: &str| cfg.node(k).map(|n| n.address.clone()).map_err(anyhow::Error::msg);
+            let addr = |k: &str| set.config.node(k).map(|n| n.address.clone()).map_err(anyhow::Error::msg);
             [addr("a")?, addr("b")?]
         }
         (None, None) => anyhow::bail!("no nodes: give --nodes A,B or --config"),
-    };
-    let size = a.size.clone().or(cfg.size.clone()).unwrap_or_else(|| "1024x1024".into());
-    let size = size
-        .split_once('x')
-        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .ok_or_else(|| anyhow::anyhow!("--size {size:?}: expected WIDTHxHEIGHT"))?;
-    Ok(Settings { scene, nodes, tau: a.tau.or(cfg.tau).unwrap_or(0.0), size, token: a.token.clone().or(cfg.token) })
+    })
 }
 
 fn run(a: &Args) -> anyhow::Result<()> {
-    let set = settings(a)?;
+    let set = a.cluster.resolve().map_err(anyhow::Error::msg)?;
     let (w, h) = set.size;
-    let addrs = &set.nodes;
+    let addrs = &node_addresses(a, &set)?;
     let cams = osw_scene::path::read(&a.path)?;
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
     let me = Hello {
@@ -166,7 +132,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         role: Role::Display,
         token: set.token.clone(),
     };
-    let gpu = osw_gpu::Gpu::new(a.adapter.as_deref())?;
+    let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let mut inboxes: Vec<Inbox> = Vec::new();

@@ -8,8 +8,8 @@ mod link;
 mod switch;
 
 use clap::Parser;
-use osw_wire::config::Config;
-use osw_wire::limits::{DEFAULT_BATCH_IDS, PROTOCOL_VERSION};
+use osw_wire::config::ClusterArgs;
+use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{Hello, Role};
 use std::io::Write;
 use std::path::PathBuf;
@@ -21,12 +21,8 @@ struct Args {
     /// a (HC on even frames) or b (HC on odd frames).
     #[arg(long)]
     name: String,
-    /// Cluster configuration (configs/*.toml); the flags below override it.
-    #[arg(long)]
-    config: Option<PathBuf>,
-    /// Scene file (the same file, by content hash, as the peer's and the display's).
-    #[arg(long)]
-    scene: Option<PathBuf>,
+    #[command(flatten)]
+    cluster: ClusterArgs,
     /// Address to listen on [default: the config's, else 127.0.0.1:0, any free port].
     #[arg(long)]
     listen: Option<String>,
@@ -34,20 +30,6 @@ struct Args {
     /// config, for node b].
     #[arg(long)]
     peer: Option<String>,
-    /// Pixels of error for LOD selection [default: 0].
-    #[arg(long)]
-    tau: Option<f64>,
-    /// Ids per delta batch, the paper's b [default: 1024].
-    #[arg(long)]
-    batch: Option<usize>,
-    /// Image size, WIDTHxHEIGHT, the display's [default: 1024x1024].
-    #[arg(long)]
-    size: Option<String>,
-    #[arg(long)]
-    adapter: Option<String>,
-    /// Shared cluster token every connection must present.
-    #[arg(long)]
-    token: Option<String>,
     /// Send the whole visible set every frame (a keyframe) instead of deltas.
     #[arg(long)]
     full: bool,
@@ -77,44 +59,28 @@ fn run(a: &Args) -> anyhow::Result<()> {
         "b" => 1,
         n => anyhow::bail!("--name {n:?}: expected a or b"),
     };
-    let cfg = match &a.config {
-        Some(p) => Config::load(p).map_err(anyhow::Error::msg)?,
-        None => Config::default(),
-    };
-    let scene_path =
-        a.scene.clone().or(cfg.scene.clone()).ok_or_else(|| anyhow::anyhow!("no scene: give --scene or a config with scene = ..."))?;
-    let listen = match (&a.listen, &a.config) {
+    let set = a.cluster.resolve().map_err(anyhow::Error::msg)?;
+    let cfg = &set.config;
+    let listen = match (&a.listen, &a.cluster.config) {
         (Some(l), _) => l.clone(),
         (None, Some(_)) => cfg.node(&a.name).map_err(anyhow::Error::msg)?.listen.clone(),
         (None, None) => "127.0.0.1:0".into(),
     };
-    let peer = match (&a.peer, &a.config, index) {
+    let peer = match (&a.peer, &a.cluster.config, index) {
         (Some(p), _, _) => Some(p.clone()),
         (None, Some(_), 1) => Some(cfg.node("a").map_err(anyhow::Error::msg)?.address.clone()),
         _ => None,
     };
-    let tau = a.tau.or(cfg.tau).unwrap_or(0.0);
-    let batch = a.batch.or(cfg.batch).unwrap_or(DEFAULT_BATCH_IDS);
-    let size = a.size.clone().or(cfg.size.clone()).unwrap_or_else(|| "1024x1024".into());
-    if batch == 0 {
-        anyhow::bail!("--batch must be at least 1");
-    }
-    if !(tau >= 0.0 && tau.is_finite()) {
-        anyhow::bail!("--tau must be a finite number >= 0, got {tau}");
-    }
-    let (w, h) = size
-        .split_once('x')
-        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .ok_or_else(|| anyhow::anyhow!("--size {size:?}: expected WIDTHxHEIGHT"))?;
-    let scene = Arc::new(osw_scene::SceneFile::open(&scene_path)?);
+    let (w, h) = set.size;
+    let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
     let me = Hello {
         version: PROTOCOL_VERSION,
         scene_hash: scene.content_hash(),
         name: a.name.clone(),
         role: Role::Node,
-        token: a.token.clone().or(cfg.token),
+        token: set.token.clone(),
     };
-    let gpu = osw_gpu::Gpu::new(a.adapter.as_deref())?;
+    let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
 
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
@@ -128,7 +94,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let c = rt.block_on(osw_wire::net::connect(peer, link::HANDSHAKE))?;
         rt.spawn(link::serve(c, me, events_tx, queues));
     }
-    let mut sw = switch::Switch::new(index, tau, batch, a.full, renderer, events, to_peer, to_display);
+    let mut sw = switch::Switch::new(index, set.tau, set.batch, a.full, renderer, events, to_peer, to_display);
     sw.wait_connected()?;
     let log = sw.run();
     sw.goodbye(if log.is_ok() { "done" } else { "error" });

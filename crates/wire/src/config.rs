@@ -15,9 +15,72 @@
 //! address = "127.0.0.1:7102"
 //! ```
 
+use crate::limits::DEFAULT_BATCH_IDS;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+/// The flags every cluster process takes; each overrides the configuration's value.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ClusterArgs {
+    /// Cluster configuration (configs/*.toml); the flags below override it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Scene file: the same file, by content hash, in every process [default: the config's].
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Pixels of error for LOD selection [default: the config's, else 0].
+    #[arg(long)]
+    pub tau: Option<f64>,
+    /// Image size, WIDTHxHEIGHT [default: the config's, else 1024x1024].
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Ids per delta batch, the paper's b [default: the config's, else 1024].
+    #[arg(long)]
+    pub batch: Option<usize>,
+    /// Shared cluster token every connection must present [default: the config's, if any].
+    #[arg(long)]
+    pub token: Option<String>,
+    /// Adapter: the first whose name contains this text [default: a GPU, else lavapipe].
+    #[arg(long)]
+    pub adapter: Option<String>,
+}
+
+/// [`ClusterArgs`] resolved: flags over the configuration over defaults, checked.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub config: Config,
+    pub scene: PathBuf,
+    pub tau: f64,
+    pub size: (u32, u32),
+    pub batch: usize,
+    pub token: Option<String>,
+}
+
+impl ClusterArgs {
+    pub fn resolve(&self) -> Result<Settings, String> {
+        let config = match &self.config {
+            Some(p) => Config::load(p)?,
+            None => Config::default(),
+        };
+        let scene = self.scene.clone().or(config.scene.clone()).ok_or("no scene: give --scene or a config with scene = ...")?;
+        let tau = self.tau.or(config.tau).unwrap_or(0.0);
+        if !(tau >= 0.0 && tau.is_finite()) {
+            return Err(format!("--tau {tau}: expected a finite number >= 0"));
+        }
+        let batch = self.batch.or(config.batch).unwrap_or(DEFAULT_BATCH_IDS);
+        if batch == 0 {
+            return Err("--batch must be at least 1".into());
+        }
+        let size = self.size.clone().or(config.size.clone()).unwrap_or_else(|| "1024x1024".into());
+        let size = size
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+            .ok_or(format!("--size {size:?}: expected WIDTHxHEIGHT"))?;
+        let token = self.token.clone().or(config.token.clone());
+        Ok(Settings { config, scene, tau, size, batch, token })
+    }
+}
 
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
