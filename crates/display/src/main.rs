@@ -4,6 +4,7 @@
 //! deltas and the end of frame, rebuilds V(i) = (V(i-1) - removed) ∪ added, renders it and
 //! writes the frame and its statistics.
 //!
+//! Prints `frame N` on stdout as each frame is displayed.
 //! Exit codes: 0 when every frame was rendered, 1 on any error (message on stderr).
 
 use clap::Parser;
@@ -253,6 +254,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
         last = Instant::now();
         push_ids(&mut pvs_txt, &visible);
         rows.push(row);
+        // One line per displayed frame on stdout: `osw run` shows progress from it.
+        println!("frame {i}");
         if i + 2 < cams.len() {
             send_both(packet(i + 2));
         }

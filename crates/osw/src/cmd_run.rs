@@ -133,7 +133,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.no_frames {
         args_d.push("--no-frames".into());
     }
-    let pd = spawn("display", &display, &args_d, &a.out)?;
+    let mut pd = spawn("display", &display, &args_d, &a.out)?;
+    let frames = osw_scene::path::read(&a.path)?.len() as u64;
+    let bar = crate::progress::frames(frames, "switch");
+    let display_out = pd.child.stdout.take().context("display stdout")?;
+    let ticker = {
+        let bar = bar.clone();
+        std::thread::spawn(move || {
+            BufReader::new(display_out).lines().map_while(Result::ok).filter(|l| l.starts_with("frame ")).for_each(|_| bar.inc(1))
+        })
+    };
     let mut procs = [pd, pa, pb];
     // Wait for all three; the first failure stops the others.
     let mut done = [false; 3];
@@ -158,6 +167,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+    let _ = ticker.join();
+    bar.finish_and_clear();
     let mut summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.out.join("summary.json"))?)?;
     // Per-role stage times from the nodes' own logs.
     for (name, file) in [("a", "node-a.csv"), ("b", "node-b.csv")] {
