@@ -17,6 +17,7 @@ use osw_wire::config::{ClusterArgs, Settings};
 use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{CameraPacket, Goodbye, Hello, Message, Role};
 use serde::Serialize;
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::mpsc::Receiver;
@@ -255,7 +256,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
         push_ids(&mut pvs_txt, &visible);
         rows.push(row);
         // One line per displayed frame on stdout: `osw run` shows progress from it.
-        println!("frame {i}");
+        // A closed stdout only means nobody is watching: not an error.
+        let _ = writeln!(std::io::stdout(), "frame {i}");
         if i + 2 < cams.len() {
             send_both(packet(i + 2));
         }

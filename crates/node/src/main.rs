@@ -87,7 +87,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let (events_tx, events) = std::sync::mpsc::channel();
     let (to_peer, to_display, queues) = link::queues();
     let listener = rt.block_on(tokio::net::TcpListener::bind(&listen)).map_err(|e| anyhow::anyhow!("cannot listen on {listen}: {e}"))?;
-    println!("listening on {}", listener.local_addr()?);
+    writeln!(std::io::stdout(), "listening on {}", listener.local_addr()?)?;
     std::io::stdout().flush()?;
     rt.spawn(link::accept(listener, me.clone(), events_tx.clone(), queues.clone()));
     if let Some(peer) = &peer {

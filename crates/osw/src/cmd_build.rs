@@ -69,7 +69,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let report = report?;
     let json = a.output.with_extension("build.json");
     std::fs::write(&json, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", json.display()))?;
-    println!(
+    out!(
         "build: {} input triangles → {} nodes ({} leaves, {} HLODs, up to {} LOD levels), {:.1} MB in {:.2} s ({:.2} M triangles/s)",
         report.input_triangles,
         report.nodes,
@@ -81,8 +81,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.input_triangles_per_second / 1e6
     );
     for l in &report.left_out {
-        println!("left out: {l}");
+        out!("left out: {l}");
     }
-    println!("wrote {} and {}", a.output.display(), json.display());
+    out!("wrote {} and {}", a.output.display(), json.display());
     Ok(())
 }

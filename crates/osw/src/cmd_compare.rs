@@ -150,7 +150,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             report.differing_fraction_max * 100.0
         )
     };
-    println!(
+    out!(
         "compare: {frames} frames, {image}{} → {}",
         report.culling_a.as_ref().map_or(String::new(), |s| format!(
             ", a: {} false-culled leaves, PVS/exact leaves {:.2}",

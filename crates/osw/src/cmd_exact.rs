@@ -20,6 +20,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let res = osw_render::run::exact_path(&mut r, &cams, &a.out, &|| bar.inc(1));
     bar.finish_and_clear();
     res?;
-    println!("exact: {} frames → {}", cams.len(), a.out.display());
+    out!("exact: {} frames → {}", cams.len(), a.out.display());
     Ok(())
 }

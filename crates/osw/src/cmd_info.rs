@@ -31,9 +31,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let h = scene.header();
     let file_bytes = h.file_bytes;
     let [lo, hi] = h.content_hash;
-    println!("scene: {}", a.scene.display());
-    println!("content_hash: {hi:016x}{lo:016x}");
-    println!(
+    out!("scene: {}", a.scene.display());
+    out!("content_hash: {hi:016x}{lo:016x}");
+    out!(
         "nodes: {} ({} BVH, {} LOD/HLOD), leaves: {}, objects: {}, full-detail triangles: {}",
         h.node_count,
         h.bvh_count,
@@ -42,10 +42,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         h.object_count,
         h.leaf_triangles
     );
-    println!("origin: {:?}", h.origin);
-    println!("file_bytes: {file_bytes}");
-    println!("open_ms: {open_ms:.2}");
-    println!(
+    out!("origin: {:?}", h.origin);
+    out!("file_bytes: {file_bytes}");
+    out!("open_ms: {open_ms:.2}");
+    out!(
         "resident_bytes_after_open: {} (grew by {}, {:.1}% of the file)",
         rss_open,
         rss_open.saturating_sub(rss_before),
@@ -56,7 +56,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         for id in scene.bvh_count()..h.node_count {
             scene.geometry(id)?;
         }
-        println!("geometry: all {} blocks pass their hash and index checks in {:.1} ms", h.block_count, t.elapsed().as_secs_f64() * 1e3);
+        out!("geometry: all {} blocks pass their hash and index checks in {:.1} ms", h.block_count, t.elapsed().as_secs_f64() * 1e3);
     }
     Ok(())
 }

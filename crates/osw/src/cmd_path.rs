@@ -35,6 +35,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let opts = PathOptions { kind: a.kind, frames: a.frames, seed: a.seed, fovy_deg: a.fovy, speed: a.speed };
     let cams = osw_scene::path_gen::generate(&scene, &opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
     osw_scene::path::write(&a.output, &cams)?;
-    println!("path: {:?} of {} frames → {}", a.kind, cams.len(), a.output.display());
+    out!("path: {:?} of {} frames → {}", a.kind, cams.len(), a.output.display());
     Ok(())
 }

@@ -55,13 +55,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let s = render_path(&mut r, &cams, &spec, &|| bar.inc(1));
     bar.finish_and_clear();
     let s = s?;
-    println!(
+    out!(
         "left out: {} of {} geometry blocks never drawn, never read from the scene file ({:.0}% of its geometry)",
         s.blocks_never_loaded,
         s.blocks_total,
         s.geometry_never_loaded_fraction * 100.0
     );
-    println!(
+    out!(
         "render: {} tau {} over {} frames: frame {:.1} ms median ({:.1} p95), {:.0} triangles, {:.0} nodes, {:.0} tests a frame → {}",
         s.mode,
         s.tau,

@@ -184,7 +184,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     std::fs::write(a.out.join("summary.json"), serde_json::to_string_pretty(&summary)?)?;
-    println!(
+    out!(
         "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median → {}",
         summary["frames"],
         summary["frame_ms_median"].as_f64().unwrap_or(0.0),

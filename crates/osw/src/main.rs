@@ -3,6 +3,14 @@
 //!
 //! Exit codes: 0 success, 1 error (message on stderr, prefixed `osw: error:`), 2 bad usage.
 
+/// `println!` that never panics: a closed stdout (`osw ... | head`) is not an error of osw's.
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
 mod cmd_build;
 mod cmd_compare;
 mod cmd_exact;

@@ -217,3 +217,20 @@ fn bad_command_lines_are_refused() {
     osw_err(&["build", "--gen", "city", "--chunk-triangles", "0", "-o", o.to_str().unwrap()], "chunk-triangles");
     osw_err(&["path", "--scene", "/nonexistent.osw", "--kind", "walk", "-o", "p.csv"], "/nonexistent.osw");
 }
+
+#[test]
+fn a_closed_stdout_is_not_a_crash() {
+    // `osw build ... | head -0`: the reader is gone before osw prints; osw still succeeds.
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("c.osw");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
+        .args(["build", "--gen", "city", "--triangles", "20000", "-o", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let r = child.wait_with_output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(out.exists());
+}
