@@ -192,10 +192,8 @@ fn bfs(g: &Grid, free: &[bool], from: usize) -> Vec<u32> {
     parent
 }
 
-fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
-    let (grid, floor) = blocked_grid(scene).map_err(|e| e.to_string())?;
-    let free: Vec<bool> = dilated(&grid, (CLEARANCE / grid.cell).ceil() as usize).iter().map(|b| !b).collect();
-    // The largest free region, by flood fill.
+/// The cells of the largest 4-connected region of `free` cells, in index order.
+fn largest_region(grid: &Grid, free: &[bool]) -> Vec<usize> {
     let mut region = vec![u32::MAX; free.len()];
     let mut best = (0usize, usize::MAX);
     for s in 0..free.len() {
@@ -217,10 +215,32 @@ fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
             best = (size, s);
         }
     }
-    if best.0 < 2 {
+    (0..free.len()).filter(|&i| region[i] as usize == best.1).collect()
+}
+
+/// Clearances tried before CLEARANCE, widest first: a walk keeps to the middle of streets and
+/// aisles when they are wide enough, instead of brushing the walls (shortest grid paths hug
+/// the obstacles).
+const ROOMY: [f32; 2] = [2.0, 1.2];
+
+fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
+    let (grid, floor) = blocked_grid(scene).map_err(|e| e.to_string())?;
+    let free_at = |c: f32| -> Vec<bool> { dilated(&grid, (c / grid.cell).ceil() as usize).iter().map(|b| !b).collect() };
+    let mut free = free_at(CLEARANCE);
+    let mut cells = largest_region(&grid, &free);
+    if cells.len() < 2 {
         return Err(format!("no free space to walk in at eye height ({} cells of {} m, all blocked)", free.len(), grid.cell));
     }
-    let cells: Vec<usize> = (0..free.len()).filter(|&i| region[i] as usize == best.1).collect();
+    // A wider clearance is used when its largest region still covers a quarter of the area
+    // the minimum clearance leaves.
+    for c in ROOMY {
+        let f = free_at(c);
+        let r = largest_region(&grid, &f);
+        if r.len() * 4 >= cells.len() {
+            (free, cells) = (f, r);
+            break;
+        }
+    }
     let mut rng = crate::generators::rng(o.seed, 0x9a7);
     let mut at = cells[rng.random_range(0..cells.len())];
     let mut route = vec![grid.center(at)];

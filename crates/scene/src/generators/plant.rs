@@ -20,14 +20,14 @@ const WALL: f32 = 0.4;
 
 pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
     // Measure the average bay on a sample, then lay out as many bays as the budget pays for.
-    let sample: u64 = (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed))).sum::<u64>() / 16;
+    let sample: u64 = (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed, Vec3::splat(BAY * 100.0)))).sum::<u64>() / 16;
     let bays = (triangles * 95 / 100 / (sample + 60)).max(1);
     let per_floor = bays.div_ceil(FLOORS as u64);
     let nz = ((per_floor as f64 / 2.0).sqrt().ceil() as u64).max(1);
     let nx = per_floor.div_ceil(nz);
     let origin = |b: u64| Vec3::new((b % nx) as f32 * BAY, (b / (nx * nz)) as f32 * FLOOR, ((b / nx) % nz) as f32 * BAY);
-    let mut objects: Vec<Object> = (0..nx * nz * FLOORS as u64).into_par_iter().flat_map_iter(|b| bay(origin(b), b, seed)).collect();
     let size = Vec3::new(nx as f32 * BAY, 0.0, nz as f32 * BAY);
+    let mut objects: Vec<Object> = (0..nx * nz * FLOORS as u64).into_par_iter().flat_map_iter(|b| bay(origin(b), b, seed, size)).collect();
     for f in 0..FLOORS {
         objects.push(Object { name: format!("structure floor {f}"), mesh: structure(size, f, nx, nz) });
     }
@@ -35,8 +35,9 @@ pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
     objects
 }
 
-/// The equipment of one bay with its corner at `o`; `id` seeds it.
-fn bay(o: Vec3, id: u64, seed: u64) -> Vec<Object> {
+/// The equipment of one bay with its corner at `o`, in a building `size` (x, z) across; `id`
+/// seeds it.
+fn bay(o: Vec3, id: u64, seed: u64, size: Vec3) -> Vec<Object> {
     let mut r = super::rng(seed, id);
     let mut out = Vec::new();
     let floor_y = o.y + SLAB;
@@ -108,6 +109,10 @@ fn bay(o: Vec3, id: u64, seed: u64) -> Vec<Object> {
         if r.random::<bool>() {
             let last = corners[4];
             corners.push(last.with_y(floor_y + 0.3));
+        }
+        // Pipes stay inside the building's walls.
+        for c in &mut corners {
+            (c.x, c.z) = (c.x.clamp(0.5, size.x - 0.5), c.z.clamp(0.5, size.z - 0.5));
         }
         let seg = (8.0 + rad * 30.0) as u32;
         let mut m = Mesh::default();
