@@ -231,12 +231,12 @@ fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
     if cells.len() < 2 {
         return Err(format!("no free space to walk in at eye height ({} cells of {} m, all blocked)", free.len(), grid.cell));
     }
-    // A wider clearance is used when its largest region still covers a quarter of the area
-    // the minimum clearance leaves.
+    // A wider clearance is used when its largest region still covers half the area the
+    // minimum clearance leaves (a narrow margin around a scene must not win over its inside).
     for c in ROOMY {
         let f = free_at(c);
         let r = largest_region(&grid, &f);
-        if r.len() * 4 >= cells.len() {
+        if r.len() * 2 >= cells.len() {
             (free, cells) = (f, r);
             break;
         }

@@ -12,8 +12,9 @@ use std::path::PathBuf;
 
 /// Teapot height (m): a little above eye height, so that a walk between them is occluded.
 const HEIGHT: f32 = 2.5;
-/// Distance between teapot slots (m).
-const SPACING: f32 = 5.0;
+/// Distance between teapot slots (m): a teapot is up to ~5 m across with spout and handle,
+/// so lanes of about 2 m stay open between them for a walk.
+const SPACING: f32 = 7.0;
 /// Slots across the field: long and thin.
 const COLUMNS: u64 = 8;
 
