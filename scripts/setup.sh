@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Installs what osw needs on a fresh Debian machine, skipping what is already there:
 # Mesa's software Vulkan driver (lavapipe) and the Vulkan loader, which the renderer uses when
-# no GPU is present. Needs root (or sudo) only when something is missing.
+# no GPU is present, a font for the plots' text (DejaVu), iproute2 for the network-namespace
+# cluster. Needs root (or sudo) only when something is missing.
 set -euo pipefail
 missing=()
-for pkg in mesa-vulkan-drivers libvulkan1; do
+for pkg in mesa-vulkan-drivers libvulkan1 fonts-dejavu-core iproute2; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
 done
 if ((${#missing[@]})); then

@@ -17,7 +17,9 @@ mod cmd_exact;
 mod cmd_info;
 mod cmd_path;
 mod cmd_render;
+mod cmd_report;
 mod cmd_run;
+mod plot;
 mod progress;
 mod walk_args;
 
@@ -46,6 +48,9 @@ enum Cmd {
     Compare(cmd_compare::Args),
     /// Run the occlusion switch on this host: two nodes and the display, three processes.
     Run(cmd_run::Args),
+    /// Error against run time: every mode at every tau, compared with exact visibility and
+    /// full-detail images; report.md, report.json and a plot.
+    Report(cmd_report::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -62,6 +67,7 @@ fn main() -> std::process::ExitCode {
         Cmd::Exact(a) => cmd_exact::run(a),
         Cmd::Compare(a) => cmd_compare::run(a),
         Cmd::Run(a) => cmd_run::run(a),
+        Cmd::Report(a) => cmd_report::run(a),
     };
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

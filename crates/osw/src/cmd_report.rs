@@ -1,0 +1,458 @@
+//! `osw report`: error against run time. Runs every mode at every tau on one scene and path
+//! (each run a child `osw render`, the switch a child `osw run`), compares each with exact
+//! visibility (`osw exact`) and with the full-detail frustum-only images (`vfc` at tau 0), and
+//! writes report.md (tables in the form of paper 000 tables 1-3 and paper 001 table 1),
+//! report.json and error_vs_time.png/.svg.
+//!
+//! Every run keeps its own directory under DIR/runs; a run whose results are there for the
+//! same scene, path and size is not repeated, so an interrupted report resumes where it stopped.
+
+use crate::plot::{Chart, Series};
+use crate::walk_args::WalkArgs;
+use anyhow::{Context, bail};
+use serde::Serialize;
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+const MODES: [&str; 6] = ["vfc", "sw", "chc", "hzb", "prev", "switch"];
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    walk: WalkArgs,
+    /// Pixels-of-error thresholds to run each mode at.
+    #[arg(long, value_delimiter = ',', default_value = "0,1,2,5,10,20")]
+    taus: Vec<f64>,
+    /// Modes to run: vfc, sw, chc, hzb, prev (single process) and switch (`osw run`).
+    #[arg(long, value_delimiter = ',', default_value = "vfc,sw,chc,hzb,prev,switch")]
+    modes: Vec<String>,
+    /// Keep every run's frame PNGs (by default they are deleted once compared).
+    #[arg(long)]
+    keep_frames: bool,
+    /// Output directory: report.md, report.json, error_vs_time.png/.svg, runs/, exact/.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// One run of the report: a mode at a tau, its run time and its error.
+#[derive(Serialize, Default, Clone)]
+struct Entry {
+    mode: String,
+    tau: f64,
+    frame_ms_median: f64,
+    frame_ms_p95: f64,
+    or_ms_median: f64,
+    hc_ms_median: f64,
+    rvg_ms_median: f64,
+    /// Frame time of `vfc` at the same tau over this run's median.
+    speedup_vs_vfc: Option<f64>,
+    triangles_drawn_mean: f64,
+    pvs_nodes_mean: f64,
+    tests_mean: f64,
+    pvs_exact_leaves: f64,
+    pvs_exact_triangles: f64,
+    false_culled_leaves_total: u64,
+    frames_with_false_culling: u64,
+    /// Image error against `vfc` at tau 0 (full detail, nothing occlusion-culled).
+    psnr_db_median: Option<f64>,
+    psnr_db_min: Option<f64>,
+    identical_frames: u64,
+    differing_fraction_mean: f64,
+    differing_fraction_max: f64,
+    /// Why the run failed, when it did; its other fields are then empty.
+    error: Option<String>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    scene: String,
+    path: String,
+    width: u32,
+    height: u32,
+    frames: usize,
+    exact_leaves_mean: f64,
+    exact_triangles_mean: f64,
+    runs: Vec<Entry>,
+}
+
+fn read_json(p: &Path) -> anyhow::Result<Value> {
+    serde_json::from_str(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
+        .with_context(|| format!("parsing {}", p.display()))
+}
+
+fn run_name(mode: &str, tau: f64) -> String {
+    format!("{mode}-tau{tau}")
+}
+
+/// Runs `osw ARGS` with its output in `log`; on failure the error quotes the log's last line.
+fn osw(args: &[String], log: &Path) -> anyhow::Result<()> {
+    let exe = std::env::current_exe()?;
+    let status = Command::new(&exe)
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(log)?)
+        .stderr(std::fs::File::create(log.with_extension("err"))?)
+        .status()
+        .with_context(|| format!("starting {}", exe.display()))?;
+    if !status.success() {
+        let err = std::fs::read_to_string(log.with_extension("err")).unwrap_or_default();
+        let last = err.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("");
+        bail!("osw {} failed ({status}): {last}", args[0]);
+    }
+    Ok(())
+}
+
+struct Plan<'a> {
+    a: &'a Args,
+    scene_hash: String,
+    exact: PathBuf,
+    reference: PathBuf,
+}
+
+impl Plan<'_> {
+    fn walk_args(&self) -> Vec<String> {
+        let w = &self.a.walk;
+        let mut v = vec![
+            "--scene".into(),
+            w.scene.display().to_string(),
+            "--path".into(),
+            w.path.display().to_string(),
+            "--size".into(),
+            format!("{}x{}", w.size.0, w.size.1),
+        ];
+        if let Some(ad) = &w.adapter {
+            v.extend(["--adapter".into(), ad.clone()]);
+        }
+        v
+    }
+
+    /// The run in `dir` is there from an earlier report on the same input.
+    fn done(&self, dir: &Path, compared: bool) -> bool {
+        let Ok(s) = read_json(&dir.join("summary.json")) else { return false };
+        let w = &self.a.walk;
+        s["scene_hash"] == self.scene_hash.as_str()
+            && s["path"] == w.path.display().to_string().as_str()
+            && s["width"] == w.size.0
+            && s["height"] == w.size.1
+            && (!compared || dir.join("compare/compare.json").exists())
+    }
+
+    /// One mode at one tau into `dir`: the run, then its comparison with the reference.
+    fn run(&self, mode: &str, tau: f64, dir: &Path) -> anyhow::Result<()> {
+        let frames_kept = dir != self.reference || osw_render::output::frame_path(dir, 0).exists();
+        if self.done(dir, true) && frames_kept {
+            return Ok(());
+        }
+        std::fs::create_dir_all(dir)?;
+        let mut args: Vec<String> = if mode == "switch" {
+            // `osw run` takes no --adapter: the nodes choose as `osw render` does by default.
+            let mut v = self.walk_args();
+            if let Some(k) = v.iter().position(|x| x == "--adapter") {
+                v.drain(k..k + 2);
+            }
+            [vec!["run".to_string()], v].concat()
+        } else {
+            [vec!["render".to_string(), "--mode".into(), mode.into()], self.walk_args()].concat()
+        };
+        args.extend(["--tau".into(), tau.to_string(), "--out".into(), dir.display().to_string()]);
+        osw(&args, &dir.join("run.log"))?;
+        let compare = [
+            "compare",
+            "--a",
+            &dir.display().to_string(),
+            "--b",
+            &self.reference.display().to_string(),
+            "--exact",
+            &self.exact.display().to_string(),
+            "--out",
+            &dir.join("compare").display().to_string(),
+        ]
+        .map(String::from);
+        osw(&compare, &dir.join("compare.log"))?;
+        if !self.a.keep_frames && dir != self.reference {
+            let _ = std::fs::remove_dir_all(dir.join("frames"));
+        }
+        Ok(())
+    }
+}
+
+fn entry(mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Entry> {
+    let s = read_json(&dir.join("summary.json"))?;
+    let c = read_json(&dir.join("compare/compare.json"))?;
+    let f = |v: &Value| v.as_f64().unwrap_or(0.0);
+    let culling = &c["culling_a"];
+    // The switch's OR runs on the nodes: the mean of the two nodes' medians.
+    let or_ms = match s.get("or_ms_median") {
+        Some(v) => f(v),
+        None => (f(&s["node_a_or_ms_median"]) + f(&s["node_b_or_ms_median"])) / 2.0,
+    };
+    Ok(Entry {
+        mode: mode.into(),
+        tau,
+        frame_ms_median: f(&s["frame_ms_median"]),
+        frame_ms_p95: f(&s["frame_ms_p95"]),
+        or_ms_median: or_ms,
+        hc_ms_median: f(&s["hc_ms_median"]),
+        rvg_ms_median: f(&s["rvg_ms_median"]),
+        speedup_vs_vfc: None,
+        triangles_drawn_mean: f(&s["triangles_drawn_mean"]),
+        pvs_nodes_mean: f(&s["pvs_nodes_mean"]),
+        tests_mean: f(&s["tests_mean"]),
+        pvs_exact_leaves: f(&culling["pvs_exact_leaves_ratio_mean"]),
+        pvs_exact_triangles: f(&culling["pvs_exact_triangles_ratio_mean"]),
+        false_culled_leaves_total: culling["false_culled_leaves_total"].as_u64().unwrap_or(0),
+        frames_with_false_culling: culling["frames_with_false_culling"].as_u64().unwrap_or(0),
+        psnr_db_median: c["psnr_db_median"].as_f64(),
+        psnr_db_min: c["psnr_db_min"].as_f64(),
+        identical_frames: c["identical_frames"].as_u64().unwrap_or(0),
+        differing_fraction_mean: f(&c["differing_fraction_mean"]),
+        differing_fraction_max: f(&c["differing_fraction_max"]),
+        error: None,
+    })
+}
+
+/// Means of the `exact.csv` columns visible_leaves and visible_triangles.
+fn exact_means(dir: &Path) -> anyhow::Result<(usize, f64, f64)> {
+    let text = std::fs::read_to_string(dir.join("exact.csv"))?;
+    let rows: Vec<(f64, f64)> = text
+        .lines()
+        .skip(1)
+        .filter_map(|l| {
+            let mut c = l.split(',').skip(1).map(|x| x.parse::<f64>().ok());
+            Some((c.next()??, c.next()??))
+        })
+        .collect();
+    let n = rows.len().max(1) as f64;
+    Ok((rows.len(), rows.iter().map(|r| r.0).sum::<f64>() / n, rows.iter().map(|r| r.1).sum::<f64>() / n))
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    if let Some(m) = a.modes.iter().find(|m| !MODES.contains(&m.as_str())) {
+        bail!("--modes: unknown mode {m:?} (modes: {})", MODES.join(", "));
+    }
+    if let Some(t) = a.taus.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+        bail!("--taus: {t} is not a pixel error (a finite number ≥ 0)");
+    }
+    let scene = osw_scene::SceneFile::open(&a.walk.scene)?;
+    let [lo, hi] = scene.content_hash();
+    drop(scene);
+    std::fs::create_dir_all(a.out.join("runs"))?;
+    let plan = Plan {
+        a: &a,
+        scene_hash: format!("{hi:016x}{lo:016x}"),
+        exact: a.out.join("exact"),
+        reference: a.out.join("runs").join(run_name("vfc", 0.0)),
+    };
+
+    let runs: Vec<(String, f64)> = a.modes.iter().flat_map(|m| a.taus.iter().map(move |&t| (m.clone(), t))).collect();
+    let bar = crate::progress::steps(runs.len() as u64 + 2, "report");
+    bar.set_message("exact");
+    std::fs::create_dir_all(&plan.exact)?;
+    if !plan.exact.join("exact_leaves.txt").exists() {
+        osw(
+            &[vec!["exact".to_string()], plan.walk_args(), vec!["--out".into(), plan.exact.display().to_string()]].concat(),
+            &a.out.join("exact.log"),
+        )?;
+    }
+    bar.inc(1);
+    // The reference first: every run's image error is measured against it.
+    bar.set_message("vfc tau 0 (reference)");
+    plan.run("vfc", 0.0, &plan.reference).context("the reference run (vfc at tau 0)")?;
+    bar.inc(1);
+    let mut entries = Vec::new();
+    for (mode, tau) in &runs {
+        bar.set_message(format!("{mode} tau {tau}"));
+        let dir = a.out.join("runs").join(run_name(mode, *tau));
+        let e = plan.run(mode, *tau, &dir).and_then(|()| entry(mode, *tau, &dir)).unwrap_or_else(|e| {
+            bar.println(format!("osw: {mode} at tau {tau} failed: {e:#}"));
+            Entry { mode: mode.clone(), tau: *tau, error: Some(format!("{e:#}")), ..Default::default() }
+        });
+        entries.push(e);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    if !a.keep_frames && !runs.iter().any(|(m, t)| m == "vfc" && *t == 0.0) {
+        let _ = std::fs::remove_dir_all(plan.reference.join("frames"));
+    }
+    let vfc_ms: Vec<(f64, f64)> =
+        entries.iter().filter(|e| e.mode == "vfc" && e.error.is_none()).map(|e| (e.tau, e.frame_ms_median)).collect();
+    for e in entries.iter_mut().filter(|e| e.error.is_none() && e.frame_ms_median > 0.0) {
+        e.speedup_vs_vfc = vfc_ms.iter().find(|v| v.0 == e.tau).map(|v| v.1 / e.frame_ms_median);
+    }
+    let (frames, exact_leaves_mean, exact_triangles_mean) = exact_means(&plan.exact)?;
+    let report = Report {
+        scene: a.walk.scene.display().to_string(),
+        path: a.walk.path.display().to_string(),
+        width: a.walk.size.0,
+        height: a.walk.size.1,
+        frames,
+        exact_leaves_mean,
+        exact_triangles_mean,
+        runs: entries,
+    };
+    std::fs::write(a.out.join("report.json"), serde_json::to_string_pretty(&report)?)?;
+    std::fs::write(a.out.join("report.md"), markdown(&report, &a))?;
+    crate::plot::write(&error_chart(&report, &a.modes), &a.out.join("error_vs_time"))?;
+    let failed: Vec<String> = report.runs.iter().filter(|e| e.error.is_some()).map(|e| run_name(&e.mode, e.tau)).collect();
+    if !failed.is_empty() {
+        bail!(
+            "{} of {} runs failed ({}); the report shows the others → {}",
+            failed.len(),
+            report.runs.len(),
+            failed.join(", "),
+            a.out.display()
+        );
+    }
+    out!("report: {} modes × {} taus over {frames} frames → {}", a.modes.len(), a.taus.len(), a.out.join("report.md").display());
+    Ok(())
+}
+
+fn error_chart<'a>(r: &Report, modes: &[String]) -> Chart<'a> {
+    let series: Vec<Series> = modes
+        .iter()
+        .map(|m| {
+            let runs: Vec<&Entry> = r.runs.iter().filter(|e| &e.mode == m && e.error.is_none()).collect();
+            Series {
+                name: m.clone(),
+                points: runs.iter().map(|e| (e.frame_ms_median, e.differing_fraction_mean * 100.0)).collect(),
+                point_labels: runs.iter().map(|e| format!("τ{}", e.tau)).collect(),
+            }
+        })
+        .collect();
+    Chart {
+        title: "Image error against frame time (one point per tau)",
+        x: "frame time, median (ms)",
+        y: "pixels differing from full-detail vfc, mean (%)",
+        series,
+    }
+}
+
+/// A Markdown table: rows of cells under a header.
+fn table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
+    let line = |cells: &[String]| format!("| {} |\n", cells.join(" | "));
+    out.push_str(&line(header));
+    out.push_str(&line(&vec!["---".to_string(); header.len()]));
+    rows.iter().for_each(|r| out.push_str(&line(r)));
+    out.push('\n');
+}
+
+fn markdown(r: &Report, a: &Args) -> String {
+    let get = |m: &str, t: f64| r.runs.iter().find(|e| e.mode == m && e.tau == t);
+    let cell = |m: &str, t: f64, f: &dyn Fn(&Entry) -> String| match get(m, t) {
+        Some(e) if e.error.is_none() => f(e),
+        Some(_) => "failed".into(),
+        None => "–".into(),
+    };
+    let by_tau = |first: &str, f: &dyn Fn(&Entry) -> String, extra: Option<&dyn Fn(f64) -> String>| {
+        let mut header = vec!["tau (px)".to_string()];
+        header.extend(a.modes.iter().map(|m| format!("{m} {first}")));
+        if extra.is_some() {
+            header.push("exact".into());
+        }
+        let rows: Vec<Vec<String>> = a
+            .taus
+            .iter()
+            .map(|&t| {
+                let mut row = vec![t.to_string()];
+                row.extend(a.modes.iter().map(|m| cell(m, t, f)));
+                if let Some(x) = extra {
+                    row.push(x(t));
+                }
+                row
+            })
+            .collect();
+        (header, rows)
+    };
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# osw report\n\nScene `{}`, path `{}` ({} frames), {}x{}. Image error is against `vfc` at tau 0 \
+         (full detail, frustum culling only); culling error against exact visibility (item buffer at full \
+         detail, `osw exact`): on average {:.0} leaves and {:.0} triangles are visible.\n",
+        r.scene, r.path, r.frames, r.width, r.height, r.exact_leaves_mean, r.exact_triangles_mean
+    );
+    md.push_str("## Frame rate (paper 000, table 1)\n\nFrames per second from the median frame time.\n\n");
+    let (h, rows) = by_tau("fps", &|e| format!("{:.1}", 1000.0 / e.frame_ms_median.max(1e-9)), None);
+    table(&mut md, &h, &rows);
+    md.push_str("## Triangles drawn against exactly visible triangles (paper 000, table 2)\n\nMeans per frame.\n\n");
+    let (h, rows) = by_tau("triangles", &|e| format!("{:.0}", e.triangles_drawn_mean), Some(&|_| format!("{:.0}", r.exact_triangles_mean)));
+    table(&mut md, &h, &rows);
+    md.push_str(
+        "## Objects drawn against exactly visible objects (paper 000, table 3)\n\nLeaves drawn per exactly visible leaf \
+         (PVS/exact; an HLOD counts for the visible leaves it stands for), and false-culled leaves over the whole path \
+         (visible but not drawn: 0 at tau 0 for a conservative method).\n\n",
+    );
+    let (h, rows) = by_tau(
+        "PVS/exact (false-culled)",
+        &|e| format!("{:.2} ({})", e.pvs_exact_leaves, e.false_culled_leaves_total),
+        Some(&|_| format!("{:.0} leaves", r.exact_leaves_mean)),
+    );
+    table(&mut md, &h, &rows);
+    md.push_str(
+        "## Per-method statistics (paper 001, table 1)\n\nMeans per frame; times are medians in ms; speedup is vfc's \
+         median frame time at the same tau over this method's.\n\n",
+    );
+    let header: Vec<String> =
+        ["method", "tau", "tests", "OR ms", "HC ms", "RVG ms", "triangles", "frame ms", "p95 ms", "speedup"].map(String::from).to_vec();
+    let rows: Vec<Vec<String>> = r
+        .runs
+        .iter()
+        .map(|e| match &e.error {
+            Some(err) => vec![e.mode.clone(), e.tau.to_string(), format!("failed: {err}")],
+            None => vec![
+                e.mode.clone(),
+                e.tau.to_string(),
+                format!("{:.0}", e.tests_mean),
+                format!("{:.1}", e.or_ms_median),
+                format!("{:.1}", e.hc_ms_median),
+                format!("{:.1}", e.rvg_ms_median),
+                format!("{:.0}", e.triangles_drawn_mean),
+                format!("{:.1}", e.frame_ms_median),
+                format!("{:.1}", e.frame_ms_p95),
+                e.speedup_vs_vfc.map_or("–".into(), |s| format!("{s:.2}")),
+            ],
+        })
+        .collect();
+    table(&mut md, &header, &rows);
+    md.push_str(
+        "## Error against run time\n\nPSNR against full-detail vfc (∞ when every frame is identical), pixels that differ, \
+         and the frame time that buys it. The plot is `error_vs_time.png`.\n\n",
+    );
+    let header: Vec<String> = [
+        "method",
+        "tau",
+        "frame ms",
+        "PSNR median dB",
+        "PSNR min dB",
+        "identical frames",
+        "differing px mean %",
+        "differing px max %",
+        "PVS/exact triangles",
+    ]
+    .map(String::from)
+    .to_vec();
+    let db = |v: Option<f64>| v.map_or("∞".to_string(), |x| format!("{x:.1}"));
+    let rows: Vec<Vec<String>> = r
+        .runs
+        .iter()
+        .filter(|e| e.error.is_none())
+        .map(|e| {
+            vec![
+                e.mode.clone(),
+                e.tau.to_string(),
+                format!("{:.1}", e.frame_ms_median),
+                db(e.psnr_db_median),
+                db(e.psnr_db_min),
+                format!("{}/{}", e.identical_frames, r.frames),
+                format!("{:.3}", e.differing_fraction_mean * 100.0),
+                format!("{:.3}", e.differing_fraction_max * 100.0),
+                format!("{:.2}", e.pvs_exact_triangles),
+            ]
+        })
+        .collect();
+    table(&mut md, &header, &rows);
+    md.push_str("![image error against frame time](error_vs_time.png)\n");
+    md
+}

@@ -1,0 +1,105 @@
+//! Line charts as PNG and SVG (plotters): one function for every plot osw writes — error
+//! against frame time (`osw report`), bytes per frame (`osw bandwidth`), latency per frame
+//! (`osw latency`).
+
+use anyhow::{Context, bail};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// One curve: points in data units, optionally a label at each point (e.g. tau).
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    pub point_labels: Vec<String>,
+}
+
+pub struct Chart<'a> {
+    pub title: &'a str,
+    pub x: &'a str,
+    pub y: &'a str,
+    pub series: Vec<Series>,
+}
+
+/// plotters draws text with a font registered by name; DejaVu comes with Debian
+/// (fonts-dejavu-core, installed by scripts/setup.sh).
+const FONTS: [&str; 3] =
+    ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"];
+
+fn register_font() -> anyhow::Result<()> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        let path = FONTS.iter().find(|p| Path::new(p).exists()).ok_or("no DejaVuSans.ttf found: apt-get install fonts-dejavu-core")?;
+        let bytes = std::fs::read(path).map_err(|e| format!("{path}: {e}"))?;
+        plotters::style::register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into_boxed_slice()))
+            .map_err(|_| format!("{path}: not a font plotters can read"))
+    })
+    .clone()
+    .map_err(anyhow::Error::msg)
+}
+
+/// Writes the chart to `stem.png` and `stem.svg`.
+pub fn write(chart: &Chart, stem: &Path) -> anyhow::Result<()> {
+    register_font()?;
+    let (png, svg) = (stem.with_extension("png"), stem.with_extension("svg"));
+    draw(BitMapBackend::new(&png, (1000, 650)).into_drawing_area(), chart).with_context(|| format!("drawing {}", png.display()))?;
+    draw(SVGBackend::new(&svg, (1000, 650)).into_drawing_area(), chart).with_context(|| format!("drawing {}", svg.display()))?;
+    Ok(())
+}
+
+/// Data bounds with a margin; a flat or empty range gets a unit width.
+fn range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = v.filter(|x| x.is_finite()).fold((f64::MAX, f64::MIN), |(l, h), x| (l.min(x), h.max(x)));
+    if lo > hi {
+        return 0.0..1.0;
+    }
+    let pad = if hi > lo { (hi - lo) * 0.05 } else { 0.5 };
+    (lo.min(0.0).max(lo - pad))..(hi + pad)
+}
+
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, c: &Chart) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("{e:?}");
+    if c.series.iter().all(|s| s.points.is_empty()) {
+        bail!("{}: nothing to plot", c.title);
+    }
+    root.fill(&WHITE).map_err(err)?;
+    let xs = range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let ys = range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    let mut chart = ChartBuilder::on(&root)
+        .caption(c.title, ("sans-serif", 24))
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(xs, ys)
+        .map_err(err)?;
+    chart.configure_mesh().x_desc(c.x).y_desc(c.y).label_style(("sans-serif", 15)).draw().map_err(err)?;
+    for (i, s) in c.series.iter().enumerate() {
+        let color = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(s.points.iter().copied(), color.stroke_width(2)))
+            .map_err(err)?
+            .label(&s.name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        if !s.point_labels.is_empty() {
+            chart
+                .draw_series(s.points.iter().zip(&s.point_labels).map(|(&p, l)| {
+                    EmptyElement::at(p) + Circle::new((0, 0), 4, color.filled()) + Text::new(l.clone(), (6, -16), ("sans-serif", 14))
+                }))
+                .map_err(err)?;
+        }
+    }
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}

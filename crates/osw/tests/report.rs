@@ -1,0 +1,85 @@
+//! `osw report`: every mode at every tau lands in report.md and report.json with the figures
+//! of its own run (checked against the run's stats.csv and against exact visibility), no mode
+//! culls a visible leaf at tau 0, the plot is drawn, and a second report reuses the runs.
+
+mod common;
+use common::*;
+use std::path::Path;
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Mean of column `name` of a CSV file.
+fn csv_mean(file: &Path, name: &str) -> f64 {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut lines = text.lines();
+    let col = lines.next().unwrap().split(',').position(|c| c == name).unwrap_or_else(|| panic!("{} has no {name}", file.display()));
+    let v: Vec<f64> = lines.map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect();
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+#[test]
+fn report_covers_every_mode_and_tau_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = build_gen(dir.path(), "plant", 60_000, 3);
+    let path = dir.path().join("walk.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "8", "--output", s(&path)]);
+    let out = dir.path().join("report");
+    let args = ["report", "--scene", s(&scene), "--path", s(&path), "--size", "128x128", "--taus", "0,8", "--out", s(&out)];
+    osw_ok(&args);
+
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let runs = report["runs"].as_array().unwrap();
+    let modes = ["vfc", "sw", "chc", "hzb", "prev", "switch"];
+    assert_eq!(runs.len(), modes.len() * 2);
+    for mode in modes {
+        assert!(md.contains(&format!("| {mode} fps")), "report.md lacks {mode} in table 1");
+        for tau in [0.0, 8.0] {
+            let e = runs.iter().find(|e| e["mode"] == mode && e["tau"] == tau).unwrap_or_else(|| panic!("no {mode} at tau {tau}"));
+            assert!(e["error"].is_null(), "{mode} tau {tau} failed: {e}");
+            assert!(md.contains(&format!("| {mode} | {tau} | ")), "report.md lacks the row of {mode} at tau {tau}");
+            let run = out.join("runs").join(format!("{mode}-tau{tau}"));
+            let drawn = csv_mean(&run.join("stats.csv"), "triangles_drawn");
+            assert!((e["triangles_drawn_mean"].as_f64().unwrap() - drawn).abs() < 1e-6 * drawn.max(1.0), "{mode} tau {tau}: {e}");
+            if tau == 0.0 {
+                // Conservative culling at full detail: the image of vfc, no visible leaf missed.
+                assert_eq!(e["false_culled_leaves_total"], 0, "{mode}: {e}");
+                assert_eq!(e["identical_frames"], 8, "{mode}: {e}");
+            } else {
+                // Coarser LODs change pixels; vfc at tau 8 draws fewer triangles than at tau 0.
+                assert!(e["differing_fraction_mean"].as_f64().unwrap() > 0.0, "{mode}: {e}");
+            }
+            assert!(!run.join("frames").exists() || (mode, tau) == ("vfc", 0.0), "{mode} tau {tau}: frames kept");
+        }
+    }
+    // PVS/exact against the exact run computed by `osw exact`: never below 1 at tau 0.
+    let exact_leaves = csv_mean(&out.join("exact/exact.csv"), "visible_leaves");
+    assert!((report["exact_leaves_mean"].as_f64().unwrap() - exact_leaves).abs() < 1e-9);
+    for e in runs.iter().filter(|e| e["tau"] == 0.0) {
+        assert!(e["pvs_exact_leaves"].as_f64().unwrap() >= 1.0, "{e}");
+    }
+    let (w, h, px) = osw_render::output::read_png(&out.join("error_vs_time.png")).unwrap();
+    assert!(w >= 640 && h >= 400 && px.chunks(4).any(|p| p[..3] != px[..3]), "blank plot");
+    assert!(std::fs::read_to_string(out.join("error_vs_time.svg")).unwrap().contains("<svg"));
+
+    // A second report on the same input reuses every run.
+    let stamp = |m: &str| std::fs::metadata(out.join("runs").join(m).join("summary.json")).unwrap().modified().unwrap();
+    let before = stamp("sw-tau0");
+    osw_ok(&args);
+    assert_eq!(stamp("sw-tau0"), before, "the second report ran sw again");
+}
+
+#[test]
+fn report_refuses_unknown_modes_and_bad_taus() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = build_gen(dir.path(), "plant", 20_000, 1);
+    let path = dir.path().join("walk.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "2", "--output", s(&path)]);
+    let out = dir.path().join("r");
+    let base = ["report", "--scene", s(&scene), "--path", s(&path), "--out", s(&out)];
+    osw_err(&[&base[..], &["--modes", "vfc,gigawalk"]].concat(), "gigawalk");
+    osw_err(&[&base[..], &["--taus", "0,-1"]].concat(), "-1");
+    assert!(!out.join("runs").exists(), "nothing runs when the arguments are wrong");
+}
