@@ -13,6 +13,7 @@ use osw_cull::delta::apply;
 use osw_gpu::draw::Pass;
 use osw_render::output::{frame_path, push_ids, write_png};
 use osw_render::stats::quantile;
+use osw_wire::clock::{Offset, now_us};
 use osw_wire::config::{ClusterArgs, Settings};
 use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{CameraPacket, Goodbye, Hello, Message, Role};
@@ -55,6 +56,12 @@ struct FrameRow {
     rvg_ms: f64,
     hc_ms: f64,
     latency_ms: f64,
+    /// One-way latency of each link, from wall-clock stamps corrected by the estimated clock
+    /// offsets: RVG → HC (this frame's camera), HC → RVG (its end of frame), HC → OR (its
+    /// end of frame to the peer; filled in once the peer reports it, a frame later).
+    camera_link_ms: f64,
+    eof_link_ms: f64,
+    peer_link_ms: f64,
     bytes: u64,
     ids_sent: u64,
     ids_full: u64,
@@ -78,8 +85,19 @@ struct Summary {
     ids_full_mean: f64,
     incremental_saved_fraction: f64,
     bytes_per_id: f64,
+    /// Ids per delta batch, the paper's b.
+    batch: usize,
     latency_ms_median: f64,
     latency_ms_p95: f64,
+    latency_ms_max: f64,
+    camera_link_ms_median: f64,
+    eof_link_ms_median: f64,
+    peer_link_ms_median: f64,
+    /// Node a's and b's clock minus the display's, and the round trip of the probe used.
+    clock_offset_a_us: f64,
+    clock_offset_b_us: f64,
+    clock_rtt_a_us: f64,
+    clock_rtt_b_us: f64,
     hc_ms_median: f64,
     rvg_ms_median: f64,
     scene: String,
@@ -103,8 +121,12 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-/// A connection's reader: messages with their encoded size, or the reason it ended.
-type Inbox = Receiver<Result<(Message, u64), String>>;
+/// A connection's reader: messages with their encoded size and arrival time, or the reason
+/// the connection ended.
+type Inbox = Receiver<Result<(Message, u64, u64), String>>;
+
+/// Clock probes per node at start-up (the least round trip of them is used).
+const CLOCK_PROBES: usize = 16;
 
 /// Node a's and node b's addresses: `--nodes`, else the configuration's.
 fn node_addresses(a: &Args, set: &Settings) -> anyhow::Result<[String; 2]> {
@@ -139,10 +161,15 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let mut inboxes: Vec<Inbox> = Vec::new();
     let mut outboxes: Vec<UnboundedSender<Message>> = Vec::new();
+    let mut clocks = Vec::new();
     for (k, addr) in addrs.iter().enumerate() {
         let mut c = rt.block_on(osw_wire::net::connect(addr, Duration::from_secs(10)))?;
         rt.block_on(osw_wire::net::handshake(&mut c, &me, Duration::from_secs(10)))
             .map_err(|e| anyhow::anyhow!("node {}: {e}", ["a", "b"][k]))?;
+        clocks.push(
+            rt.block_on(osw_wire::net::probe_clock(&mut c, CLOCK_PROBES, Duration::from_secs(10)))
+                .map_err(|e| anyhow::anyhow!("node {}: {e}", ["a", "b"][k]))?,
+        );
         let (mut sink, mut stream) = c.split();
         let (tx, rx) = std::sync::mpsc::channel();
         rt.spawn(async move {
@@ -151,7 +178,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
                     Some(Ok(m)) => {
                         let mut b = Vec::new();
                         osw_wire::encode_frame(&m, &mut b);
-                        Ok((m, b.len() as u64))
+                        Ok((m, b.len() as u64, now_us()))
                     }
                     Some(Err(e)) => Err(e.to_string()),
                     None => Err("connection closed".into()),
@@ -174,7 +201,6 @@ fn run(a: &Args) -> anyhow::Result<()> {
         outboxes.push(out_tx);
     }
     std::fs::create_dir_all(a.out.join("frames"))?;
-    let start = Instant::now();
     let packet = |k: usize| {
         let c = &cams[k];
         Message::Camera(CameraPacket {
@@ -182,7 +208,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
             position: c.position.to_array(),
             orientation: c.orientation.to_array(),
             fovy_deg: c.fovy_deg,
-            sampled_us: start.elapsed().as_micros() as u64,
+            sampled_us: now_us(),
         })
     };
     let send_both = |m: Message| outboxes.iter().for_each(|o| drop(o.send(m.clone())));
@@ -191,20 +217,21 @@ fn run(a: &Args) -> anyhow::Result<()> {
     }
     let max_id = scene.header().node_count;
     let mut visible: Vec<u32> = Vec::new();
-    let mut rows = Vec::with_capacity(cams.len());
+    let mut rows: Vec<FrameRow> = Vec::with_capacity(cams.len());
     let mut pvs_txt = String::new();
     let mut last = Instant::now();
+    let mut prev_eof_sent_us = 0u64;
     for i in 0..cams.len() {
         let node = ["a", "b"][i % 2];
         let inbox = &inboxes[i % 2];
         let mut row = FrameRow { frame: i as u64, ..Default::default() };
-        let next = || -> anyhow::Result<(Message, u64)> {
+        let next = || -> anyhow::Result<(Message, u64, u64)> {
             inbox
                 .recv_timeout(WAIT)
                 .map_err(|_| anyhow::anyhow!("frame {i}: nothing from node {node} for {WAIT:?}"))?
                 .map_err(|e| anyhow::anyhow!("frame {i}: node {node}: {e}"))
         };
-        let (m, bytes) = next()?;
+        let (m, bytes, _) = next()?;
         let cam = match m {
             Message::Camera(c) if c.frame == i as u64 => c,
             m => anyhow::bail!("frame {i}: expected the camera from node {node}, got {m:?}"),
@@ -212,7 +239,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         row.bytes += bytes;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         loop {
-            let (m, bytes) = next()?;
+            let (m, bytes, at) = next()?;
             row.bytes += bytes;
             match m {
                 Message::Delta(d) if d.frame == i as u64 => {
@@ -228,6 +255,17 @@ fn run(a: &Args) -> anyhow::Result<()> {
                 Message::EndOfFrame(e) if e.frame == i as u64 => {
                     row.hc_ms = e.stats.hc_us as f64 / 1e3;
                     row.tests = e.stats.tests;
+                    // On the display's clock: node time - offset.
+                    let (hc, or) = (clocks[i % 2].offset_us, clocks[(i + 1) % 2].offset_us);
+                    let ms = |later: f64, earlier: f64| (later - earlier) / 1e3;
+                    row.camera_link_ms = ms(e.clock.camera_received_us as f64 - hc, cam.sampled_us as f64);
+                    row.eof_link_ms = ms(at as f64, e.clock.sent_us as f64 - hc);
+                    if let Some(prev) = rows.last_mut().filter(|_| e.clock.peer_eof_received_us > 0) {
+                        // This node was OR in frame i-1: the peer's end of frame, sent at
+                        // prev_eof_sent_us on the peer's clock, reached it then.
+                        prev.peer_link_ms = ms(e.clock.peer_eof_received_us as f64 - hc, prev_eof_sent_us as f64 - or);
+                    }
+                    prev_eof_sent_us = e.clock.sent_us;
                     break;
                 }
                 m => anyhow::bail!("frame {i}: unexpected message from node {node}: {m:?}"),
@@ -250,7 +288,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         if !a.no_frames {
             write_png(&frame_path(&a.out, i as u64), w, h, r.read_color()?).map_err(anyhow::Error::msg)?;
         }
-        row.latency_ms = (start.elapsed().as_micros() as u64).saturating_sub(cam.sampled_us) as f64 / 1e3;
+        row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
         row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
         last = Instant::now();
         push_ids(&mut pvs_txt, &visible);
@@ -263,7 +301,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         }
     }
     send_both(Message::Goodbye(Goodbye { reason: "path done".into() }));
-    write_outputs(a, &set, &scene, &rows, &pvs_txt)?;
+    write_outputs(a, &set, &scene, &rows, &pvs_txt, &clocks)?;
     std::thread::sleep(Duration::from_millis(50));
     rt.shutdown_timeout(Duration::from_millis(200));
     Ok(())
@@ -273,7 +311,14 @@ fn glam_quat(q: [f64; 4]) -> osw_scene::camera::DQuat {
     osw_scene::camera::DQuat::from_array(q).normalize()
 }
 
-fn write_outputs(a: &Args, set: &Settings, scene: &osw_scene::SceneFile, rows: &[FrameRow], pvs: &str) -> anyhow::Result<()> {
+fn write_outputs(
+    a: &Args,
+    set: &Settings,
+    scene: &osw_scene::SceneFile,
+    rows: &[FrameRow],
+    pvs: &str,
+    clocks: &[Offset],
+) -> anyhow::Result<()> {
     let (w, h) = set.size;
     let col = |f: fn(&FrameRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let mean = |f: fn(&FrameRow) -> f64| col(f).iter().sum::<f64>() / rows.len().max(1) as f64;
@@ -297,8 +342,18 @@ fn write_outputs(a: &Args, set: &Settings, scene: &osw_scene::SceneFile, rows: &
         ids_full_mean: mean(|r| r.ids_full as f64),
         incremental_saved_fraction: if ids_full > 0.0 { 1.0 - ids_sent / ids_full } else { 0.0 },
         bytes_per_id: bytes / ids_sent.max(1.0),
+        batch: set.batch,
         latency_ms_median: quantile(&col(|r| r.latency_ms), 0.5),
         latency_ms_p95: quantile(&col(|r| r.latency_ms), 0.95),
+        latency_ms_max: quantile(&col(|r| r.latency_ms), 1.0),
+        camera_link_ms_median: quantile(&col(|r| r.camera_link_ms), 0.5),
+        eof_link_ms_median: quantile(&col(|r| r.eof_link_ms), 0.5),
+        // The last frame's end of frame reaches no OR: it has no peer latency.
+        peer_link_ms_median: quantile(&rows[..rows.len().saturating_sub(1)].iter().map(|r| r.peer_link_ms).collect::<Vec<_>>(), 0.5),
+        clock_offset_a_us: clocks[0].offset_us,
+        clock_offset_b_us: clocks[1].offset_us,
+        clock_rtt_a_us: clocks[0].rtt_us,
+        clock_rtt_b_us: clocks[1].rtt_us,
         hc_ms_median: quantile(&col(|r| r.hc_ms), 0.5),
         rvg_ms_median: quantile(&col(|r| r.rvg_ms), 0.5),
         scene: set.scene.display().to_string(),
@@ -309,11 +364,26 @@ fn write_outputs(a: &Args, set: &Settings, scene: &osw_scene::SceneFile, rows: &
     };
     std::fs::write(a.out.join("summary.json"), serde_json::to_string_pretty(&s)?)?;
     std::fs::write(a.out.join("pvs.txt"), pvs)?;
-    let mut csv = String::from("frame,frame_ms,rvg_ms,hc_ms,latency_ms,bytes,ids_sent,ids_full,pvs_nodes,triangles_drawn,tests\n");
+    let mut csv = String::from(
+        "frame,frame_ms,rvg_ms,hc_ms,latency_ms,camera_link_ms,eof_link_ms,peer_link_ms,bytes,ids_sent,ids_full,pvs_nodes,triangles_drawn,tests\n",
+    );
     for r in rows {
         csv.push_str(&format!(
-            "{},{:.3},{:.3},{:.3},{:.3},{},{},{},{},{},{}\n",
-            r.frame, r.frame_ms, r.rvg_ms, r.hc_ms, r.latency_ms, r.bytes, r.ids_sent, r.ids_full, r.pvs_nodes, r.triangles_drawn, r.tests
+            "{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{},{},{},{}\n",
+            r.frame,
+            r.frame_ms,
+            r.rvg_ms,
+            r.hc_ms,
+            r.latency_ms,
+            r.camera_link_ms,
+            r.eof_link_ms,
+            r.peer_link_ms,
+            r.bytes,
+            r.ids_sent,
+            r.ids_full,
+            r.pvs_nodes,
+            r.triangles_drawn,
+            r.tests
         ));
     }
     std::fs::write(a.out.join("stats.csv"), csv)?;

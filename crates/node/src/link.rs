@@ -4,19 +4,21 @@
 //! waits on the network to send.
 
 use futures_util::{SinkExt, StreamExt};
-use osw_wire::messages::{Hello, Message, Role};
+use osw_wire::clock::now_us;
+use osw_wire::messages::{Hello, Message, Pong, Role};
 use osw_wire::net::{conn, handshake};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender};
 
-/// What the frame loop hears.
+/// What the frame loop hears. Messages carry their arrival time ([`now_us`]) for the
+/// display's per-link latency.
 #[derive(Debug)]
 pub enum Event {
     Connected(Role, String),
-    FromDisplay(Message),
-    FromPeer(Message),
+    FromDisplay(Message, u64),
+    FromPeer(Message, u64),
     /// A connection ended or failed; the frame loop decides whether that ends the run.
     Closed(Role, String),
 }
@@ -62,9 +64,20 @@ pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>, que
         Role::Node => format!("node {}", peer.name),
         Role::Display => peer.name.clone(),
     };
+    // Clock probes are answered by the connection itself, ahead of queued frame traffic, so
+    // that the frame loop's pace does not enter the round trip.
+    let (pong_tx, mut pong_rx) = tokio::sync::mpsc::unbounded_channel::<Pong>();
     let writer = tokio::spawn(async move {
         let mut out = out;
-        while let Some(m) = out.recv().await {
+        loop {
+            let m = tokio::select! {
+                biased;
+                Some(p) = pong_rx.recv() => Message::Pong(Pong { sent_us: now_us(), ..p }),
+                m = out.recv() => match m {
+                    Some(m) => m,
+                    None => break,
+                },
+            };
             if sink.send(m).await.is_err() {
                 break;
             }
@@ -72,10 +85,14 @@ pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>, que
     });
     let reason = loop {
         match stream.next().await {
+            Some(Ok(Message::Ping(p))) => {
+                let _ = pong_tx.send(Pong { ping_sent_us: p.sent_us, received_us: now_us(), sent_us: 0 });
+            }
             Some(Ok(m)) => {
+                let at = now_us();
                 let e = match role {
-                    Role::Node => Event::FromPeer(m),
-                    Role::Display => Event::FromDisplay(m),
+                    Role::Node => Event::FromPeer(m, at),
+                    Role::Display => Event::FromDisplay(m, at),
                 };
                 if events.send(e).is_err() {
                     break "frame loop ended".to_string();

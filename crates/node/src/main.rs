@@ -100,16 +100,19 @@ fn run(a: &Args) -> anyhow::Result<()> {
     sw.goodbye(if log.is_ok() { "done" } else { "error" });
     let log = log?;
     if let Some(p) = &a.stats {
-        let mut csv = String::from("frame,role,ms,nodes_drawn,tests,ids_sent\n");
+        let mut csv = String::from("frame,role,ms,nodes_drawn,tests,ids_sent,batches,bytes_to_peer,bytes_to_display\n");
         for f in &log {
             csv.push_str(&format!(
-                "{},{},{:.3},{},{},{}\n",
+                "{},{},{:.3},{},{},{},{},{},{}\n",
                 f.frame,
                 if f.hc { "HC" } else { "OR" },
                 f.ms,
                 f.nodes_drawn,
                 f.tests,
-                f.ids_sent
+                f.ids_sent,
+                f.batches,
+                f.bytes_to_peer,
+                f.bytes_to_display
             ));
         }
         std::fs::write(p, csv)?;

@@ -19,7 +19,8 @@ use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{HcTest, Renderer};
 use osw_render::mode::hc_pass;
 use osw_scene::{Camera, NodeId};
-use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, Message, Role};
+use osw_wire::clock::now_us;
+use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Role};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -37,6 +38,10 @@ pub struct NodeFrame {
     pub nodes_drawn: u32,
     pub tests: u32,
     pub ids_sent: u64,
+    /// Delta batches and bytes (frames as encoded) this node sent as HC, per link.
+    pub batches: u32,
+    pub bytes_to_peer: u64,
+    pub bytes_to_display: u64,
 }
 
 pub struct Switch {
@@ -49,8 +54,13 @@ pub struct Switch {
     pub events: Receiver<Event>,
     pub to_peer: UnboundedSender<Message>,
     pub to_display: UnboundedSender<Message>,
-    cameras: BTreeMap<u64, CameraPacket>,
-    peer_queue: VecDeque<Message>,
+    /// Cameras by frame, with their arrival times.
+    cameras: BTreeMap<u64, (CameraPacket, u64)>,
+    peer_queue: VecDeque<(Message, u64)>,
+    /// When the peer's end of the previous frame arrived (this node was OR), for the display.
+    peer_eof_received_us: u64,
+    /// Bytes sent on each link in the current frame: peer, display.
+    sent: [u64; 2],
     /// V(i-1), sorted LOD ids.
     visible: Vec<NodeId>,
     done: bool,
@@ -58,6 +68,13 @@ pub struct Switch {
 
 fn camera(c: &CameraPacket) -> Camera {
     Camera { position: c.position.into(), orientation: glam::DQuat::from_array(c.orientation).normalize(), fovy_deg: c.fovy_deg }
+}
+
+/// Bytes of `m` on the wire, length prefix included.
+fn wire_bytes(m: &Message) -> u64 {
+    let mut b = Vec::new();
+    osw_wire::encode_frame(m, &mut b);
+    b.len() as u64
 }
 
 impl Switch {
@@ -83,6 +100,8 @@ impl Switch {
             to_display,
             cameras: BTreeMap::new(),
             peer_queue: VecDeque::new(),
+            peer_eof_received_us: 0,
+            sent: [0; 2],
             visible: Vec::new(),
             done: false,
         }
@@ -91,12 +110,12 @@ impl Switch {
     /// Handles one event; peer messages are queued for [`Switch::peer_message`].
     fn handle(&mut self, e: Event) -> anyhow::Result<()> {
         match e {
-            Event::FromDisplay(Message::Camera(c)) => {
-                self.cameras.insert(c.frame, c);
+            Event::FromDisplay(Message::Camera(c), at) => {
+                self.cameras.insert(c.frame, (c, at));
             }
-            Event::FromDisplay(Message::Goodbye(_)) | Event::FromPeer(Message::Goodbye(_)) => self.done = true,
-            Event::FromPeer(m) => self.peer_queue.push_back(m),
-            Event::FromDisplay(m) => tracing::warn!("unexpected message from the display: {m:?}"),
+            Event::FromDisplay(Message::Goodbye(_), _) | Event::FromPeer(Message::Goodbye(_), _) => self.done = true,
+            Event::FromPeer(m, at) => self.peer_queue.push_back((m, at)),
+            Event::FromDisplay(m, _) => tracing::warn!("unexpected message from the display: {m:?}"),
             Event::Connected(role, name) => tracing::info!("{role:?} {name} connected"),
             Event::Closed(role, why) if !self.done => anyhow::bail!("{role:?} connection lost: {why}"),
             Event::Closed(..) => {}
@@ -122,8 +141,8 @@ impl Switch {
         Ok(())
     }
 
-    /// The camera of frame `k`, or `None` when the display said goodbye.
-    fn camera(&mut self, k: u64) -> anyhow::Result<Option<CameraPacket>> {
+    /// The camera of frame `k` and its arrival time, or `None` when the display said goodbye.
+    fn camera(&mut self, k: u64) -> anyhow::Result<Option<(CameraPacket, u64)>> {
         loop {
             if let Some(c) = self.cameras.get(&k).copied() {
                 // Older cameras are never needed again.
@@ -137,7 +156,7 @@ impl Switch {
         }
     }
 
-    fn peer_message(&mut self) -> anyhow::Result<Option<Message>> {
+    fn peer_message(&mut self) -> anyhow::Result<Option<(Message, u64)>> {
         loop {
             if let Some(m) = self.peer_queue.pop_front() {
                 return Ok(Some(m));
@@ -162,15 +181,24 @@ impl Switch {
         Ok(log)
     }
 
-    fn send_both(&self, m: Message) {
-        let _ = self.to_peer.send(m.clone());
+    /// Sends `m` to the display and counts its bytes.
+    fn send_display(&mut self, m: Message) {
+        self.sent[1] += wire_bytes(&m);
         let _ = self.to_display.send(m);
     }
 
+    /// Sends `m` to the peer and the display and counts its bytes on both links.
+    fn send_both(&mut self, m: Message) {
+        self.sent[0] += wire_bytes(&m);
+        let _ = self.to_peer.send(m.clone());
+        self.send_display(m);
+    }
+
     fn hc(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
-        let Some(cam) = self.camera(i)? else { return Ok(None) };
+        let Some((cam, camera_received_us)) = self.camera(i)? else { return Ok(None) };
         let t = Instant::now();
-        let _ = self.to_display.send(Message::Camera(cam));
+        self.sent = [0; 2];
+        self.send_display(Message::Camera(cam));
         let r = &mut self.renderer;
         r.begin_frame();
         let view = r.view(&camera(&cam));
@@ -191,21 +219,33 @@ impl Switch {
             removed.clear();
         }
         let chunks = added.len().div_ceil(self.batch).max(removed.len().div_ceil(self.batch));
+        let batch = self.batch;
         for k in 0..chunks {
-            let part = |v: &[u32]| v.iter().skip(k * self.batch).take(self.batch).copied().collect::<Vec<_>>();
+            let part = |v: &[u32]| v.iter().skip(k * batch).take(batch).copied().collect::<Vec<_>>();
             let (a, rm) = (part(&added), part(&removed));
             ids_sent += (a.len() + rm.len()) as u64;
             self.send_both(Message::Delta(Delta { frame: i, added: IdList::from_ids(&a), removed: IdList::from_ids(&rm) }));
         }
         let stats =
             HcWireStats { tests: hc.tests, levels: hc.levels, hc_us: t.elapsed().as_micros() as u64, or_us: 0, pvs: pvs.len() as u32 };
-        self.send_both(Message::EndOfFrame(EndOfFrame { frame: i, stats }));
+        let clock = LinkStamps { sent_us: now_us(), camera_received_us, peer_eof_received_us: self.peer_eof_received_us };
+        self.send_both(Message::EndOfFrame(EndOfFrame { frame: i, stats, clock }));
         self.visible = pvs;
-        Ok(Some(NodeFrame { frame: i, hc: true, ms: t.elapsed().as_secs_f64() * 1e3, nodes_drawn: 0, tests: hc.tests, ids_sent }))
+        Ok(Some(NodeFrame {
+            frame: i,
+            hc: true,
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            nodes_drawn: 0,
+            tests: hc.tests,
+            ids_sent,
+            batches: chunks as u32,
+            bytes_to_peer: self.sent[0],
+            bytes_to_display: self.sent[1],
+        }))
     }
 
     fn or(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
-        let Some(cam) = self.camera(i + 1)? else { return Ok(None) };
+        let Some((cam, _)) = self.camera(i + 1)? else { return Ok(None) };
         let t = Instant::now();
         let max_id = self.renderer.scene.header().node_count;
         let r = &mut self.renderer;
@@ -218,13 +258,13 @@ impl Switch {
         loop {
             match self.peer_message()? {
                 None => return Ok(None),
-                Some(Message::Delta(d)) if d.frame == i => {
+                Some((Message::Delta(d), _)) if d.frame == i => {
                     let a = d.added.ids(max_id)?;
                     drawn += self.renderer.draw(&view, &a, Pass::Depth, false)?.nodes;
                     added.extend(a);
                     removed.extend(d.removed.ids(max_id)?);
                 }
-                Some(Message::Keyframe(k)) if k.frame == i => {
+                Some((Message::Keyframe(k), _)) if k.frame == i => {
                     // The whole V(i): draw what V(i-1) lacks, as the deltas would have.
                     let all = k.ids.ids(max_id)?;
                     let (mut a, mut rm) = (Vec::new(), Vec::new());
@@ -233,18 +273,31 @@ impl Switch {
                     added.extend(a);
                     removed.extend(rm);
                 }
-                Some(Message::EndOfFrame(e)) if e.frame == i => break,
-                Some(m) => anyhow::bail!("frame {i}: unexpected message from the peer: {m:?}"),
+                Some((Message::EndOfFrame(e), at)) if e.frame == i => {
+                    self.peer_eof_received_us = at;
+                    break;
+                }
+                Some((m, _)) => anyhow::bail!("frame {i}: unexpected message from the peer: {m:?}"),
             }
         }
         added.sort_unstable();
         removed.sort_unstable();
         self.visible = apply(&self.visible, &removed, &added);
-        Ok(Some(NodeFrame { frame: i, hc: false, ms: t.elapsed().as_secs_f64() * 1e3, nodes_drawn: drawn, tests: 0, ids_sent: 0 }))
+        Ok(Some(NodeFrame {
+            frame: i,
+            hc: false,
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            nodes_drawn: drawn,
+            tests: 0,
+            ids_sent: 0,
+            batches: 0,
+            bytes_to_peer: 0,
+            bytes_to_display: 0,
+        }))
     }
 
     /// Tells everyone this node is leaving.
-    pub fn goodbye(&self, reason: &str) {
+    pub fn goodbye(&mut self, reason: &str) {
         self.send_both(Message::Goodbye(Goodbye { reason: reason.to_owned() }));
     }
 }

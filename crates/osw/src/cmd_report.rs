@@ -7,6 +7,7 @@
 //! Every run keeps its own directory under DIR/runs; a run whose results are there for the
 //! same scene, path and size is not repeated, so an interrupted report resumes where it stopped.
 
+use crate::columns::{Columns, mean};
 use crate::plot::{Chart, Series};
 use crate::walk_args::WalkArgs;
 use anyhow::{Context, bail};
@@ -213,19 +214,10 @@ fn entry(mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Entry> {
     })
 }
 
-/// Means of the `exact.csv` columns visible_leaves and visible_triangles.
+/// Frames and means of the `exact.csv` columns visible_leaves and visible_triangles.
 fn exact_means(dir: &Path) -> anyhow::Result<(usize, f64, f64)> {
-    let text = std::fs::read_to_string(dir.join("exact.csv"))?;
-    let rows: Vec<(f64, f64)> = text
-        .lines()
-        .skip(1)
-        .filter_map(|l| {
-            let mut c = l.split(',').skip(1).map(|x| x.parse::<f64>().ok());
-            Some((c.next()??, c.next()??))
-        })
-        .collect();
-    let n = rows.len().max(1) as f64;
-    Ok((rows.len(), rows.iter().map(|r| r.0).sum::<f64>() / n, rows.iter().map(|r| r.1).sum::<f64>() / n))
+    let t = Columns::read(&dir.join("exact.csv"))?;
+    Ok((t.len(), mean(&t.get("visible_leaves")?), mean(&t.get("visible_triangles")?)))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {

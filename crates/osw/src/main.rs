@@ -11,14 +11,17 @@ macro_rules! out {
     }};
 }
 
+mod cmd_bandwidth;
 mod cmd_build;
 mod cmd_compare;
 mod cmd_exact;
 mod cmd_info;
+mod cmd_latency;
 mod cmd_path;
 mod cmd_render;
 mod cmd_report;
 mod cmd_run;
+mod columns;
 mod plot;
 mod progress;
 mod walk_args;
@@ -51,6 +54,10 @@ enum Cmd {
     /// Error against run time: every mode at every tau, compared with exact visibility and
     /// full-detail images; report.md, report.json and a plot.
     Report(cmd_report::Args),
+    /// Bytes and ids per frame on each link of a switch run, against paper 000's model.
+    Bandwidth(cmd_bandwidth::Args),
+    /// One-way latency per link and camera-to-display latency of a switch run.
+    Latency(cmd_latency::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -68,6 +75,8 @@ fn main() -> std::process::ExitCode {
         Cmd::Compare(a) => cmd_compare::run(a),
         Cmd::Run(a) => cmd_run::run(a),
         Cmd::Report(a) => cmd_report::run(a),
+        Cmd::Bandwidth(a) => cmd_bandwidth::run(a),
+        Cmd::Latency(a) => cmd_latency::run(a),
     };
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -66,6 +66,64 @@ fn the_switch_is_prev_split_across_processes() {
     // Each node did both roles, in turn.
     let roles = std::fs::read_to_string(run.join("node-a.csv")).unwrap();
     assert!(roles.lines().skip(1).enumerate().all(|(i, l)| l.split(',').nth(1) == Some(if i % 2 == 0 { "HC" } else { "OR" })), "{roles}");
+    check_bandwidth(&run, &full, &d.path().join("bw"));
+    check_latency(&run, &d.path().join("lat"));
+}
+
+/// A CSV file as rows of cells by header name.
+fn csv(p: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let text = std::fs::read_to_string(p).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines.map(|l| head.iter().map(|h| h.to_string()).zip(l.split(',').map(String::from)).collect()).collect()
+}
+
+fn num(row: &std::collections::HashMap<String, String>, k: &str) -> f64 {
+    row.get(k).unwrap_or_else(|| panic!("no column {k}")).parse().unwrap()
+}
+
+/// `osw bandwidth`: the bytes the HC nodes counted on sending equal those the display counted
+/// on receiving; the model is the paper's formula of the same n, h, b; --full sends every id.
+fn check_bandwidth(run: &Path, full: &Path, out: &Path) {
+    osw_ok(&["bandwidth", "--run", s(run), "--full", s(full), "--out", s(out)]);
+    let (bw, display, display_full) = (csv(&out.join("bandwidth.csv")), csv(&run.join("stats.csv")), csv(&full.join("stats.csv")));
+    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("bandwidth.json")).unwrap()).unwrap();
+    let (h, b) = (j["incremental"]["header_bytes"].as_f64().unwrap(), j["incremental"]["batch"].as_f64().unwrap());
+    assert_eq!(bw.len(), display.len());
+    for (i, (r, d)) in bw.iter().zip(&display).enumerate() {
+        assert_eq!(num(r, "hc_to_rvg_bytes"), num(d, "bytes"), "frame {i}: sent and received bytes differ");
+        assert_eq!(num(r, "ids_sent"), num(d, "ids_sent"), "frame {i}");
+        assert_eq!(num(r, "full_ids_sent"), num(&display_full[i], "ids_full"), "frame {i}: --full must send the whole set");
+        let n = num(r, "ids_sent");
+        assert!((num(r, "model_bytes") - (8.0 * n + n * h / b + 3.0 * (72.0 + h))).abs() < 0.06, "frame {i}: {r:?}");
+        assert!(num(r, "hc_to_or_bytes") < num(r, "hc_to_rvg_bytes"), "frame {i}: the peer gets no camera");
+    }
+    let ids: f64 = bw.iter().map(|r| num(r, "ids_sent")).sum();
+    let visible: f64 = bw.iter().map(|r| num(r, "visible")).sum();
+    assert!((j["saved_fraction_ids"].as_f64().unwrap() - (1.0 - ids / visible)).abs() < 1e-9);
+    assert!(j["saved_fraction_bytes"].as_f64().unwrap() > 0.0, "{j}");
+    for plot in ["bandwidth_ids.png", "bandwidth_bytes.png", "bandwidth_bytes.svg"] {
+        assert!(std::fs::metadata(out.join(plot)).unwrap().len() > 1000, "{plot}");
+    }
+}
+
+/// `osw latency`: on one host the true clock offset is 0, so each estimate must lie within its
+/// own bound (half the probe's round trip); one-way link latencies fit inside the frame's
+/// camera-to-display latency.
+fn check_latency(run: &Path, out: &Path) {
+    osw_ok(&["latency", "--run", s(run), "--out", s(out)]);
+    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("latency.json")).unwrap()).unwrap();
+    for n in ["a", "b"] {
+        let (off, rtt) = (j[format!("clock_offset_{n}_us")].as_f64().unwrap(), j[format!("clock_rtt_{n}_us")].as_f64().unwrap());
+        assert!(off.abs() <= rtt / 2.0 + 1.0, "node {n}: offset {off} µs outside ±{} µs", rtt / 2.0);
+    }
+    let slack = 1.0 + j["clock_rtt_a_us"].as_f64().unwrap().max(j["clock_rtt_b_us"].as_f64().unwrap()) / 1e3;
+    for (i, r) in csv(&run.join("stats.csv")).iter().enumerate() {
+        let (cam, eof, total) = (num(r, "camera_link_ms"), num(r, "eof_link_ms"), num(r, "latency_ms"));
+        assert!(cam > -slack && eof > -slack && cam + eof <= total + slack, "frame {i}: {r:?}");
+    }
+    assert_eq!(j["latency"].as_array().unwrap().len(), 4);
+    assert!(std::fs::metadata(out.join("latency.png")).unwrap().len() > 1000);
 }
 
 #[test]

@@ -72,7 +72,13 @@ mod tests {
                 sampled_us: 123,
             }),
             Message::Delta(Delta { frame: 7, added: IdList::from_ids(&[1, 5, 900]), removed: IdList::from_ids(&[2]) }),
-            Message::EndOfFrame(EndOfFrame { frame: 7, stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, or_us: 6, pvs: 3 } }),
+            Message::EndOfFrame(EndOfFrame {
+                frame: 7,
+                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, or_us: 6, pvs: 3 },
+                clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3 },
+            }),
+            Message::Ping(Ping { sent_us: 9 }),
+            Message::Pong(Pong { ping_sent_us: 9, received_us: 10, sent_us: 11 }),
             Message::Keyframe(Keyframe { frame: 8, ids: IdList::from_ids(&[0, 1, 2]) }),
             Message::Goodbye(Goodbye { reason: "done".into() }),
         ]
@@ -88,13 +94,14 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_1() {
-        // An end of frame: length 7, variant 3, frame 7, tests 10, levels 2, hc_us 5, or_us 6,
-        // pvs 3 (bincode standard: varint integers). A change here changes the protocol:
-        // bump PROTOCOL_VERSION.
+    fn golden_bytes_of_version_2() {
+        // An end of frame: length 10, variant 3, frame 7, tests 10, levels 2, hc_us 5, or_us 6,
+        // pvs 3, then the link stamps 1, 2, 3 (bincode standard: varint integers). A change
+        // here changes the protocol: bump PROTOCOL_VERSION.
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 2);
         let mut b = Vec::new();
         encode_frame(&samples()[3], &mut b);
-        assert_eq!(b, vec![7, 0, 0, 0, 3, 7, 10, 2, 5, 6, 3]);
+        assert_eq!(b, vec![10, 0, 0, 0, 3, 7, 10, 2, 5, 6, 3, 1, 2, 3]);
     }
 
     #[test]

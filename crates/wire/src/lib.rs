@@ -9,8 +9,10 @@
 //!   4 bytes an id).
 //! - [`frame`]: `[u32 LE length][payload]` frames with a maximum size checked before any
 //!   allocation; incomplete input is not an error, invalid input is.
+//! - [`clock`]: wall-clock stamps and the NTP-style offset estimate for one-way latency.
 //! - [`limits`]: the protocol version and the limits, each with its reason.
 
+pub mod clock;
 pub mod codec;
 pub mod config;
 pub mod frame;
@@ -20,4 +22,4 @@ pub mod messages;
 pub mod net;
 
 pub use frame::{WireError, decode_frame, encode_frame};
-pub use messages::{CameraPacket, Delta, EndOfFrame, Goodbye, Hello, IdList, Keyframe, Message, Role};
+pub use messages::{CameraPacket, Delta, EndOfFrame, Goodbye, Hello, IdList, Keyframe, LinkStamps, Message, Ping, Pong, Role};

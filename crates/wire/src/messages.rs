@@ -36,7 +36,7 @@ pub struct CameraPacket {
     /// Unit quaternion x, y, z, w.
     pub orientation: [f64; 4],
     pub fovy_deg: f64,
-    /// When RVG sampled this camera, microseconds on RVG's clock.
+    /// When RVG sampled this camera ([`crate::clock::now_us`] on RVG's host).
     pub sampled_us: u64,
 }
 
@@ -80,6 +80,32 @@ pub struct HcWireStats {
 pub struct EndOfFrame {
     pub frame: u64,
     pub stats: HcWireStats,
+    pub clock: LinkStamps,
+}
+
+/// The HC node's wall-clock stamps ([`crate::clock::now_us`] on its host) from which the
+/// display computes each link's one-way latency; 0 where there is none.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LinkStamps {
+    /// When this end of frame was sent (HC → RVG and HC → OR).
+    pub sent_us: u64,
+    /// When this node received the frame's camera from RVG (RVG → HC).
+    pub camera_received_us: u64,
+    /// When this node, as OR, received the peer's end of the previous frame (HC → OR).
+    pub peer_eof_received_us: u64,
+}
+
+/// Clock probe, display to node: the node answers with a [`Pong`] at once.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Ping {
+    pub sent_us: u64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pong {
+    pub ping_sent_us: u64,
+    pub received_us: u64,
+    pub sent_us: u64,
 }
 
 /// The whole visible set of frame `frame`: at start-up and to resynchronise.
@@ -102,6 +128,8 @@ pub enum Message {
     EndOfFrame(EndOfFrame),
     Keyframe(Keyframe),
     Goodbye(Goodbye),
+    Ping(Ping),
+    Pong(Pong),
 }
 
 impl Message {

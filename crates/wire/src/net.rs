@@ -90,3 +90,24 @@ pub async fn handshake(c: &mut Conn, me: &Hello, within: Duration) -> Result<Hel
     }
     Ok(h)
 }
+
+/// Estimates the peer's clock offset from `samples` ping-pong exchanges (see [`crate::clock`]);
+/// the peer must answer each [`Ping`](crate::messages::Ping) before anything else.
+pub async fn probe_clock(c: &mut Conn, samples: usize, within: Duration) -> Result<crate::clock::Offset, NetError> {
+    use crate::clock::{Sample, estimate, now_us};
+    use crate::messages::Ping;
+    let peer = c.get_ref().peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
+    let mut got = Vec::with_capacity(samples);
+    for _ in 0..samples {
+        let t0 = now_us();
+        send(c, &Message::Ping(Ping { sent_us: t0 })).await?;
+        let reply = tokio::time::timeout(within, recv(c, &peer))
+            .await
+            .map_err(|_| NetError::Timeout(format!("no answer to a clock probe from {peer} within {within:?}")))??;
+        match reply {
+            Message::Pong(p) if p.ping_sent_us == t0 => got.push(Sample { t0, t1: p.received_us, t2: p.sent_us, t3: now_us() }),
+            m => return Err(NetError::Refused { peer, why: format!("answered a clock probe with {m:?}") }),
+        }
+    }
+    estimate(&got).ok_or_else(|| NetError::Timeout(format!("no clock samples from {peer}")))
+}

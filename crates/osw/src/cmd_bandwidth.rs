@@ -1,0 +1,231 @@
+//! `osw bandwidth`: bytes and ids per frame on each link of a switch run (`osw run`), next to
+//! paper 000's model (sec. 3.5): 8n + nh/b + 3(72 + h) bytes a frame, for n ids sent, h bytes
+//! of header per packet and b ids per packet; with a `--full` run beside it, the saving of
+//! incremental transmission and a plot of both over the frames (the form of fig. 3).
+
+use crate::columns::{Columns, mean};
+use crate::plot::{Chart, Series};
+use anyhow::{Context, bail};
+use osw_wire::{CameraPacket, Delta, IdList, Message};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A switch run's directory (`osw run`: stats.csv, node-a.csv, node-b.csv, summary.json).
+    #[arg(long)]
+    run: PathBuf,
+    /// The same walk run with `osw run --full` (whole visible set every frame).
+    #[arg(long)]
+    full: Option<PathBuf>,
+    /// Output directory: bandwidth.csv, bandwidth.json, bandwidth_ids.png/.svg,
+    /// bandwidth_bytes.png/.svg.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// Frame bytes of a message, as sent.
+fn frame_bytes(m: &Message) -> f64 {
+    let mut b = Vec::new();
+    osw_wire::encode_frame(m, &mut b);
+    b.len() as f64
+}
+
+/// One run's traffic per frame.
+struct Traffic {
+    ids: Vec<f64>,
+    visible: Vec<f64>,
+    batches: Vec<f64>,
+    hc_to_rvg: Vec<f64>,
+    hc_to_or: Vec<f64>,
+    /// RVG sends each frame's camera to both nodes (not counted by the nodes: computed).
+    rvg_cameras: f64,
+    /// The paper's h: a packet's header (length prefix, message tag, frame number, list
+    /// lengths: an empty delta) and b.
+    header: f64,
+    batch: f64,
+    frame_ms_median: f64,
+}
+
+impl Traffic {
+    fn read(dir: &Path) -> anyhow::Result<Traffic> {
+        let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json"))?)
+            .with_context(|| format!("{}: summary.json", dir.display()))?;
+        if summary["mode"] != "switch" {
+            bail!("{} is not a switch run (osw run)", dir.display());
+        }
+        let display = Columns::read(&dir.join("stats.csv"))?;
+        let frames = display.len();
+        // Each frame's HC node sent it: the two nodes' rows added by frame.
+        let by_frame = |col: &str| -> anyhow::Result<Vec<f64>> {
+            let mut v = vec![0.0; frames];
+            for node in ["node-a.csv", "node-b.csv"] {
+                let t = Columns::read(&dir.join(node))?;
+                for (f, x) in t.get("frame")?.into_iter().zip(t.get(col)?) {
+                    if let Some(slot) = v.get_mut(f as usize) {
+                        *slot += x;
+                    }
+                }
+            }
+            Ok(v)
+        };
+        let (batches, hc_to_rvg, hc_to_or) = (by_frame("batches")?, by_frame("bytes_to_display")?, by_frame("bytes_to_peer")?);
+        let camera = Message::Camera(CameraPacket {
+            frame: frames as u64,
+            position: [0.0; 3],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            fovy_deg: 60.0,
+            sampled_us: osw_wire::clock::now_us(),
+        });
+        let empty = Message::Delta(Delta { frame: frames as u64, added: IdList::default(), removed: IdList::default() });
+        Ok(Traffic {
+            ids: display.get("ids_sent")?,
+            visible: display.get("ids_full")?,
+            batches,
+            hc_to_rvg,
+            hc_to_or,
+            rvg_cameras: 2.0 * frame_bytes(&camera),
+            header: frame_bytes(&empty),
+            batch: summary["batch"].as_f64().unwrap_or(osw_wire::limits::DEFAULT_BATCH_IDS as f64),
+            frame_ms_median: summary["frame_ms_median"].as_f64().unwrap_or(0.0),
+        })
+    }
+
+    fn total(&self, i: usize) -> f64 {
+        self.hc_to_rvg[i] + self.hc_to_or[i] + self.rvg_cameras
+    }
+
+    /// Paper 000 sec. 3.5 with this run's n, h and b.
+    fn model(&self, i: usize) -> f64 {
+        let (n, h, b) = (self.ids[i], self.header, self.batch);
+        8.0 * n + n * h / b + 3.0 * (72.0 + h)
+    }
+}
+
+#[derive(Serialize)]
+struct Side {
+    ids_sent_mean: f64,
+    bytes_per_frame_mean: f64,
+    hc_to_rvg_bytes_mean: f64,
+    hc_to_or_bytes_mean: f64,
+    rvg_camera_bytes: f64,
+    model_bytes_per_frame_mean: f64,
+    header_bytes: f64,
+    batch: f64,
+    /// At the run's median frame rate.
+    megabits_per_second: f64,
+}
+
+fn side(t: &Traffic) -> Side {
+    let n = t.ids.len();
+    let total: Vec<f64> = (0..n).map(|i| t.total(i)).collect();
+    let ids = mean(&t.ids);
+    let bytes = mean(&total);
+    Side {
+        ids_sent_mean: ids,
+        bytes_per_frame_mean: bytes,
+        hc_to_rvg_bytes_mean: mean(&t.hc_to_rvg),
+        hc_to_or_bytes_mean: mean(&t.hc_to_or),
+        rvg_camera_bytes: t.rvg_cameras,
+        model_bytes_per_frame_mean: mean(&(0..n).map(|i| t.model(i)).collect::<Vec<_>>()),
+        header_bytes: t.header,
+        batch: t.batch,
+        megabits_per_second: if t.frame_ms_median > 0.0 { bytes * 8.0 / 1e6 * (1000.0 / t.frame_ms_median) } else { 0.0 },
+    }
+}
+
+#[derive(Serialize)]
+struct Report {
+    frames: usize,
+    incremental: Side,
+    full: Option<Side>,
+    /// 1 - bytes with deltas / bytes with the whole set, per frame means.
+    saved_fraction_bytes: Option<f64>,
+    /// 1 - ids sent / visible-set size (the same run: what full transmission would send).
+    saved_fraction_ids: f64,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let inc = Traffic::read(&a.run)?;
+    let full = a.full.as_deref().map(Traffic::read).transpose()?;
+    let frames = match &full {
+        Some(f) if f.ids.len() != inc.ids.len() => {
+            bail!("{} has {} frames, {} has {}", a.run.display(), inc.ids.len(), a.full.as_ref().unwrap().display(), f.ids.len())
+        }
+        _ => inc.ids.len(),
+    };
+    std::fs::create_dir_all(&a.out)?;
+    let mut csv = String::from("frame,ids_sent,visible,batches,hc_to_rvg_bytes,hc_to_or_bytes,rvg_camera_bytes,total_bytes,model_bytes");
+    if full.is_some() {
+        csv.push_str(",full_ids_sent,full_total_bytes,full_model_bytes");
+    }
+    csv.push('\n');
+    for i in 0..frames {
+        csv.push_str(&format!(
+            "{i},{},{},{},{},{},{},{},{:.1}",
+            inc.ids[i],
+            inc.visible[i],
+            inc.batches[i],
+            inc.hc_to_rvg[i],
+            inc.hc_to_or[i],
+            inc.rvg_cameras,
+            inc.total(i),
+            inc.model(i)
+        ));
+        if let Some(f) = &full {
+            csv.push_str(&format!(",{},{},{:.1}", f.ids[i], f.total(i), f.model(i)));
+        }
+        csv.push('\n');
+    }
+    std::fs::write(a.out.join("bandwidth.csv"), csv)?;
+    let report = Report {
+        frames,
+        saved_fraction_bytes: full.as_ref().map(|f| {
+            1.0 - mean(&(0..frames).map(|i| inc.total(i)).collect::<Vec<_>>())
+                / mean(&(0..frames).map(|i| f.total(i)).collect::<Vec<_>>()).max(1.0)
+        }),
+        saved_fraction_ids: 1.0 - inc.ids.iter().sum::<f64>() / inc.visible.iter().sum::<f64>().max(1.0),
+        incremental: side(&inc),
+        full: full.as_ref().map(side),
+    };
+    std::fs::write(a.out.join("bandwidth.json"), serde_json::to_string_pretty(&report)?)?;
+
+    let over_frames = |v: &dyn Fn(usize) -> f64| (0..frames).map(|i| (i as f64, v(i))).collect::<Vec<_>>();
+    let series = |name: &str, points| Series { name: name.into(), points, point_labels: vec![] };
+    let mut ids = vec![
+        series("incremental (ids added + removed)", over_frames(&|i| inc.ids[i])),
+        series("full (visible set)", over_frames(&|i| inc.visible[i])),
+    ];
+    if let Some(f) = &full {
+        ids.push(series("--full run", over_frames(&|i| f.ids[i])));
+    }
+    crate::plot::write(
+        &Chart { title: "Node ids sent per frame, incremental and full (paper 000 fig. 3)", x: "frame", y: "ids sent by HC", series: ids },
+        &a.out.join("bandwidth_ids"),
+    )?;
+    let mut bytes = vec![
+        series("incremental, measured", over_frames(&|i| inc.total(i))),
+        series("incremental, paper's model", over_frames(&|i| inc.model(i))),
+    ];
+    if let Some(f) = &full {
+        bytes.push(series("full, measured", over_frames(&|i| f.total(i))));
+        bytes.push(series("full, paper's model", over_frames(&|i| f.model(i))));
+    }
+    crate::plot::write(
+        &Chart { title: "Bytes per frame on all links", x: "frame", y: "bytes", series: bytes },
+        &a.out.join("bandwidth_bytes"),
+    )?;
+    out!(
+        "bandwidth: {:.0} bytes a frame with deltas (model {:.0}){}, {:.1}% of ids saved → {}",
+        report.incremental.bytes_per_frame_mean,
+        report.incremental.model_bytes_per_frame_mean,
+        report.full.as_ref().map_or(String::new(), |f| format!(
+            ", {:.0} with the whole set ({:.1}% saved)",
+            f.bytes_per_frame_mean,
+            report.saved_fraction_bytes.unwrap_or(0.0) * 100.0
+        )),
+        report.saved_fraction_ids * 100.0,
+        a.out.display()
+    );
+    Ok(())
+}
