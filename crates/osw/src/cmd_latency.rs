@@ -2,20 +2,22 @@
 //! sample to displayed frame, with median, p95 and max, and a plot over the frames. The
 //! one-way figures come from wall-clock stamps corrected by the clock offsets the display
 //! estimated at start-up (NTP-style, `osw_wire::clock`), so they hold across machines too.
+//! Given several runs (e.g. one per link delay), a table over them and one curve per run.
 
 use crate::columns::Columns;
 use crate::plot::{Chart, Series};
 use anyhow::Context;
 use osw_render::stats::quantile;
 use serde::Serialize;
-use std::path::PathBuf;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A switch run's directory (`osw run`, or the display's --out of a cluster run).
-    #[arg(long)]
-    run: PathBuf,
-    /// Output directory: latency.json, latency.png/.svg.
+    /// Switch run directories (`osw run`, or scripts/netns-cluster.sh): one or more.
+    #[arg(long, required = true, num_args = 1..)]
+    run: Vec<PathBuf>,
+    /// Output directory: latency.json, latency.md, latency.png/.svg.
     #[arg(long)]
     out: PathBuf,
 }
@@ -38,61 +40,103 @@ struct Stat {
 }
 
 #[derive(Serialize)]
-struct Report {
+struct Run {
+    run: String,
+    /// The links' shaping (links.txt of a namespace run), else "loopback".
+    links: String,
     frames: usize,
     clock_offset_a_us: f64,
     clock_offset_b_us: f64,
     clock_rtt_a_us: f64,
     clock_rtt_b_us: f64,
     latency: Vec<Stat>,
+    #[serde(skip)]
+    per_frame: Vec<Vec<f64>>,
 }
 
-pub fn run(a: Args) -> anyhow::Result<()> {
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.run.join("summary.json"))?)
-        .with_context(|| format!("{}: summary.json", a.run.display()))?;
-    let t = Columns::read(&a.run.join("stats.csv"))?;
+fn read(dir: &Path) -> anyhow::Result<Run> {
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json"))?)
+        .with_context(|| format!("{}: summary.json", dir.display()))?;
+    let t = Columns::read(&dir.join("stats.csv"))?;
     let frames = t.len();
-    let mut stats = Vec::new();
-    let mut series = Vec::new();
+    let (mut latency, mut per_frame) = (Vec::new(), Vec::new());
     for (column, what) in LINKS {
-        let mut v = t.get(column)?;
+        let mut v = t.get(column).with_context(|| format!("{}: stats.csv", dir.display()))?;
         if column == "peer_link_ms" {
             // The last frame's end of frame reaches no OR.
             v.truncate(frames.saturating_sub(1));
         }
-        stats.push(Stat { column, what, median_ms: quantile(&v, 0.5), p95_ms: quantile(&v, 0.95), max_ms: quantile(&v, 1.0) });
-        series.push(Series {
-            name: what.into(),
-            points: v.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect(),
-            point_labels: vec![],
-        });
+        latency.push(Stat { column, what, median_ms: quantile(&v, 0.5), p95_ms: quantile(&v, 0.95), max_ms: quantile(&v, 1.0) });
+        per_frame.push(v);
     }
+    let links = std::fs::read_to_string(dir.join("links.txt"))
+        .ok()
+        .and_then(|l| Some(l.lines().next()?.split_once(": ")?.1.to_owned()))
+        .unwrap_or_else(|| "loopback".into());
     let f = |k: &str| summary[k].as_f64().unwrap_or(0.0);
-    let report = Report {
+    Ok(Run {
+        run: dir.display().to_string(),
+        links,
         frames,
         clock_offset_a_us: f("clock_offset_a_us"),
         clock_offset_b_us: f("clock_offset_b_us"),
         clock_rtt_a_us: f("clock_rtt_a_us"),
         clock_rtt_b_us: f("clock_rtt_b_us"),
-        latency: stats,
-    };
+        latency,
+        per_frame,
+    })
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let runs = a.run.iter().map(|d| read(d)).collect::<anyhow::Result<Vec<Run>>>()?;
     std::fs::create_dir_all(&a.out)?;
-    std::fs::write(a.out.join("latency.json"), serde_json::to_string_pretty(&report)?)?;
+    std::fs::write(a.out.join("latency.json"), serde_json::to_string_pretty(&runs)?)?;
+    let mut md =
+        String::from("| run | links | frame latency median ms | p95 | max | RVG→HC ms | HC→RVG ms | HC→OR ms | clock offsets a, b µs |\n");
+    md.push_str("| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    for r in &runs {
+        let s = &r.latency;
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.3} | {:.3} | {:.3} | {:.0} ± {:.0}, {:.0} ± {:.0} |",
+            r.run,
+            r.links,
+            s[0].median_ms,
+            s[0].p95_ms,
+            s[0].max_ms,
+            s[1].median_ms,
+            s[2].median_ms,
+            s[3].median_ms,
+            r.clock_offset_a_us,
+            r.clock_rtt_a_us / 2.0,
+            r.clock_offset_b_us,
+            r.clock_rtt_b_us / 2.0
+        );
+        out!(
+            "latency: {} ({}): frame {:.1} ms median, links {:.3} / {:.3} / {:.3} ms",
+            r.run,
+            r.links,
+            s[0].median_ms,
+            s[1].median_ms,
+            s[2].median_ms,
+            s[3].median_ms
+        );
+    }
+    std::fs::write(a.out.join("latency.md"), &md)?;
+    let points = |v: &[f64]| v.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect();
+    let series: Vec<Series> = match runs.as_slice() {
+        // One run: each link; several: camera-to-display latency of each run.
+        [r] => LINKS
+            .iter()
+            .zip(&r.per_frame)
+            .map(|((_, what), v)| Series { name: (*what).into(), points: points(v), point_labels: vec![] })
+            .collect(),
+        _ => runs
+            .iter()
+            .map(|r| Series { name: format!("{} ({})", r.run, r.links), points: points(&r.per_frame[0]), point_labels: vec![] })
+            .collect(),
+    };
     crate::plot::write(&Chart { title: "Latency per frame", x: "frame", y: "ms", series }, &a.out.join("latency"))?;
-    let s = &report.latency;
-    out!(
-        "latency: frame {:.1} ms median ({:.1} p95, {:.1} max); links RVG→HC {:.3}, HC→RVG {:.3}, HC→OR {:.3} ms median; clock offsets a {:.0} µs, b {:.0} µs (± {:.0}, {:.0}) → {}",
-        s[0].median_ms,
-        s[0].p95_ms,
-        s[0].max_ms,
-        s[1].median_ms,
-        s[2].median_ms,
-        s[3].median_ms,
-        report.clock_offset_a_us,
-        report.clock_offset_b_us,
-        report.clock_rtt_a_us / 2.0,
-        report.clock_rtt_b_us / 2.0,
-        a.out.display()
-    );
+    out!("latency: → {}", a.out.display());
     Ok(())
 }

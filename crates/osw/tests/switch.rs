@@ -113,6 +113,7 @@ fn check_bandwidth(run: &Path, full: &Path, out: &Path) {
 fn check_latency(run: &Path, out: &Path) {
     osw_ok(&["latency", "--run", s(run), "--out", s(out)]);
     let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("latency.json")).unwrap()).unwrap();
+    let j = &j[0];
     for n in ["a", "b"] {
         let (off, rtt) = (j[format!("clock_offset_{n}_us")].as_f64().unwrap(), j[format!("clock_rtt_{n}_us")].as_f64().unwrap());
         assert!(off.abs() <= rtt / 2.0 + 1.0, "node {n}: offset {off} µs outside ±{} µs", rtt / 2.0);

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Bandwidth of the occlusion switch: runs the walk twice, sending deltas and then the whole
+# visible set every frame (--full), and compares bytes and ids per frame on each link with
+# paper 000's model 8n + nh/b + 3(72 + h) (osw bandwidth). Plots over the frames as in the
+# paper's fig. 3.
+#
+#   scripts/bandwidth.sh [--scene S --path P] [--tau PX] [--size WxH] [--netns] [--out DIR]
+#
+# --netns runs across three network namespaces with 100 Mb/s links (scripts/netns-cluster.sh,
+# root); else three processes on loopback (osw run). Without --scene, the generated plant
+# (TRIANGLES, FRAMES as in scripts/demo.sh). Results in DIR (default out/bandwidth):
+# bandwidth.json, bandwidth.csv, bandwidth_ids.png/.svg, bandwidth_bytes.png/.svg.
+set -euo pipefail
+scene="" path="" tau=5 size=1024x1024 netns=0 out=out/bandwidth
+while (($#)); do
+  case "$1" in
+    --scene) scene=$2; shift 2 ;;
+    --path) path=$2; shift 2 ;;
+    --tau) tau=$2; shift 2 ;;
+    --size) size=$2; shift 2 ;;
+    --netns) netns=1; shift ;;
+    --out) out=$2; shift 2 ;;
+    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "bandwidth: unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+# Paths given are relative to where the script was started; then work from the repository.
+abs() { [[ -z $1 ]] || realpath -m "$1"; }
+scene=$(abs "$scene") path=$(abs "$path") out=$(abs "$out")
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+cargo build --release --locked --bins
+osw=target/release/osw
+mkdir -p "$out"
+source scripts/walk-input.sh
+for kind in deltas full; do
+  flag=(); [[ $kind == full ]] && flag=(--full)
+  if ((netns)); then
+    scripts/netns-cluster.sh --scene "$scene" --path "$path" --tau "$tau" --size "$size" --no-frames "${flag[@]}" --out "$out/$kind"
+  else
+    $osw run --scene "$scene" --path "$path" --tau "$tau" --size "$size" --no-frames "${flag[@]}" --out "$out/$kind"
+  fi
+done
+$osw bandwidth --run "$out/deltas" --full "$out/full" --out "$out"

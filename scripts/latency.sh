@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Latency of the occlusion switch: one-way latency of each link (RVG → HC camera, HC → RVG and
+# HC → OR end of frame) from wall-clock stamps corrected by NTP-style clock offsets, and camera
+# sample to displayed frame; median, p95, max and a plot over the frames (osw latency).
+#
+#   scripts/latency.sh [--scene S --path P] [--tau PX] [--size WxH] [--netns]
+#                      [--delays 0.2ms,1ms,5ms] [--out DIR]
+#
+# --netns runs across three network namespaces (scripts/netns-cluster.sh, root) once per link
+# delay in --delays, to show how latency grows with it (needs tc netem in the kernel; without
+# it the links get the rate alone and the script says so); else once on loopback (osw run).
+# Results in DIR (default out/latency): one directory per run, latency.json, latency.md (a
+# table over the runs) and latency.png/.svg.
+set -euo pipefail
+scene="" path="" tau=5 size=1024x1024 netns=0 delays=0.2ms,1ms,5ms out=out/latency
+while (($#)); do
+  case "$1" in
+    --scene) scene=$2; shift 2 ;;
+    --path) path=$2; shift 2 ;;
+    --tau) tau=$2; shift 2 ;;
+    --size) size=$2; shift 2 ;;
+    --netns) netns=1; shift ;;
+    --delays) delays=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "latency: unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+# Paths given are relative to where the script was started; then work from the repository.
+abs() { [[ -z $1 ]] || realpath -m "$1"; }
+scene=$(abs "$scene") path=$(abs "$path") out=$(abs "$out")
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+cargo build --release --locked --bins
+osw=target/release/osw
+mkdir -p "$out"
+source scripts/walk-input.sh
+runs=()
+if ((netns)); then
+  IFS=, read -ra ds <<<"$delays"
+  for d in "${ds[@]}"; do
+    scripts/netns-cluster.sh --scene "$scene" --path "$path" --tau "$tau" --size "$size" --no-frames --delay "$d" --out "$out/delay-$d"
+    runs+=("$out/delay-$d")
+  done
+else
+  $osw run --scene "$scene" --path "$path" --tau "$tau" --size "$size" --no-frames --out "$out/loopback"
+  runs+=("$out/loopback")
+fi
+$osw latency --run "${runs[@]}" --out "$out"
+cat "$out/latency.md"
