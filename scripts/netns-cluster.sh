@@ -57,6 +57,8 @@ cleanup() {
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
   wait 2>/dev/null || true
   for n in "${ns[@]}"; do ip netns del "$n" 2>/dev/null || true; rm -rf "/etc/netns/$n"; done
+  # Links made here but not yet moved into a namespace (deleting a namespace took the rest).
+  for l in "${id}p" "${id}x1" "${id}x2" "${id}x3"; do ip link del "$l" 2>/dev/null || true; done
   exit "$rc"
 }
 trap cleanup EXIT
@@ -116,7 +118,10 @@ ip netns exec "${ns[1]}" "$bin/osw-node" --name b "${common[@]}" "${extra_node[@
 pids+=($!)
 frames=$(($(wc -l <"$path") - 1))
 echo "netns-cluster: $frames frames across ${ns[*]} ($shaper, $rate)" >&2
-if ! ip netns exec "${ns[2]}" "$bin/osw-display" "${common[@]}" --path "$path" --out "$out" "${extra_display[@]}" >/dev/null 2>"$out/display.log"; then
+# In the background and waited for, so that a signal is handled at once, not after the walk.
+ip netns exec "${ns[2]}" "$bin/osw-display" "${common[@]}" --path "$path" --out "$out" "${extra_display[@]}" >/dev/null 2>"$out/display.log" &
+pids+=($!)
+if ! wait "${pids[2]}"; then
   echo "netns-cluster: the display failed: $(tail -n 1 "$out/display.log")" >&2
   exit 1
 fi

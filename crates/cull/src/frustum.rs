@@ -4,6 +4,12 @@
 use glam::{DQuat, DVec3};
 use osw_scene::Aabb;
 
+/// How far outside the viewport, in pixels, a box's rasterised faces may reach and still be
+/// tested reliably. Rasterisers clip against a guard band of limited fixed-point range; faces
+/// beyond it were seen dropped (lavapipe: a box 1e11 wide, 0.9 in front of the eye, tested
+/// occluded on an empty depth buffer). A box that large on screen covers the view anyway.
+pub const GUARD_BAND_PX: f64 = 8192.0;
+
 /// Planes as (normal, d): a point p is inside when normal.dot(p) + d >= 0.
 #[derive(Clone, Debug)]
 pub struct Frustum {
@@ -11,6 +17,8 @@ pub struct Frustum {
     eye: DVec3,
     forward: DVec3,
     near: f64,
+    /// Largest box extent per unit of depth that projects inside the guard band.
+    max_extent_per_depth: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,7 +29,8 @@ pub enum Containment {
 }
 
 impl Frustum {
-    pub fn new(eye: DVec3, orientation: DQuat, fovy: f64, aspect: f64, near: f64) -> Frustum {
+    /// `focal_px`: pixels per unit of size at unit distance.
+    pub fn new(eye: DVec3, orientation: DQuat, fovy: f64, aspect: f64, near: f64, focal_px: f64) -> Frustum {
         let (r, u, f) = (orientation * DVec3::X, orientation * DVec3::Y, orientation * DVec3::NEG_Z);
         let ty = (fovy * 0.5).tan();
         let tx = ty * aspect;
@@ -34,7 +43,7 @@ impl Frustum {
             side(f * ty - u), // top
             (f, -f.dot(eye + f * near)),
         ];
-        Frustum { planes, eye, forward: f, near }
+        Frustum { planes, eye, forward: f, near, max_extent_per_depth: GUARD_BAND_PX / focal_px }
     }
 
     pub fn classify(&self, b: &Aabb) -> Containment {
@@ -54,7 +63,8 @@ impl Frustum {
         if inside { Containment::Inside } else { Containment::Intersects }
     }
 
-    /// True when the box contains the eye or reaches in front of the near plane: such a box
+    /// True when the box contains the eye, reaches in front of the near plane, or is so large
+    /// for its depth that its faces reach beyond the rasteriser's guard band: such a box
     /// cannot be tested by rasterising it (paper 004 sec. 4: clamp or accept) and counts as
     /// visible.
     pub fn needs_no_test(&self, b: &Aabb) -> bool {
@@ -62,7 +72,10 @@ impl Frustum {
         let q = DVec3::select(self.forward.cmpge(DVec3::ZERO), lo, hi);
         // Nearest box corner along the view direction closer than the near plane (with a
         // margin for rounding), or the eye in the box.
-        self.forward.dot(q - self.eye) <= self.near * 1.01 || (self.eye.cmpge(lo).all() && self.eye.cmple(hi).all())
+        let depth = self.forward.dot(q - self.eye);
+        depth <= self.near * 1.01
+            || (self.eye.cmpge(lo).all() && self.eye.cmple(hi).all())
+            || (hi - lo).max_element() > depth * self.max_extent_per_depth
     }
 }
 
@@ -72,7 +85,8 @@ mod tests {
     use glam::Vec3;
 
     fn looking_down_neg_z() -> Frustum {
-        Frustum::new(DVec3::ZERO, DQuat::IDENTITY, 90f64.to_radians(), 1.0, 0.1)
+        // 512 pixels high: 256 pixels per unit at unit distance.
+        Frustum::new(DVec3::ZERO, DQuat::IDENTITY, 90f64.to_radians(), 1.0, 0.1, 256.0)
     }
 
     fn cube(c: Vec3, r: f32) -> Aabb {
@@ -97,5 +111,9 @@ mod tests {
         assert!(f.needs_no_test(&cube(Vec3::ZERO, 1.0)), "contains the eye");
         assert!(f.needs_no_test(&cube(Vec3::new(0.0, 0.0, -1.0), 0.95)), "crosses the near plane");
         assert!(!f.needs_no_test(&cube(Vec3::new(0.0, 0.0, -10.0), 1.0)));
+        // 8192 / 256: a box wider than 32 times its depth is not rasterised.
+        let slab = |half: f32| Aabb::new(Vec3::new(-half, -half, -31.0), Vec3::new(half, half, -1.0));
+        assert!(f.needs_no_test(&slab(17.0)), "34 units wide at depth 1: beyond the guard band");
+        assert!(!f.needs_no_test(&slab(15.0)), "30 units wide at depth 1: tested");
     }
 }

@@ -38,7 +38,7 @@ impl View {
             height,
             near,
             focal_px: camera.focal_px(height),
-            frustum: Frustum::new(eye, camera.orientation, fovy_rad, aspect, near),
+            frustum: Frustum::new(eye, camera.orientation, fovy_rad, aspect, near, camera.focal_px(height)),
         }
     }
 

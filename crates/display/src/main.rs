@@ -176,9 +176,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
             loop {
                 let m = match stream.next().await {
                     Some(Ok(m)) => {
-                        let mut b = Vec::new();
-                        osw_wire::encode_frame(&m, &mut b);
-                        Ok((m, b.len() as u64, now_us()))
+                        let (at, n) = (now_us(), osw_wire::frame_len(&m) as u64);
+                        Ok((m, n, at))
                     }
                     Some(Err(e)) => Err(e.to_string()),
                     None => Err("connection closed".into()),
@@ -255,15 +254,16 @@ fn run(a: &Args) -> anyhow::Result<()> {
                 Message::EndOfFrame(e) if e.frame == i as u64 => {
                     row.hc_ms = e.stats.hc_us as f64 / 1e3;
                     row.tests = e.stats.tests;
-                    // On the display's clock: node time - offset.
-                    let (hc, or) = (clocks[i % 2].offset_us, clocks[(i + 1) % 2].offset_us);
+                    // Every stamp on the display's clock. The end of frame is stamped when HC
+                    // queues it, behind the frame's deltas: its link time includes sending them.
+                    let (hc, peer) = (clocks[i % 2], clocks[(i + 1) % 2]);
                     let ms = |later: f64, earlier: f64| (later - earlier) / 1e3;
-                    row.camera_link_ms = ms(e.clock.camera_received_us as f64 - hc, cam.sampled_us as f64);
-                    row.eof_link_ms = ms(at as f64, e.clock.sent_us as f64 - hc);
+                    row.camera_link_ms = ms(hc.to_display(e.clock.camera_received_us), cam.sampled_us as f64);
+                    row.eof_link_ms = ms(at as f64, hc.to_display(e.clock.sent_us));
                     if let Some(prev) = rows.last_mut().filter(|_| e.clock.peer_eof_received_us > 0) {
-                        // This node was OR in frame i-1: the peer's end of frame, sent at
-                        // prev_eof_sent_us on the peer's clock, reached it then.
-                        prev.peer_link_ms = ms(e.clock.peer_eof_received_us as f64 - hc, prev_eof_sent_us as f64 - or);
+                        // This node was OR in frame i-1: the peer (HC then) sent its end of
+                        // frame at prev_eof_sent_us on its clock, and it arrived here.
+                        prev.peer_link_ms = ms(hc.to_display(e.clock.peer_eof_received_us), peer.to_display(prev_eof_sent_us));
                     }
                     prev_eof_sent_us = e.clock.sent_us;
                     break;

@@ -70,13 +70,6 @@ fn camera(c: &CameraPacket) -> Camera {
     Camera { position: c.position.into(), orientation: glam::DQuat::from_array(c.orientation).normalize(), fovy_deg: c.fovy_deg }
 }
 
-/// Bytes of `m` on the wire, length prefix included.
-fn wire_bytes(m: &Message) -> u64 {
-    let mut b = Vec::new();
-    osw_wire::encode_frame(m, &mut b);
-    b.len() as u64
-}
-
 impl Switch {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -183,13 +176,13 @@ impl Switch {
 
     /// Sends `m` to the display and counts its bytes.
     fn send_display(&mut self, m: Message) {
-        self.sent[1] += wire_bytes(&m);
+        self.sent[1] += osw_wire::frame_len(&m) as u64;
         let _ = self.to_display.send(m);
     }
 
     /// Sends `m` to the peer and the display and counts its bytes on both links.
     fn send_both(&mut self, m: Message) {
-        self.sent[0] += wire_bytes(&m);
+        self.sent[0] += osw_wire::frame_len(&m) as u64;
         let _ = self.to_peer.send(m.clone());
         self.send_display(m);
     }

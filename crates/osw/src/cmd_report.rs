@@ -129,21 +129,38 @@ impl Plan<'_> {
         v
     }
 
-    /// The run in `dir` is there from an earlier report on the same input.
-    fn done(&self, dir: &Path, compared: bool) -> bool {
-        let Ok(s) = read_json(&dir.join("summary.json")) else { return false };
+    /// What a run's summary.json (and the exact run's input.json) says it was made from.
+    fn input(&self) -> Value {
         let w = &self.a.walk;
-        s["scene_hash"] == self.scene_hash.as_str()
-            && s["path"] == w.path.display().to_string().as_str()
-            && s["width"] == w.size.0
-            && s["height"] == w.size.1
-            && (!compared || dir.join("compare/compare.json").exists())
+        serde_json::json!({ "scene_hash": self.scene_hash, "path": w.path.display().to_string(), "width": w.size.0, "height": w.size.1 })
+    }
+
+    fn same_input(&self, file: &Path) -> bool {
+        read_json(file).is_ok_and(|s| self.input().as_object().is_some_and(|i| i.iter().all(|(k, v)| &s[k] == v)))
+    }
+
+    /// The run in `dir` is there, compared, from an earlier report on the same input.
+    fn done(&self, dir: &Path) -> bool {
+        self.same_input(&dir.join("summary.json")) && dir.join("compare/compare.json").exists()
+    }
+
+    fn exact(&self) -> anyhow::Result<()> {
+        let stamp = self.exact.join("input.json");
+        if self.same_input(&stamp) {
+            return Ok(());
+        }
+        std::fs::create_dir_all(&self.exact)?;
+        let _ = std::fs::remove_file(&stamp);
+        let out = vec!["--out".to_string(), self.exact.display().to_string()];
+        osw(&[vec!["exact".to_string()], self.walk_args(), out].concat(), &self.a.out.join("exact.log"))?;
+        std::fs::write(stamp, self.input().to_string())?;
+        Ok(())
     }
 
     /// One mode at one tau into `dir`: the run, then its comparison with the reference.
     fn run(&self, mode: &str, tau: f64, dir: &Path) -> anyhow::Result<()> {
         let frames_kept = dir != self.reference || osw_render::output::frame_path(dir, 0).exists();
-        if self.done(dir, true) && frames_kept {
+        if self.done(dir) && frames_kept {
             return Ok(());
         }
         std::fs::create_dir_all(dir)?;
@@ -240,23 +257,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 
     let runs: Vec<(String, f64)> = a.modes.iter().flat_map(|m| a.taus.iter().map(move |&t| (m.clone(), t))).collect();
     let bar = crate::progress::steps(runs.len() as u64 + 2, "report");
+    let dir = |mode: &str, tau: f64| a.out.join("runs").join(run_name(mode, tau));
     bar.set_message("exact");
-    std::fs::create_dir_all(&plan.exact)?;
-    if !plan.exact.join("exact_leaves.txt").exists() {
-        osw(
-            &[vec!["exact".to_string()], plan.walk_args(), vec!["--out".into(), plan.exact.display().to_string()]].concat(),
-            &a.out.join("exact.log"),
-        )?;
-    }
+    plan.exact()?;
     bar.inc(1);
-    // The reference first: every run's image error is measured against it.
+    // The reference first, while any run needs it: every run's image error is measured
+    // against its frames.
     bar.set_message("vfc tau 0 (reference)");
-    plan.run("vfc", 0.0, &plan.reference).context("the reference run (vfc at tau 0)")?;
+    if runs.iter().any(|(m, t)| !plan.done(&dir(m, *t))) {
+        plan.run("vfc", 0.0, &plan.reference).context("the reference run (vfc at tau 0)")?;
+    }
     bar.inc(1);
     let mut entries = Vec::new();
     for (mode, tau) in &runs {
         bar.set_message(format!("{mode} tau {tau}"));
-        let dir = a.out.join("runs").join(run_name(mode, *tau));
+        let dir = dir(mode, *tau);
         let e = plan.run(mode, *tau, &dir).and_then(|()| entry(mode, *tau, &dir)).unwrap_or_else(|e| {
             bar.println(format!("osw: {mode} at tau {tau} failed: {e:#}"));
             Entry { mode: mode.clone(), tau: *tau, error: Some(format!("{e:#}")), ..Default::default() }
@@ -265,7 +280,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    if !a.keep_frames && !runs.iter().any(|(m, t)| m == "vfc" && *t == 0.0) {
+    if !a.keep_frames {
         let _ = std::fs::remove_dir_all(plan.reference.join("frames"));
     }
     let vfc_ms: Vec<(f64, f64)> =
@@ -286,8 +301,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     std::fs::write(a.out.join("report.json"), serde_json::to_string_pretty(&report)?)?;
     std::fs::write(a.out.join("report.md"), markdown(&report, &a))?;
-    crate::plot::write(&error_chart(&report, &a.modes), &a.out.join("error_vs_time"))?;
     let failed: Vec<String> = report.runs.iter().filter(|e| e.error.is_some()).map(|e| run_name(&e.mode, e.tau)).collect();
+    if failed.len() < report.runs.len() {
+        crate::plot::write(&error_chart(&report, &a.modes), &a.out.join("error_vs_time"))?;
+    }
     if !failed.is_empty() {
         bail!(
             "{} of {} runs failed ({}); the report shows the others → {}",
@@ -392,7 +409,11 @@ fn markdown(r: &Report, a: &Args) -> String {
         .runs
         .iter()
         .map(|e| match &e.error {
-            Some(err) => vec![e.mode.clone(), e.tau.to_string(), format!("failed: {err}")],
+            Some(err) => {
+                let mut row = vec![e.mode.clone(), e.tau.to_string(), format!("failed: {}", err.replace('|', "/"))];
+                row.resize(header.len(), "–".into());
+                row
+            }
             None => vec![
                 e.mode.clone(),
                 e.tau.to_string(),

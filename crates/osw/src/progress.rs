@@ -47,9 +47,10 @@ pub fn frames(total: u64, what: &str) -> ProgressBar {
 pub fn steps(total: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(total);
     bar.set_style(
-        ProgressStyle::with_template(&format!("{what} [{{bar:40}}] {{pos}}/{{len}} {{elapsed}} (eta {{eta}}) {{msg}}"))
+        ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} {elapsed} (eta {eta}) {msg}")
             .expect("valid template")
             .progress_chars("=> "),
     );
+    bar.set_prefix(what.to_owned());
     bar
 }

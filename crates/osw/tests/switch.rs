@@ -8,10 +8,6 @@ use common::*;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
 }
@@ -96,7 +92,15 @@ fn check_bandwidth(run: &Path, full: &Path, out: &Path) {
         assert_eq!(num(r, "full_ids_sent"), num(&display_full[i], "ids_full"), "frame {i}: --full must send the whole set");
         let n = num(r, "ids_sent");
         assert!((num(r, "model_bytes") - (8.0 * n + n * h / b + 3.0 * (72.0 + h))).abs() < 0.06, "frame {i}: {r:?}");
-        assert!(num(r, "hc_to_or_bytes") < num(r, "hc_to_rvg_bytes"), "frame {i}: the peer gets no camera");
+        // Both links carry the same deltas and end of frame; RVG also gets the camera first.
+        let camera = osw_wire::frame_len(&osw_wire::Message::Camera(osw_wire::CameraPacket {
+            frame: i as u64,
+            position: [0.0; 3],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            fovy_deg: 60.0,
+            sampled_us: osw_wire::clock::now_us(),
+        })) as f64;
+        assert_eq!(num(r, "hc_to_rvg_bytes") - num(r, "hc_to_or_bytes"), camera, "frame {i}: {r:?}");
     }
     let ids: f64 = bw.iter().map(|r| num(r, "ids_sent")).sum();
     let visible: f64 = bw.iter().map(|r| num(r, "visible")).sum();
@@ -120,8 +124,8 @@ fn check_latency(run: &Path, out: &Path) {
     }
     let slack = 1.0 + j["clock_rtt_a_us"].as_f64().unwrap().max(j["clock_rtt_b_us"].as_f64().unwrap()) / 1e3;
     for (i, r) in csv(&run.join("stats.csv")).iter().enumerate() {
-        let (cam, eof, total) = (num(r, "camera_link_ms"), num(r, "eof_link_ms"), num(r, "latency_ms"));
-        assert!(cam > -slack && eof > -slack && cam + eof <= total + slack, "frame {i}: {r:?}");
+        let (cam, eof, peer, total) = (num(r, "camera_link_ms"), num(r, "eof_link_ms"), num(r, "peer_link_ms"), num(r, "latency_ms"));
+        assert!(cam > -slack && eof > -slack && peer > -slack && cam + eof <= total + slack, "frame {i}: {r:?}");
     }
     assert_eq!(j["latency"].as_array().unwrap().len(), 4);
     assert!(std::fs::metadata(out.join("latency.png")).unwrap().len() > 1000);

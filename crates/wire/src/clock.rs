@@ -4,9 +4,16 @@
 //! receives); the sample of least round trip t3 - t0 - (t2 - t1) gives the offset
 //! ((t1 - t0) + (t2 - t3)) / 2 with an error of at most half that round trip.
 
-/// Microseconds since the Unix epoch on this host's clock.
+/// Microseconds since the Unix epoch on this host's clock, read once at the process's first
+/// call and advanced by the monotonic clock after it: a wall-clock step during a run (NTP)
+/// changes no interval. The offsets are estimated once, at start-up; a run is short enough
+/// that the clocks' drift does not matter.
 pub fn now_us() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_micros() as u64)
+    use std::time::{Instant, SystemTime, UNIX_EPOCH};
+    static ANCHOR: std::sync::OnceLock<(Instant, u64)> = std::sync::OnceLock::new();
+    let (at, wall) =
+        ANCHOR.get_or_init(|| (Instant::now(), SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_micros() as u64)));
+    wall + at.elapsed().as_micros() as u64
 }
 
 /// One ping-pong exchange, each time on its own host's clock.
@@ -24,6 +31,13 @@ pub struct Offset {
     pub offset_us: f64,
     /// Round trip of the sample used: the offset is right to within half of it.
     pub rtt_us: f64,
+}
+
+impl Offset {
+    /// A stamp of that node's clock on the display's clock.
+    pub fn to_display(&self, node_us: u64) -> f64 {
+        node_us as f64 - self.offset_us
+    }
 }
 
 impl Sample {
@@ -61,5 +75,8 @@ mod tests {
         assert_eq!(o.rtt_us, 600.0);
         assert_eq!(o.offset_us, ahead as f64);
         assert_eq!(estimate(&[]), None);
+        // A message the node stamped on sending, 300 µs before the display got it.
+        let (display_at, node_sent) = (50_000_300u64, 50_000_000 + ahead);
+        assert_eq!(display_at as f64 - o.to_display(node_sent), 300.0);
     }
 }

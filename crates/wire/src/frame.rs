@@ -37,6 +37,13 @@ pub fn encode_frame(msg: &Message, out: &mut Vec<u8>) {
     out[start..start + 4].copy_from_slice(&len.to_le_bytes());
 }
 
+/// Bytes of `msg`'s frame on the wire, length prefix included.
+pub fn frame_len(msg: &Message) -> usize {
+    let mut b = Vec::new();
+    encode_frame(msg, &mut b);
+    b.len()
+}
+
 /// Decodes one frame from the front of `buf`: `Ok(None)` when the frame is incomplete,
 /// `Ok(Some((message, bytes used)))`, or the error that makes the stream unusable.
 pub fn decode_frame(buf: &[u8]) -> Result<Option<(Message, usize)>, WireError> {

@@ -21,5 +21,5 @@ pub mod limits;
 pub mod messages;
 pub mod net;
 
-pub use frame::{WireError, decode_frame, encode_frame};
+pub use frame::{WireError, decode_frame, encode_frame, frame_len};
 pub use messages::{CameraPacket, Delta, EndOfFrame, Goodbye, Hello, IdList, Keyframe, LinkStamps, Message, Ping, Pong, Role};

@@ -94,3 +94,45 @@ pub fn check_invariants(s: &SceneFile) {
     assert!(seen.iter().all(|&x| x), "{} nodes unreachable", seen.iter().filter(|x| !**x).count());
     assert_eq!(leaf_triangles, s.header().leaf_triangles as u64);
 }
+
+// Rendering checks shared by the render and numerics tests.
+
+/// Every mode, and prev with each HC box test.
+pub const MODES: [(&str, &str); 7] =
+    [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid"), ("prev", "queries"), ("prev", "hybrid")];
+pub const SIZE: &str = "256x256";
+
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+pub fn render(scene: &Path, path: &Path, (mode, hc): (&str, &str), tau: &str, out: &Path) {
+    osw_ok(&["render", "--scene", s(scene), "--path", s(path), "--mode", mode, "--hc", hc, "--tau", tau, "--size", SIZE, "--out", s(out)]);
+}
+
+pub fn compare(a: &Path, b: &Path, exact: &Path, out: &Path) -> serde_json::Value {
+    osw_ok(&["compare", "--a", s(a), "--b", s(b), "--exact", s(exact), "--out", s(out)]);
+    serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap()
+}
+
+/// Renders `path` with vfc and every mode at tau 0, computes exact visibility, and checks
+/// each mode against both. Returns the run directory.
+pub fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) -> PathBuf {
+    let run = dir.join(label);
+    let exact = run.join("exact");
+    osw_ok(&["exact", "--scene", s(scene), "--path", s(path), "--size", SIZE, "--out", s(&exact)]);
+    render(scene, path, ("vfc", "exact"), "0", &run.join("vfc"));
+    let frames = osw_scene::path::read(path).unwrap().len();
+    for (mode, hc) in MODES {
+        let name = format!("{mode}-{hc}");
+        render(scene, path, (mode, hc), "0", &run.join(&name));
+        let c = compare(&run.join(&name), &run.join("vfc"), &exact, &run.join(format!("cmp-{name}")));
+        assert_eq!(c["identical_frames"], frames, "{label} {mode}: frames differ from vfc: {c}");
+        assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{label} {mode}: false culling: {c}");
+        // vfc draws every leaf in the frustum: it cannot miss one either (checks the checker).
+        assert_eq!(c["culling_b"]["false_culled_leaves_total"], 0, "{label} vfc: {c}");
+        let summary = std::fs::read_to_string(run.join(&name).join("summary.json")).unwrap();
+        assert!(!summary.contains("NaN") && !summary.contains("null"), "{label} {mode}: {summary}");
+    }
+    run
+}

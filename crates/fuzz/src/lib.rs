@@ -1,0 +1,13 @@
+//! Fuzz targets: one function per decoder that takes untrusted bytes. Each must never panic
+//! on any input, and whatever it accepts must hold its invariants (checked with asserts, which
+//! the fuzzer reports as crashes). `libfuzzer/` runs them under cargo fuzz
+//! (`scripts/fuzz.sh`); `tests/smoke.rs` runs them on seeds and mutations in every test run.
+
+pub mod config;
+pub mod path_csv;
+pub mod scene_tables;
+pub mod wire_frame;
+
+/// Every target by name, for the smoke test and the fuzz script.
+pub const TARGETS: [(&str, fn(&[u8])); 4] =
+    [("wire_frame", wire_frame::run), ("scene_tables", scene_tables::run), ("path_csv", path_csv::run), ("config", config::run)];
