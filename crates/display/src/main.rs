@@ -7,23 +7,24 @@
 //! Prints `frame N` on stdout as each frame is displayed.
 //! Exit codes: 0 when every frame was rendered, 1 on any error (message on stderr).
 
+mod links;
+
 use clap::Parser;
-use futures_util::{SinkExt, StreamExt};
+use links::Cluster;
 use osw_cull::delta::apply;
 use osw_gpu::draw::Pass;
 use osw_render::output::{frame_path, push_ids, write_png};
 use osw_render::stats::quantile;
-use osw_wire::clock::{Offset, now_us};
+use osw_wire::clock::now_us;
 use osw_wire::config::{ClusterArgs, Settings};
 use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{CameraPacket, Goodbye, Hello, Message, Role};
 use serde::Serialize;
+use std::collections::VecDeque;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc::UnboundedSender;
 
 #[derive(Parser)]
 #[command(name = "osw-display", version, about = "the occlusion switch's display client (RVG)")]
@@ -62,6 +63,11 @@ struct FrameRow {
     camera_link_ms: f64,
     eof_link_ms: f64,
     peer_link_ms: f64,
+    /// The node the frame came from, and 1 when a node was down (the other ran alone).
+    hc_node: u32,
+    degraded: u32,
+    /// Resident memory once the frame is shown (a soak shows it flat).
+    rss_kb: u64,
     bytes: u64,
     ids_sent: u64,
     ids_full: u64,
@@ -94,6 +100,13 @@ struct Summary {
     eof_link_ms_median: f64,
     peer_link_ms_median: f64,
     /// Node a's and b's clock minus the display's, and the round trip of the probe used.
+    /// Failover (issue 6): node connections lost and made again, frames made by one node
+    /// alone, and the first and last of them.
+    node_losses: u32,
+    node_rejoins: u32,
+    degraded_frames: u64,
+    degraded_first_frame: Option<u64>,
+    degraded_last_frame: Option<u64>,
     clock_offset_a_us: f64,
     clock_offset_b_us: f64,
     clock_rtt_a_us: f64,
@@ -120,13 +133,6 @@ fn main() -> std::process::ExitCode {
         }
     }
 }
-
-/// A connection's reader: messages with their encoded size and arrival time, or the reason
-/// the connection ended.
-type Inbox = Receiver<Result<(Message, u64, u64), String>>;
-
-/// Clock probes per node at start-up (the least round trip of them is used).
-const CLOCK_PROBES: usize = 16;
 
 /// Node a's and node b's addresses: `--nodes`, else the configuration's.
 fn node_addresses(a: &Args, set: &Settings) -> anyhow::Result<[String; 2]> {
@@ -159,45 +165,15 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
-    let mut inboxes: Vec<Inbox> = Vec::new();
-    let mut outboxes: Vec<UnboundedSender<Message>> = Vec::new();
-    let mut clocks = Vec::new();
+    let (notes_tx, notes) = std::sync::mpsc::channel();
     for (k, addr) in addrs.iter().enumerate() {
-        let mut c = rt.block_on(osw_wire::net::connect(addr, Duration::from_secs(10)))?;
-        rt.block_on(osw_wire::net::handshake(&mut c, &me, Duration::from_secs(10)))
-            .map_err(|e| anyhow::anyhow!("node {}: {e}", ["a", "b"][k]))?;
-        clocks.push(
-            rt.block_on(osw_wire::net::probe_clock(&mut c, CLOCK_PROBES, Duration::from_secs(10)))
-                .map_err(|e| anyhow::anyhow!("node {}: {e}", ["a", "b"][k]))?,
-        );
-        let (mut sink, mut stream) = c.split();
-        let (tx, rx) = std::sync::mpsc::channel();
-        rt.spawn(async move {
-            loop {
-                let m = match stream.next().await {
-                    Some(Ok(m)) => {
-                        let (at, n) = (now_us(), osw_wire::frame_len(&m) as u64);
-                        Ok((m, n, at))
-                    }
-                    Some(Err(e)) => Err(e.to_string()),
-                    None => Err("connection closed".into()),
-                };
-                let end = m.is_err();
-                if tx.send(m).is_err() || end {
-                    break;
-                }
-            }
-        });
-        let (out_tx, mut out_rx) = tokio::sync::mpsc::unbounded_channel::<Message>();
-        rt.spawn(async move {
-            while let Some(m) = out_rx.recv().await {
-                if sink.send(m).await.is_err() {
-                    break;
-                }
-            }
-        });
-        inboxes.push(rx);
-        outboxes.push(out_tx);
+        rt.spawn(links::keep_node(k, addr.clone(), me.clone(), notes_tx.clone(), Duration::from_secs(10)));
+    }
+    drop(notes_tx);
+    let mut cluster = Cluster::default();
+    while cluster.nodes.iter().any(Option::is_none) {
+        let note = notes.recv_timeout(WAIT).map_err(|_| anyhow::anyhow!("the nodes did not connect within {WAIT:?}"))?;
+        cluster.note(note)?;
     }
     std::fs::create_dir_all(a.out.join("frames"))?;
     let packet = |k: usize| {
@@ -210,73 +186,102 @@ fn run(a: &Args) -> anyhow::Result<()> {
             sampled_us: now_us(),
         })
     };
-    let send_both = |m: Message| outboxes.iter().for_each(|o| drop(o.send(m.clone())));
     for k in 0..cams.len().min(2) {
-        send_both(packet(k));
+        cluster.send_camera(packet(k));
     }
     let max_id = scene.header().node_count;
     let mut visible: Vec<u32> = Vec::new();
     let mut rows: Vec<FrameRow> = Vec::with_capacity(cams.len());
     let mut pvs_txt = String::new();
     let mut last = Instant::now();
-    let mut prev_eof_sent_us = 0u64;
+    // The node that sent the previous frame and when it sent its end of frame.
+    let mut prev_eof: Option<(usize, u64)> = None;
+    // Messages not for the frame at hand yet (the next HC may start before this frame is
+    // shown) or from the node that is not its source (kept in case the source is lost).
+    let mut held: VecDeque<Arrival> = VecDeque::new();
     for i in 0..cams.len() {
-        let node = ["a", "b"][i % 2];
-        let inbox = &inboxes[i % 2];
         let mut row = FrameRow { frame: i as u64, ..Default::default() };
-        let next = || -> anyhow::Result<(Message, u64, u64)> {
-            inbox
-                .recv_timeout(WAIT)
-                .map_err(|_| anyhow::anyhow!("frame {i}: nothing from node {node} for {WAIT:?}"))?
-                .map_err(|e| anyhow::anyhow!("frame {i}: node {node}: {e}"))
-        };
-        let (m, bytes, _) = next()?;
-        let cam = match m {
-            Message::Camera(c) if c.frame == i as u64 => c,
-            m => anyhow::bail!("frame {i}: expected the camera from node {node}, got {m:?}"),
-        };
-        row.bytes += bytes;
-        let (mut added, mut removed) = (Vec::new(), Vec::new());
+        // Frame i comes from the node that sends its camera first (the HC node, or the one
+        // running alone); if that node is lost before its end of frame, from the other.
+        let mut source: Option<(usize, CameraPacket)> = None;
+        let (mut added, mut removed, mut keyframe) = (Vec::new(), Vec::new(), None);
+        let mut replay: VecDeque<Arrival> = std::mem::take(&mut held);
         loop {
-            let (m, bytes, at) = next()?;
-            row.bytes += bytes;
+            let (node, m, bytes, at) = match replay.pop_front() {
+                Some(x) => x,
+                None => {
+                    let note = notes.recv_timeout(WAIT).map_err(|_| anyhow::anyhow!("frame {i}: nothing from the nodes for {WAIT:?}"))?;
+                    match cluster.note(note)? {
+                        Some(x) => x,
+                        None => {
+                            if let Some((lost, _)) = source.filter(|(n, _)| cluster.nodes[*n].is_none()) {
+                                tracing::warn!("frame {i}: node {} lost mid-frame; reading the frame from the other", links::NAMES[lost]);
+                                (source, keyframe, row.bytes, row.ids_sent) = (None, None, 0, 0);
+                                added.clear();
+                                removed.clear();
+                                replay = std::mem::take(&mut held);
+                            }
+                            continue;
+                        }
+                    }
+                }
+            };
+            let from_source = source.is_some_and(|(n, _)| n == node);
             match m {
+                Message::Camera(c) if c.frame == i as u64 && source.is_none() => {
+                    source = Some((node, c));
+                    row.bytes += bytes;
+                }
+                // Another node's, or another frame's: kept while it may still be needed (an
+                // earlier frame's is a node taking over a frame this display already has).
+                m if !from_source || frame_of(&m) != Some(i as u64) => {
+                    if frame_of(&m).is_some_and(|f| f >= i as u64) {
+                        held.push_back((node, m, bytes, at));
+                    }
+                }
                 Message::Delta(d) if d.frame == i as u64 => {
-                    added.extend(d.added.ids(max_id)?);
-                    removed.extend(d.removed.ids(max_id)?);
+                    let (ad, rm) = (d.added.ids(max_id)?, d.removed.ids(max_id)?);
+                    (row.bytes, row.ids_sent) = (row.bytes + bytes, row.ids_sent + (ad.len() + rm.len()) as u64);
+                    added.extend(ad);
+                    removed.extend(rm);
                 }
                 Message::Keyframe(k) if k.frame == i as u64 => {
-                    // The whole V(i): replaces what the deltas would have built.
+                    // The whole V(i): replaces V(i-1) and what deltas would have built.
+                    row.bytes += bytes;
                     let all = k.ids.ids(max_id)?;
-                    osw_cull::delta::diff(&visible, &all, &mut added, &mut removed);
                     row.ids_sent += all.len() as u64;
+                    keyframe = Some(all);
                 }
                 Message::EndOfFrame(e) if e.frame == i as u64 => {
+                    row.bytes += bytes;
                     row.hc_ms = e.stats.hc_us as f64 / 1e3;
                     row.tests = e.stats.tests;
+                    let (hc, cam) = source.expect("from the source");
                     // Every stamp on the display's clock. The end of frame is stamped when HC
                     // queues it, behind the frame's deltas: its link time includes sending them.
-                    let (hc, peer) = (clocks[i % 2], clocks[(i + 1) % 2]);
+                    let clock = |n: usize| cluster.clocks[n];
                     let ms = |later: f64, earlier: f64| (later - earlier) / 1e3;
-                    row.camera_link_ms = ms(hc.to_display(e.clock.camera_received_us), cam.sampled_us as f64);
-                    row.eof_link_ms = ms(at as f64, hc.to_display(e.clock.sent_us));
-                    if let Some(prev) = rows.last_mut().filter(|_| e.clock.peer_eof_received_us > 0) {
+                    row.camera_link_ms = ms(clock(hc).to_display(e.clock.camera_received_us), cam.sampled_us as f64);
+                    row.eof_link_ms = ms(at as f64, clock(hc).to_display(e.clock.sent_us));
+                    if let (Some(prev), Some((sender, sent))) =
+                        (rows.last_mut(), prev_eof.filter(|p| p.0 != hc && e.clock.peer_eof_received_us > 0))
+                    {
                         // This node was OR in frame i-1: the peer (HC then) sent its end of
-                        // frame at prev_eof_sent_us on its clock, and it arrived here.
-                        prev.peer_link_ms = ms(hc.to_display(e.clock.peer_eof_received_us), peer.to_display(prev_eof_sent_us));
+                        // frame then, on its clock, and it arrived here.
+                        prev.peer_link_ms = ms(clock(hc).to_display(e.clock.peer_eof_received_us), clock(sender).to_display(sent));
                     }
-                    prev_eof_sent_us = e.clock.sent_us;
+                    prev_eof = Some((hc, e.clock.sent_us));
+                    row.hc_node = hc as u32;
+                    row.degraded = cluster.nodes.iter().any(Option::is_none) as u32;
                     break;
                 }
-                m => anyhow::bail!("frame {i}: unexpected message from node {node}: {m:?}"),
+                m => anyhow::bail!("frame {i}: unexpected message from node {}: {m:?}", links::NAMES[node]),
             }
         }
-        if row.ids_sent == 0 {
-            row.ids_sent = (added.len() + removed.len()) as u64;
-        }
+        let cam = source.expect("a complete frame has a camera").1;
         added.sort_unstable();
         removed.sort_unstable();
-        visible = apply(&visible, &removed, &added);
+        visible = apply(keyframe.as_ref().unwrap_or(&visible), &removed, &added);
         row.ids_full = visible.len() as u64;
         let t = Instant::now();
         r.begin_frame();
@@ -289,6 +294,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
             write_png(&frame_path(&a.out, i as u64), w, h, r.read_color()?).map_err(anyhow::Error::msg)?;
         }
         row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
+        row.rss_kb = osw_render::stats::resident_bytes() >> 10;
         row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
         last = Instant::now();
         push_ids(&mut pvs_txt, &visible);
@@ -297,14 +303,28 @@ fn run(a: &Args) -> anyhow::Result<()> {
         // A closed stdout only means nobody is watching: not an error.
         let _ = writeln!(std::io::stdout(), "frame {i}");
         if i + 2 < cams.len() {
-            send_both(packet(i + 2));
+            cluster.send_camera(packet(i + 2));
         }
     }
-    send_both(Message::Goodbye(Goodbye { reason: "path done".into() }));
-    write_outputs(a, &set, &scene, &rows, &pvs_txt, &clocks)?;
+    cluster.send_all(Message::Goodbye(Goodbye { reason: "path done".into() }));
+    write_outputs(a, &set, &scene, &rows, &pvs_txt, &cluster)?;
     std::thread::sleep(Duration::from_millis(50));
     rt.shutdown_timeout(Duration::from_millis(200));
     Ok(())
+}
+
+/// A node's message as it arrived: node, message, frame bytes, arrival time.
+type Arrival = (usize, Message, u64, u64);
+
+/// The frame a frame message belongs to.
+fn frame_of(m: &Message) -> Option<u64> {
+    match m {
+        Message::Camera(c) => Some(c.frame),
+        Message::Delta(d) => Some(d.frame),
+        Message::Keyframe(k) => Some(k.frame),
+        Message::EndOfFrame(e) => Some(e.frame),
+        _ => None,
+    }
 }
 
 fn glam_quat(q: [f64; 4]) -> osw_scene::camera::DQuat {
@@ -317,8 +337,10 @@ fn write_outputs(
     scene: &osw_scene::SceneFile,
     rows: &[FrameRow],
     pvs: &str,
-    clocks: &[Offset],
+    cluster: &Cluster,
 ) -> anyhow::Result<()> {
+    let clocks = &cluster.clocks;
+    let degraded: Vec<u64> = rows.iter().filter(|r| r.degraded == 1).map(|r| r.frame).collect();
     let (w, h) = set.size;
     let col = |f: fn(&FrameRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let mean = |f: fn(&FrameRow) -> f64| col(f).iter().sum::<f64>() / rows.len().max(1) as f64;
@@ -350,6 +372,11 @@ fn write_outputs(
         eof_link_ms_median: quantile(&col(|r| r.eof_link_ms), 0.5),
         // The last frame's end of frame reaches no OR: it has no peer latency.
         peer_link_ms_median: quantile(&rows[..rows.len().saturating_sub(1)].iter().map(|r| r.peer_link_ms).collect::<Vec<_>>(), 0.5),
+        node_losses: cluster.losses,
+        node_rejoins: cluster.rejoins,
+        degraded_frames: degraded.len() as u64,
+        degraded_first_frame: degraded.first().copied(),
+        degraded_last_frame: degraded.last().copied(),
         clock_offset_a_us: clocks[0].offset_us,
         clock_offset_b_us: clocks[1].offset_us,
         clock_rtt_a_us: clocks[0].rtt_us,
@@ -365,11 +392,11 @@ fn write_outputs(
     std::fs::write(a.out.join("summary.json"), serde_json::to_string_pretty(&s)?)?;
     std::fs::write(a.out.join("pvs.txt"), pvs)?;
     let mut csv = String::from(
-        "frame,frame_ms,rvg_ms,hc_ms,latency_ms,camera_link_ms,eof_link_ms,peer_link_ms,bytes,ids_sent,ids_full,pvs_nodes,triangles_drawn,tests\n",
+        "frame,frame_ms,rvg_ms,hc_ms,latency_ms,camera_link_ms,eof_link_ms,peer_link_ms,hc_node,degraded,rss_kb,bytes,ids_sent,ids_full,pvs_nodes,triangles_drawn,tests\n",
     );
     for r in rows {
         csv.push_str(&format!(
-            "{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{},{},{},{}\n",
+            "{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{}\n",
             r.frame,
             r.frame_ms,
             r.rvg_ms,
@@ -378,6 +405,9 @@ fn write_outputs(
             r.camera_link_ms,
             r.eof_link_ms,
             r.peer_link_ms,
+            r.hc_node,
+            r.degraded,
+            r.rss_kb,
             r.bytes,
             r.ids_sent,
             r.ids_full,

@@ -85,34 +85,32 @@ fn run(a: &Args) -> anyhow::Result<()> {
 
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (events_tx, events) = std::sync::mpsc::channel();
-    let (to_peer, to_display, queues) = link::queues();
     let listener = rt.block_on(tokio::net::TcpListener::bind(&listen)).map_err(|e| anyhow::anyhow!("cannot listen on {listen}: {e}"))?;
     writeln!(std::io::stdout(), "listening on {}", listener.local_addr()?)?;
     std::io::stdout().flush()?;
-    rt.spawn(link::accept(listener, me.clone(), events_tx.clone(), queues.clone()));
+    rt.spawn(link::accept(listener, me.clone(), events_tx.clone()));
     if let Some(peer) = &peer {
-        let c = rt.block_on(osw_wire::net::connect(peer, link::HANDSHAKE))?;
-        rt.spawn(link::serve(c, me, events_tx, queues));
+        rt.spawn(link::keep_connected(peer.clone(), me, events_tx));
     }
-    let mut sw = switch::Switch::new(index, set.tau, set.batch, a.full, renderer, events, to_peer, to_display);
-    sw.wait_connected()?;
-    let log = sw.run();
+    let mut sw = switch::Switch::new(index, set.tau, set.batch, a.full, renderer, events);
+    let log = sw.start().and_then(|first| sw.run(first));
     sw.goodbye(if log.is_ok() { "done" } else { "error" });
     let log = log?;
     if let Some(p) = &a.stats {
-        let mut csv = String::from("frame,role,ms,nodes_drawn,tests,ids_sent,batches,bytes_to_peer,bytes_to_display\n");
+        let mut csv = String::from("frame,role,ms,nodes_drawn,tests,ids_sent,batches,bytes_to_peer,bytes_to_display,rss_kb\n");
         for f in &log {
             csv.push_str(&format!(
-                "{},{},{:.3},{},{},{},{},{},{}\n",
+                "{},{},{:.3},{},{},{},{},{},{},{}\n",
                 f.frame,
-                if f.hc { "HC" } else { "OR" },
+                f.duty.name(),
                 f.ms,
                 f.nodes_drawn,
                 f.tests,
                 f.ids_sent,
                 f.batches,
                 f.bytes_to_peer,
-                f.bytes_to_display
+                f.bytes_to_display,
+                f.rss_kb
             ));
         }
         std::fs::write(p, csv)?;

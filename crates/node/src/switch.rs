@@ -8,9 +8,17 @@
 //!   V(i-1) updated for it (sec. 4.6) into the depth buffer at once, then each batch of
 //!   additions as it arrives, until end of frame; then V(i) = (V(i-1) - removed) ∪ added.
 //!
+//! Failover (issue 6): when the peer is gone, this node runs both roles in turn on its own GPU,
+//! the single-GPU loop of paper 004 fig. 5: for each frame it draws the front of V(i-1) for
+//! camera i as occluders itself, then HC, and sends RVG the whole visible set (a keyframe), so
+//! that RVG never depends on what the lost node sent last. A restarted peer asks to rejoin;
+//! at the end of its frame this node sends it a keyframe of V(k), runs frame k+1 alone once
+//! more (its depth buffer holds camera k's occluders) while the peer draws OR for k+2, and the
+//! roles alternate again from there.
+//!
 //! Cameras: in path playback every camera carries its frame number and frame k uses the
 //! camera numbered k (deterministic runs); RVG sends camera k+2 after it has frame k, so a node
-//! never holds more than two.
+//! never holds more than three.
 
 use crate::link::Event;
 use osw_cull::delta::{apply, diff};
@@ -33,7 +41,7 @@ pub const WAIT: Duration = Duration::from_secs(30);
 #[derive(Clone, Copy, Debug)]
 pub struct NodeFrame {
     pub frame: u64,
-    pub hc: bool,
+    pub duty: Duty,
     pub ms: f64,
     pub nodes_drawn: u32,
     pub tests: u32,
@@ -42,18 +50,57 @@ pub struct NodeFrame {
     pub batches: u32,
     pub bytes_to_peer: u64,
     pub bytes_to_display: u64,
+    /// Resident memory at the end of the frame (a soak shows it flat).
+    pub rss_kb: u64,
+}
+
+/// What a node did in a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Duty {
+    Hc,
+    Or,
+    /// OR and HC in turn, alone: the first frame, the peer gone, or handing it a keyframe.
+    Solo,
+}
+
+impl Duty {
+    pub fn name(self) -> &'static str {
+        match self {
+            Duty::Hc => "HC",
+            Duty::Or => "OR",
+            Duty::Solo => "SOLO",
+        }
+    }
+}
+
+/// A connection the frame loop sends on, and which one it is.
+struct Link {
+    id: u64,
+    out: UnboundedSender<Message>,
 }
 
 pub struct Switch {
-    pub index: u64,
     pub tau: f64,
     pub batch: usize,
     /// Send keyframes (the whole V(i)) instead of deltas.
     pub full: bool,
     pub renderer: Renderer,
-    pub events: Receiver<Event>,
-    pub to_peer: UnboundedSender<Message>,
-    pub to_display: UnboundedSender<Message>,
+    events: Receiver<Event>,
+    peer: Option<Link>,
+    display: Option<Link>,
+    /// This node is HC on frames with this parity while the peer is up.
+    hc_parity: u64,
+    /// The camera the depth buffer holds occluders for (set by OR, or by a solo frame).
+    depth_for: Option<u64>,
+    /// The peer holds the same V(i-1) as this node: it can be OR. False from a peer's loss
+    /// until the keyframe that brings it back in step.
+    peer_in_step: bool,
+    /// The restarted peer asked for a keyframe.
+    peer_rejoining: bool,
+    /// A display connected after the first: a restarted display plays its path from its
+    /// first camera, and the nodes start over with it.
+    display_restarted: bool,
+    displays_seen: u32,
     /// Cameras by frame, with their arrival times.
     cameras: BTreeMap<u64, (CameraPacket, u64)>,
     peer_queue: VecDeque<(Message, u64)>,
@@ -64,6 +111,9 @@ pub struct Switch {
     /// V(i-1), sorted LOD ids.
     visible: Vec<NodeId>,
     done: bool,
+    /// Peer losses and rejoins seen, for the log.
+    pub peer_losses: u32,
+    pub peer_rejoins: u32,
 }
 
 fn camera(c: &CameraPacket) -> Camera {
@@ -71,172 +121,279 @@ fn camera(c: &CameraPacket) -> Camera {
 }
 
 impl Switch {
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        index: u64,
-        tau: f64,
-        batch: usize,
-        full: bool,
-        renderer: Renderer,
-        events: Receiver<Event>,
-        to_peer: UnboundedSender<Message>,
-        to_display: UnboundedSender<Message>,
-    ) -> Switch {
+    pub fn new(index: u64, tau: f64, batch: usize, full: bool, renderer: Renderer, events: Receiver<Event>) -> Switch {
         Switch {
-            index,
             tau,
             batch,
             full,
             renderer,
             events,
-            to_peer,
-            to_display,
+            peer: None,
+            display: None,
+            hc_parity: index,
+            depth_for: None,
+            peer_in_step: false,
+            peer_rejoining: false,
+            display_restarted: false,
+            displays_seen: 0,
             cameras: BTreeMap::new(),
             peer_queue: VecDeque::new(),
             peer_eof_received_us: 0,
             sent: [0; 2],
             visible: Vec::new(),
             done: false,
+            peer_losses: 0,
+            peer_rejoins: 0,
         }
     }
 
     /// Handles one event; peer messages are queued for [`Switch::peer_message`].
-    fn handle(&mut self, e: Event) -> anyhow::Result<()> {
+    fn handle(&mut self, e: Event) {
         match e {
             Event::FromDisplay(Message::Camera(c), at) => {
                 self.cameras.insert(c.frame, (c, at));
             }
             Event::FromDisplay(Message::Goodbye(_), _) | Event::FromPeer(Message::Goodbye(_), _) => self.done = true,
+            Event::FromPeer(Message::Rejoin, _) => {
+                tracing::warn!("the peer rejoins: it gets a keyframe at the end of this frame");
+                self.peer_rejoining = true;
+            }
             Event::FromPeer(m, at) => self.peer_queue.push_back((m, at)),
             Event::FromDisplay(m, _) => tracing::warn!("unexpected message from the display: {m:?}"),
-            Event::Connected(role, name) => tracing::info!("{role:?} {name} connected"),
-            Event::Closed(role, why) if !self.done => anyhow::bail!("{role:?} connection lost: {why}"),
-            Event::Closed(..) => {}
-        }
-        Ok(())
-    }
-
-    fn next_event(&mut self) -> anyhow::Result<()> {
-        let e = self.events.recv_timeout(WAIT).map_err(|_| anyhow::anyhow!("nothing heard for {WAIT:?}"))?;
-        self.handle(e)
-    }
-
-    /// Waits until both the display and the peer are connected.
-    pub fn wait_connected(&mut self) -> anyhow::Result<()> {
-        let (mut display, mut peer) = (false, false);
-        while !(display && peer) {
-            match self.events.recv_timeout(WAIT).map_err(|_| anyhow::anyhow!("display and peer not connected within {WAIT:?}"))? {
-                Event::Connected(Role::Display, _) => display = true,
-                Event::Connected(Role::Node, _) => peer = true,
-                e => self.handle(e)?,
+            Event::Connected { role, name, id, out } => {
+                tracing::info!("{role:?} {name} connected");
+                let link = Some(Link { id, out });
+                match role {
+                    Role::Node => self.peer = link,
+                    Role::Display => {
+                        self.display = link;
+                        self.displays_seen += 1;
+                        if self.displays_seen > 1 {
+                            tracing::warn!("a new display connected: starting over with its path");
+                            self.display_restarted = true;
+                            self.done = false;
+                            self.cameras.clear();
+                        }
+                    }
+                }
+            }
+            Event::Closed { role, id, why } => {
+                let link = match role {
+                    Role::Node => &mut self.peer,
+                    Role::Display => &mut self.display,
+                };
+                if link.as_ref().is_some_and(|l| l.id == id) {
+                    *link = None;
+                    if !self.done {
+                        tracing::warn!("{role:?} connection lost ({why}){}", if role == Role::Node { ": running both roles" } else { "" });
+                        if role == Role::Node {
+                            self.peer_losses += 1;
+                            self.peer_in_step = false;
+                            self.peer_rejoining = false;
+                            self.peer_queue.clear();
+                        }
+                    }
+                }
             }
         }
+    }
+
+    fn next_event(&mut self, what: &str) -> anyhow::Result<()> {
+        let e = self.events.recv_timeout(WAIT).map_err(|_| anyhow::anyhow!("waited {WAIT:?} for {what}"))?;
+        self.handle(e);
         Ok(())
+    }
+
+    /// Waits until the display and the peer are connected; then, unless the display starts
+    /// the path (camera 0), this node restarted into a running cluster and rejoins it.
+    /// Returns the first frame to run.
+    pub fn start(&mut self) -> anyhow::Result<u64> {
+        while self.display.is_none() || self.peer.is_none() {
+            self.next_event("the display and the peer to connect")?;
+        }
+        while self.cameras.is_empty() {
+            self.next_event("the first camera")?;
+        }
+        if self.cameras.contains_key(&0) {
+            self.peer_in_step = true;
+            return Ok(0);
+        }
+        // Rejoin: ask the peer for its visible set; from the frame after it, this node is OR.
+        self.send_peer(Message::Rejoin);
+        loop {
+            match self.peer_message("a keyframe from the peer", false)? {
+                Some((Message::Keyframe(k), _)) => {
+                    self.visible = k.ids.ids(self.renderer.scene.header().node_count)?;
+                    self.hc_parity = k.frame % 2;
+                    self.peer_in_step = true;
+                    self.peer_rejoins += 1;
+                    tracing::warn!("rejoined at frame {}", k.frame + 1);
+                    return Ok(k.frame + 1);
+                }
+                Some(_) => {}
+                None => anyhow::bail!("the peer left before this node could rejoin"),
+            }
+        }
     }
 
     /// The camera of frame `k` and its arrival time, or `None` when the display said goodbye.
     fn camera(&mut self, k: u64) -> anyhow::Result<Option<(CameraPacket, u64)>> {
         loop {
             if let Some(c) = self.cameras.get(&k).copied() {
-                // Older cameras are never needed again.
-                self.cameras = self.cameras.split_off(&k);
+                // Older cameras are never needed again; camera k is, if this node takes over
+                // frame k after all.
+                self.cameras = self.cameras.split_off(&k.saturating_sub(1));
                 return Ok(Some(c));
             }
-            if self.done {
+            if self.done || self.display_restarted {
                 return Ok(None);
             }
-            self.next_event()?;
+            self.next_event(&format!("camera {k}"))?;
         }
     }
 
-    fn peer_message(&mut self) -> anyhow::Result<Option<(Message, u64)>> {
+    /// The peer's next message; `None` when the display said goodbye or the peer is gone
+    /// (or, with `in_step`, out of step: a new connection from a restarted peer).
+    fn peer_message(&mut self, what: &str, in_step: bool) -> anyhow::Result<Option<(Message, u64)>> {
         loop {
             if let Some(m) = self.peer_queue.pop_front() {
                 return Ok(Some(m));
             }
-            if self.done {
+            if self.done || self.display_restarted || self.peer.is_none() || (in_step && !self.peer_in_step) {
                 return Ok(None);
             }
-            self.next_event()?;
+            self.next_event(what)?;
         }
     }
 
-    /// Runs frames until the display says goodbye.
-    pub fn run(&mut self) -> anyhow::Result<Vec<NodeFrame>> {
-        let mut log = Vec::new();
-        for i in 0u64.. {
-            let f = if i % 2 == self.index { self.hc(i)? } else { self.or(i)? };
+    /// Runs frames from `first` until the display says goodbye.
+    pub fn run(&mut self, first: u64) -> anyhow::Result<Vec<NodeFrame>> {
+        let (mut log, mut i) = (Vec::new(), first);
+        loop {
+            while let Ok(e) = self.events.try_recv() {
+                self.handle(e);
+            }
+            if self.display_restarted {
+                i = self.start_over()?;
+            }
+            let f = if self.peer_in_step && i % 2 != self.hc_parity { self.or(i)? } else { self.hc(i)? };
             match f {
                 Some(f) => log.push(f),
+                None if self.display_restarted => continue,
                 None => break,
             }
+            i += 1;
         }
         Ok(log)
     }
 
-    /// Sends `m` to the display and counts its bytes.
+    /// A restarted display: forget the visible set (the display holds none) and run from its
+    /// first camera, HC by parity as at start-up. Both nodes do this on their own; the first
+    /// frame's HC has no occluders, as at frame 0.
+    fn start_over(&mut self) -> anyhow::Result<u64> {
+        self.display_restarted = false;
+        self.visible.clear();
+        self.peer_queue.clear();
+        self.depth_for = None;
+        while self.cameras.is_empty() {
+            self.next_event("the new display's first camera")?;
+        }
+        Ok(*self.cameras.keys().next().expect("a camera"))
+    }
+
+    fn send_peer(&mut self, m: Message) {
+        if let Some(l) = &self.peer {
+            self.sent[0] += osw_wire::frame_len(&m) as u64;
+            let _ = l.out.send(m);
+        }
+    }
+
     fn send_display(&mut self, m: Message) {
-        self.sent[1] += osw_wire::frame_len(&m) as u64;
-        let _ = self.to_display.send(m);
+        if let Some(l) = &self.display {
+            self.sent[1] += osw_wire::frame_len(&m) as u64;
+            let _ = l.out.send(m);
+        }
     }
 
-    /// Sends `m` to the peer and the display and counts its bytes on both links.
-    fn send_both(&mut self, m: Message) {
-        self.sent[0] += osw_wire::frame_len(&m) as u64;
-        let _ = self.to_peer.send(m.clone());
-        self.send_display(m);
-    }
-
+    /// HC for frame i, or both roles when no OR pass prepared camera i's depth buffer (the
+    /// first frame, the peer gone, or the frame after handing the peer a keyframe).
     fn hc(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
         let Some((cam, camera_received_us)) = self.camera(i)? else { return Ok(None) };
         let t = Instant::now();
         self.sent = [0; 2];
         self.send_display(Message::Camera(cam));
+        let solo = self.depth_for != Some(i);
         let r = &mut self.renderer;
         r.begin_frame();
         let view = r.view(&camera(&cam));
-        if i == 0 {
-            // No OR before the first frame: no occluders.
-            r.draw(&view, &[], Pass::Depth, true)?;
+        let mut drawn = 0;
+        if solo {
+            // The OR pass of paper 004 fig. 5 on this GPU: the front of V(i-1) for camera i.
+            let mut front = Vec::new();
+            update_front(r.scene.nodes(), &self.visible, &view, self.tau, &mut front);
+            drawn = r.draw(&view, &front, Pass::Depth, true)?.nodes;
         }
         let mut pvs = Vec::new();
         let hc = hc_pass(r, &view, self.tau, HcTest::Hybrid, &mut pvs)?;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         diff(&self.visible, &pvs, &mut added, &mut removed);
-        // Batches of at most b ids (sec. 3.5), additions first: OR draws them.
+        // RVG gets the whole set when it may not hold this node's V(i-1): while running alone.
+        let keyframe_to_display = self.full || (solo && i > 0);
         let mut ids_sent = 0;
-        if self.full {
+        if keyframe_to_display {
             ids_sent = pvs.len() as u64;
-            self.send_both(Message::Keyframe(Keyframe { frame: i, ids: IdList::from_ids(&pvs) }));
-            added.clear();
-            removed.clear();
+            self.send_display(keyframe_of(i, &pvs));
         }
-        let chunks = added.len().div_ceil(self.batch).max(removed.len().div_ceil(self.batch));
-        let batch = self.batch;
-        for k in 0..chunks {
-            let part = |v: &[u32]| v.iter().skip(k * batch).take(batch).copied().collect::<Vec<_>>();
-            let (a, rm) = (part(&added), part(&removed));
-            ids_sent += (a.len() + rm.len()) as u64;
-            self.send_both(Message::Delta(Delta { frame: i, added: IdList::from_ids(&a), removed: IdList::from_ids(&rm) }));
+        if self.full {
+            self.send_peer(keyframe_of(i, &pvs));
+        } else {
+            // Batches of at most b ids (sec. 3.5), additions first: OR draws them.
+            let chunks = added.len().div_ceil(self.batch).max(removed.len().div_ceil(self.batch));
+            for k in 0..chunks {
+                let part = |v: &[u32]| v.iter().skip(k * self.batch).take(self.batch).copied().collect::<Vec<_>>();
+                let (a, rm) = (part(&added), part(&removed));
+                let delta = Message::Delta(Delta { frame: i, added: IdList::from_ids(&a), removed: IdList::from_ids(&rm) });
+                if !keyframe_to_display {
+                    ids_sent += (a.len() + rm.len()) as u64;
+                    self.send_display(delta.clone());
+                }
+                self.send_peer(delta);
+            }
         }
+        let batches = if self.full { 1 } else { added.len().div_ceil(self.batch).max(removed.len().div_ceil(self.batch)) as u32 };
         let stats =
             HcWireStats { tests: hc.tests, levels: hc.levels, hc_us: t.elapsed().as_micros() as u64, or_us: 0, pvs: pvs.len() as u32 };
         let clock = LinkStamps { sent_us: now_us(), camera_received_us, peer_eof_received_us: self.peer_eof_received_us };
-        self.send_both(Message::EndOfFrame(EndOfFrame { frame: i, stats, clock }));
+        let eof = Message::EndOfFrame(EndOfFrame { frame: i, stats, clock });
+        self.send_peer(eof.clone());
+        self.send_display(eof);
+        self.depth_for = Some(i);
         self.visible = pvs;
+        if self.peer_rejoining && self.peer.is_some() {
+            // Hand the restarted peer V(i): it is OR for frame i+1, this node alone once more.
+            self.send_peer(keyframe_of(i, &self.visible));
+            self.peer_rejoining = false;
+            self.peer_in_step = true;
+            self.hc_parity = (i + 1) % 2;
+            self.peer_rejoins += 1;
+            tracing::warn!("handed the peer V({i}): the switch resumes at frame {}", i + 2);
+        }
         Ok(Some(NodeFrame {
             frame: i,
-            hc: true,
+            duty: if solo { Duty::Solo } else { Duty::Hc },
             ms: t.elapsed().as_secs_f64() * 1e3,
-            nodes_drawn: 0,
+            nodes_drawn: drawn,
             tests: hc.tests,
             ids_sent,
-            batches: chunks as u32,
+            batches,
             bytes_to_peer: self.sent[0],
             bytes_to_display: self.sent[1],
+            rss_kb: osw_render::stats::resident_bytes() >> 10,
         }))
     }
 
+    /// OR for frame i+1 while the peer is HC for frame i. When the peer is lost before its
+    /// end of frame, this node runs frame i alone instead.
     fn or(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
         let Some((cam, _)) = self.camera(i + 1)? else { return Ok(None) };
         let t = Instant::now();
@@ -249,8 +406,13 @@ impl Switch {
         let mut drawn = r.draw(&view, &front, Pass::Depth, true)?.nodes;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         loop {
-            match self.peer_message()? {
-                None => return Ok(None),
+            match self.peer_message(&format!("frame {i} from the peer"), true)? {
+                None if self.done || self.display_restarted => return Ok(None),
+                None => {
+                    tracing::warn!("frame {i}: the peer is gone; running it alone");
+                    self.depth_for = None;
+                    return self.hc(i);
+                }
                 Some((Message::Delta(d), _)) if d.frame == i => {
                     let a = d.added.ids(max_id)?;
                     drawn += self.renderer.draw(&view, &a, Pass::Depth, false)?.nodes;
@@ -276,9 +438,10 @@ impl Switch {
         added.sort_unstable();
         removed.sort_unstable();
         self.visible = apply(&self.visible, &removed, &added);
+        self.depth_for = Some(i + 1);
         Ok(Some(NodeFrame {
             frame: i,
-            hc: false,
+            duty: Duty::Or,
             ms: t.elapsed().as_secs_f64() * 1e3,
             nodes_drawn: drawn,
             tests: 0,
@@ -286,11 +449,18 @@ impl Switch {
             batches: 0,
             bytes_to_peer: 0,
             bytes_to_display: 0,
+            rss_kb: osw_render::stats::resident_bytes() >> 10,
         }))
     }
 
     /// Tells everyone this node is leaving.
     pub fn goodbye(&mut self, reason: &str) {
-        self.send_both(Message::Goodbye(Goodbye { reason: reason.to_owned() }));
+        let m = Message::Goodbye(Goodbye { reason: reason.to_owned() });
+        self.send_peer(m.clone());
+        self.send_display(m);
     }
+}
+
+fn keyframe_of(frame: u64, ids: &[NodeId]) -> Message {
+    Message::Keyframe(Keyframe { frame, ids: IdList::from_ids(ids) })
 }

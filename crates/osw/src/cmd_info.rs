@@ -14,20 +14,12 @@ pub struct Args {
     check_geometry: bool,
 }
 
-/// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
-fn resident_bytes() -> u64 {
-    std::fs::read_to_string("/proc/self/statm")
-        .ok()
-        .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
-        .map_or(0, |pages| pages * 4096)
-}
-
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let rss_before = resident_bytes();
+    let rss_before = osw_render::stats::resident_bytes();
     let t = Instant::now();
     let scene = osw_scene::SceneFile::open(&a.scene)?;
     let open_ms = t.elapsed().as_secs_f64() * 1e3;
-    let rss_open = resident_bytes();
+    let rss_open = osw_render::stats::resident_bytes();
     let h = scene.header();
     let file_bytes = h.file_bytes;
     let [lo, hi] = h.content_hash;

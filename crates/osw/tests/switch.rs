@@ -1,7 +1,7 @@
 //! The occlusion switch as three processes on loopback (`osw run`): frames and visible sets
 //! identical to single-process `prev`, identical to `vfc` at tau 0 with no false culling,
-//! `--full` sends more for the same frames, and a killed node fails the run by name, promptly,
-//! leaving no process behind.
+//! `--full` sends more for the same frames, and a killed node is survived (the display gets
+//! every frame), then reported by name, leaving no process behind.
 
 mod common;
 use common::*;
@@ -61,7 +61,13 @@ fn the_switch_is_prev_split_across_processes() {
     assert!((saved - (1.0 - num(&sd, "ids_sent_mean") / num(&sd, "ids_full_mean"))).abs() < 1e-9);
     // Each node did both roles, in turn.
     let roles = std::fs::read_to_string(run.join("node-a.csv")).unwrap();
-    assert!(roles.lines().skip(1).enumerate().all(|(i, l)| l.split(',').nth(1) == Some(if i % 2 == 0 { "HC" } else { "OR" })), "{roles}");
+    // Frame 0 has no OR before it: node a runs it alone, then the roles alternate.
+    let expect = |i: usize| match i {
+        0 => "SOLO",
+        _ if i % 2 == 0 => "HC",
+        _ => "OR",
+    };
+    assert!(roles.lines().skip(1).enumerate().all(|(i, l)| l.split(',').nth(1) == Some(expect(i))), "{roles}");
     check_bandwidth(&run, &full, &d.path().join("bw"));
     check_latency(&run, &d.path().join("lat"));
 }
@@ -132,24 +138,24 @@ fn check_latency(run: &Path, out: &Path) {
 }
 
 #[test]
-fn a_killed_node_fails_the_run_by_name_and_leaves_nothing_behind() {
+fn a_killed_node_is_survived_then_reported_by_name() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "city", 60_000, 1);
     let path = d.path().join("long.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "3000", "-o", s(&path)]);
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "600", "-o", s(&path)]);
     let out = d.path().join("run");
     let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
         .args(["run", "--scene", s(&scene), "--path", s(&path), "--size", "64x64", "--no-frames", "--out", s(&out)])
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // Let it get going, then kill node b.
+    // Let it get going, then kill node b: node a runs both roles to the end of the path.
     let pattern = format!("--name b --scene {}", s(&scene));
     let t = Instant::now();
     while !out.join("node-b.log").exists() && t.elapsed() < Duration::from_secs(20) {
         std::thread::sleep(Duration::from_millis(50));
     }
-    std::thread::sleep(Duration::from_secs(2));
+    std::thread::sleep(Duration::from_millis(1500));
     let killed = std::process::Command::new("pkill").args(["-9", "-f", "--", &pattern]).status().unwrap();
     assert!(killed.success(), "node b was not running");
     let t = Instant::now();
@@ -157,13 +163,16 @@ fn a_killed_node_fails_the_run_by_name_and_leaves_nothing_behind() {
         if let Some(s) = run.try_wait().unwrap() {
             break s;
         }
-        assert!(t.elapsed() < Duration::from_secs(20), "osw run still running 20 s after node b was killed");
+        assert!(t.elapsed() < Duration::from_secs(60), "osw run still running 60 s after node b was killed");
         std::thread::sleep(Duration::from_millis(50));
     };
     let mut err = String::new();
     std::io::Read::read_to_string(run.stderr.as_mut().unwrap(), &mut err).unwrap();
-    assert!(!status.success());
+    assert!(!status.success(), "a killed node must fail the run");
     assert!(err.contains("node b"), "the error does not name node b: {err}");
+    let rows = csv(&out.join("stats.csv"));
+    assert_eq!(rows.len(), 600, "the display did not get every frame");
+    assert!(rows.iter().any(|r| num(r, "degraded") == 1.0), "no degraded frame recorded");
     std::thread::sleep(Duration::from_millis(300));
     let left = std::process::Command::new("pgrep").args(["-f", s(&scene)]).output().unwrap();
     assert!(left.stdout.is_empty(), "processes left behind: {}", String::from_utf8_lossy(&left.stdout));

@@ -60,6 +60,14 @@ pub struct Summary {
     pub geometry_never_loaded_fraction: f64,
 }
 
+/// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
+pub fn resident_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/statm")
+        .ok()
+        .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
+        .map_or(0, |pages| pages * 4096)
+}
+
 /// The `q` quantile (0..=1) of `v` by nearest rank; 0 for no values.
 pub fn quantile(v: &[f64], q: f64) -> f64 {
     if v.is_empty() {

@@ -130,6 +130,12 @@ pub enum Message {
     Goodbye(Goodbye),
     Ping(Ping),
     Pong(Pong),
+    /// Sent by a connection's writer when it has had nothing to send for a while, so that a
+    /// silent peer (a cut network) is noticed within [`crate::limits::SILENCE`].
+    Heartbeat,
+    /// A node that restarted tells its peer it holds no visible set: the peer, running both
+    /// roles alone, sends it a keyframe and the switch resumes.
+    Rejoin,
 }
 
 impl Message {

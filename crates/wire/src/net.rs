@@ -111,3 +111,56 @@ pub async fn probe_clock(c: &mut Conn, samples: usize, within: Duration) -> Resu
     }
     estimate(&got).ok_or_else(|| NetError::Timeout(format!("no clock samples from {peer}")))
 }
+
+/// Runs a connection after its handshake until it fails, closes or falls silent for
+/// [`SILENCE`]: a writer sends `out`'s messages, a heartbeat when it has had nothing to send
+/// for [`HEARTBEAT`], and answers clock probes at once (ahead of queued traffic, so the frame
+/// loop's pace does not enter the round trip); the reader hands every other message, with its
+/// arrival time ([`now_us`]) and frame bytes, to `deliver`, and stops when that returns false.
+/// Returns why the connection ended.
+pub async fn run_connection(
+    c: Conn,
+    mut out: tokio::sync::mpsc::UnboundedReceiver<Message>,
+    mut deliver: impl FnMut(Message, u64, usize) -> bool,
+) -> String {
+    use crate::clock::now_us;
+    use crate::limits::{HEARTBEAT, SILENCE};
+    use crate::messages::Pong;
+    let (mut sink, mut stream) = c.split();
+    let (pong_tx, mut pong_rx) = tokio::sync::mpsc::unbounded_channel::<Pong>();
+    let writer = tokio::spawn(async move {
+        loop {
+            let m = tokio::select! {
+                biased;
+                Some(p) = pong_rx.recv() => Message::Pong(Pong { sent_us: now_us(), ..p }),
+                m = tokio::time::timeout(HEARTBEAT, out.recv()) => match m {
+                    Ok(Some(m)) => m,
+                    Ok(None) => break,
+                    Err(_) => Message::Heartbeat,
+                },
+            };
+            if sink.send(m).await.is_err() {
+                break;
+            }
+        }
+    });
+    let why = loop {
+        match tokio::time::timeout(SILENCE, stream.next()).await {
+            Err(_) => break format!("silent for {SILENCE:?}"),
+            Ok(None) => break "closed the connection".to_string(),
+            Ok(Some(Err(e))) => break e.to_string(),
+            Ok(Some(Ok(Message::Heartbeat))) => {}
+            Ok(Some(Ok(Message::Ping(p)))) => {
+                let _ = pong_tx.send(Pong { ping_sent_us: p.sent_us, received_us: now_us(), sent_us: 0 });
+            }
+            Ok(Some(Ok(m))) => {
+                let (at, bytes) = (now_us(), crate::frame::frame_len(&m));
+                if !deliver(m, at, bytes) {
+                    break "no longer needed".to_string();
+                }
+            }
+        }
+    };
+    writer.abort();
+    why
+}

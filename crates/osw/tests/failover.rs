@@ -1,0 +1,159 @@
+//! Failover on loopback (issue 6), with the processes started by hand on fixed ports as on
+//! three machines: node a killed at frame 50 of a 300-frame walk and restarted at frame 120
+//! rejoins; the display gets every frame, marks the degraded span, and every frame equals
+//! frustum-only rendering with no exactly visible leaf culled. A display killed and started
+//! again is served from the start of its path.
+
+mod common;
+use common::*;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+const SIZE: &str = "192x192";
+
+fn bin(n: &str) -> PathBuf {
+    Path::new(env!("CARGO_BIN_EXE_osw")).with_file_name(n)
+}
+
+/// A loopback address with a port free now.
+fn free_addr() -> String {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    l.local_addr().unwrap().to_string()
+}
+
+/// Kills the process when dropped, so a failing test leaves nothing behind.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn node(name: &str, scene: &Path, listen: &str, peer: Option<&str>, log: &Path) -> Proc {
+    let mut c = Command::new(bin("osw-node"));
+    c.args(["--name", name, "--scene", s(scene), "--size", SIZE, "--listen", listen]);
+    if let Some(p) = peer {
+        c.args(["--peer", p]);
+    }
+    Proc(c.stdout(Stdio::null()).stderr(std::fs::File::create(log).unwrap()).spawn().unwrap())
+}
+
+fn display(scene: &Path, path: &Path, nodes: &str, out: &Path) -> Proc {
+    std::fs::create_dir_all(out).unwrap();
+    let c = Command::new(bin("osw-display"))
+        .args(["--scene", s(scene), "--path", s(path), "--nodes", nodes, "--size", SIZE, "--out", s(out)])
+        .stdout(Stdio::piped())
+        .stderr(std::fs::File::create(out.with_extension("log")).unwrap())
+        .spawn()
+        .unwrap();
+    Proc(c)
+}
+
+/// Reads the display's `frame N` lines, calling `at(N)` for each; returns when it exits.
+fn follow(d: &mut Proc, mut at: impl FnMut(u64)) -> std::process::ExitStatus {
+    let lines = BufReader::new(d.0.stdout.take().unwrap()).lines();
+    for l in lines.map_while(Result::ok) {
+        if let Some(n) = l.strip_prefix("frame ").and_then(|n| n.parse().ok()) {
+            at(n);
+        }
+    }
+    d.0.wait().unwrap()
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// Every frame of `run` equals vfc's and culls no exactly visible leaf.
+fn check_against_references(d: &Path, scene: &Path, path: &Path, run: &Path) {
+    let (vfc, exact) = (d.join("vfc"), d.join("exact"));
+    if !exact.exists() {
+        osw_ok(&["exact", "--scene", s(scene), "--path", s(path), "--size", SIZE, "--out", s(&exact)]);
+        osw_ok(&["render", "--scene", s(scene), "--path", s(path), "--mode", "vfc", "--size", SIZE, "--out", s(&vfc)]);
+    }
+    let c = compare(run, &vfc, &exact, &run.with_extension("cmp"));
+    assert_eq!(c["identical_frames"], c["frames"], "{}: frames differ from vfc: {c}", run.display());
+    assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{}: false culling: {c}", run.display());
+}
+
+fn walk(d: &Path) -> (PathBuf, PathBuf) {
+    let scene = build_gen(d, "plant", 150_000, 7);
+    let path = d.join("walk.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "300", "-o", s(&path)]);
+    (scene, path)
+}
+
+#[test]
+fn a_node_killed_and_restarted_rejoins_and_no_frame_is_lost() {
+    let d = tempfile::tempdir().unwrap();
+    let (scene, path) = walk(d.path());
+    let (addr_a, addr_b) = (free_addr(), free_addr());
+    let mut a = Some(node("a", &scene, &addr_a, None, &d.path().join("a1.log")));
+    let _b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
+    let out = d.path().join("run");
+    let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out);
+    let (mut killed_at, mut restarted_at) = (None, None);
+    let status = follow(&mut disp, |n| {
+        if n >= 50 && killed_at.is_none() {
+            drop(a.take());
+            killed_at = Some(n);
+        }
+        if n >= 120 && restarted_at.is_none() {
+            a = Some(node("a", &scene, &addr_a, None, &d.path().join("a2.log")));
+            restarted_at = Some(n);
+        }
+    });
+    assert!(status.success(), "display: {}", std::fs::read_to_string(out.with_extension("log")).unwrap());
+    let sum = summary(&out);
+    assert_eq!(sum["frames"], 300);
+    assert!(sum["node_losses"].as_u64().unwrap() >= 1 && sum["node_rejoins"].as_u64().unwrap() >= 1, "{sum}");
+    // The degraded span starts at the kill and ends once node a is back.
+    let stats = std::fs::read_to_string(out.join("stats.csv")).unwrap();
+    let degraded: Vec<u64> =
+        stats.lines().skip(1).filter(|l| l.split(',').nth(9) == Some("1")).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    let (first, last) = (*degraded.first().expect("no degraded frame"), *degraded.last().unwrap());
+    assert!(first >= killed_at.unwrap() && first <= killed_at.unwrap() + 3, "degraded from {first}, killed at {killed_at:?}");
+    assert!(last >= restarted_at.unwrap() && last < 299, "degraded until {last}, restarted at {restarted_at:?}: never rejoined");
+    // After the rejoin both nodes send frames again, in turn.
+    let tail: Vec<&str> = stats
+        .lines()
+        .skip(1)
+        .filter(|l| l.split(',').next().unwrap().parse::<u64>().unwrap() > last + 2)
+        .map(|l| l.split(',').nth(8).unwrap())
+        .collect();
+    assert!(tail.windows(2).all(|w| w[0] != w[1]) && !tail.is_empty(), "the switch did not resume: {tail:?}");
+    check_against_references(d.path(), &scene, &path, &out);
+}
+
+#[test]
+fn a_restarted_display_is_served_from_the_start_of_its_path() {
+    let d = tempfile::tempdir().unwrap();
+    let (scene, path) = walk(d.path());
+    let (addr_a, addr_b) = (free_addr(), free_addr());
+    let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
+    let mut b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
+    let nodes = format!("{addr_a},{addr_b}");
+    let first = d.path().join("first");
+    let mut disp = display(&scene, &path, &nodes, &first);
+    let lines = BufReader::new(disp.0.stdout.take().unwrap()).lines();
+    for l in lines.map_while(Result::ok) {
+        if l == "frame 50" {
+            break;
+        }
+    }
+    drop(disp);
+    let second = d.path().join("second");
+    let mut again = display(&scene, &path, &nodes, &second);
+    let status = follow(&mut again, |_| {});
+    assert!(status.success(), "display: {}", std::fs::read_to_string(second.with_extension("log")).unwrap());
+    assert_eq!(summary(&second)["frames"], 300);
+    // The nodes finish cleanly after the second display's goodbye.
+    for (n, p) in [("a", &mut a), ("b", &mut b)] {
+        let st = p.0.wait().unwrap();
+        assert!(st.success(), "node {n}: {}", std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap());
+    }
+    check_against_references(d.path(), &scene, &path, &second);
+}
