@@ -64,7 +64,7 @@ fn the_switch_is_prev_split_across_processes() {
     // Frame 0 has no OR before it: node a runs it alone, then the roles alternate.
     let expect = |i: usize| match i {
         0 => "SOLO",
-        _ if i % 2 == 0 => "HC",
+        _ if i.is_multiple_of(2) => "HC",
         _ => "OR",
     };
     assert!(roles.lines().skip(1).enumerate().all(|(i, l)| l.split(',').nth(1) == Some(expect(i))), "{roles}");
