@@ -95,6 +95,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let mut sw = switch::Switch::new(index, set.tau, set.batch, a.full, renderer, events);
     let log = sw.start().and_then(|first| sw.run(first));
     sw.goodbye(if log.is_ok() { "done" } else { "error" });
+    if sw.peer_losses + sw.peer_rejoins > 0 || sw.cameras_dropped > 0 {
+        tracing::warn!("{} peer losses, {} rejoins, {} cameras dropped", sw.peer_losses, sw.peer_rejoins, sw.cameras_dropped);
+    }
     let log = log?;
     if let Some(p) = &a.stats {
         let mut csv = String::from("frame,role,ms,nodes_drawn,tests,ids_sent,batches,bytes_to_peer,bytes_to_display,rss_kb\n");

@@ -37,6 +37,10 @@ use tokio::sync::mpsc::UnboundedSender;
 /// Longest wait for a camera or a peer message before the node gives up.
 pub const WAIT: Duration = Duration::from_secs(30);
 
+/// Most cameras held: playback needs three (k-1 in case of a takeover, k, k+1); more is a
+/// display flooding the node, and the farthest-ahead ones are dropped and counted.
+const MAX_CAMERAS: usize = 8;
+
 /// One frame of this node, for its statistics file.
 #[derive(Clone, Copy, Debug)]
 pub struct NodeFrame {
@@ -111,9 +115,10 @@ pub struct Switch {
     /// V(i-1), sorted LOD ids.
     visible: Vec<NodeId>,
     done: bool,
-    /// Peer losses and rejoins seen, for the log.
+    /// Peer losses and rejoins seen and cameras dropped, for the log.
     pub peer_losses: u32,
     pub peer_rejoins: u32,
+    pub cameras_dropped: u64,
 }
 
 fn camera(c: &CameraPacket) -> Camera {
@@ -144,6 +149,7 @@ impl Switch {
             done: false,
             peer_losses: 0,
             peer_rejoins: 0,
+            cameras_dropped: 0,
         }
     }
 
@@ -152,6 +158,13 @@ impl Switch {
         match e {
             Event::FromDisplay(Message::Camera(c), at) => {
                 self.cameras.insert(c.frame, (c, at));
+                if self.cameras.len() > MAX_CAMERAS {
+                    self.cameras.pop_last();
+                    self.cameras_dropped += 1;
+                    if self.cameras_dropped == 1 {
+                        tracing::warn!("more than {MAX_CAMERAS} cameras ahead: dropping the farthest");
+                    }
+                }
             }
             Event::FromDisplay(Message::Goodbye(_), _) | Event::FromPeer(Message::Goodbye(_), _) => self.done = true,
             Event::FromPeer(Message::Rejoin, _) => {
