@@ -2,7 +2,8 @@
 //! three machines: node a killed at frame 50 of a 300-frame walk and restarted at frame 120
 //! rejoins; the display gets every frame, marks the degraded span, and every frame equals
 //! frustum-only rendering with no exactly visible leaf culled. A display killed and started
-//! again is served from the start of its path.
+//! again is served from the start of its path. Silent and garbage connections are refused
+//! on their own while the walk goes on.
 
 mod common;
 use common::*;
@@ -156,4 +157,38 @@ fn a_restarted_display_is_served_from_the_start_of_its_path() {
         assert!(st.success(), "node {n}: {}", std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap());
     }
     check_against_references(d.path(), &scene, &path, &second);
+}
+
+#[test]
+fn silent_and_garbage_connections_do_not_stop_the_cluster() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "city", 30_000, 2);
+    let path = d.path().join("short.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "40", "-o", s(&path)]);
+    let (addr_a, addr_b) = (free_addr(), free_addr());
+    let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
+    let _b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
+    // A half-open connection that never says hello, and one that sends a frame far over the
+    // size limit followed by junk: each is refused or times out on its own.
+    let connect = || {
+        let t = std::time::Instant::now();
+        loop {
+            match std::net::TcpStream::connect(&addr_a) {
+                Ok(c) => break c,
+                Err(_) if t.elapsed().as_secs() < 20 => std::thread::sleep(std::time::Duration::from_millis(50)),
+                Err(e) => panic!("node a does not listen: {e}"),
+            }
+        }
+    };
+    let _silent = connect();
+    let mut junk = connect();
+    std::io::Write::write_all(&mut junk, &[0xff, 0xff, 0xff, 0x7f, 1, 2, 3, 4, 5]).unwrap();
+    let out = d.path().join("run");
+    let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out);
+    let status = follow(&mut disp, |_| {});
+    assert!(status.success(), "display: {}", std::fs::read_to_string(out.with_extension("log")).unwrap());
+    assert_eq!(summary(&out)["frames"], 40);
+    assert!(a.0.wait().unwrap().success(), "node a: {}", std::fs::read_to_string(d.path().join("a.log")).unwrap());
+    let log = std::fs::read_to_string(d.path().join("a.log")).unwrap();
+    assert!(log.contains("over the"), "the oversized frame was not refused by name: {log}");
 }
