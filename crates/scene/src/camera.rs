@@ -47,8 +47,10 @@ impl Camera {
             return Err(format!("non-finite camera position {:?}", self.position));
         }
         let q = self.orientation;
-        if !q.is_finite() || q.length() < 1e-6 {
-            return Err(format!("bad camera orientation {q:?}: expected a non-zero finite quaternion"));
+        // A finite quaternion can still have a length that overflows (components near 1e200,
+        // found by fuzzing): normalising it would give zeros.
+        if !q.is_finite() || !(q.length() >= 1e-6 && q.length().is_finite()) {
+            return Err(format!("bad camera orientation {q:?}: expected a non-zero quaternion of finite length"));
         }
         if !(self.fovy_deg > 0.0 && self.fovy_deg < 180.0) {
             return Err(format!("bad fovy {} degrees: expected in (0, 180)", self.fovy_deg));
@@ -76,6 +78,8 @@ mod tests {
         assert!(ok.validated().is_ok());
         assert!(Camera { position: DVec3::new(f64::NAN, 0.0, 0.0), ..ok }.validated().is_err());
         assert!(Camera { orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0), ..ok }.validated().is_err());
+        // Finite, but its length overflows (found by fuzzing the path CSV).
+        assert!(Camera { orientation: DQuat::from_xyzw(2e200, 0.2, 0.3, 0.9), ..ok }.validated().is_err());
         assert!(Camera { fovy_deg: 180.0, ..ok }.validated().is_err());
         assert!(Camera { fovy_deg: f64::INFINITY, ..ok }.validated().is_err());
     }

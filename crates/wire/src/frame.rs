@@ -148,12 +148,16 @@ mod tests {
             );
             assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))));
         }
-        let mut b = Vec::new();
-        encode_frame(
-            &Message::Camera(CameraPacket { frame: 1, position: [0.0; 3], orientation: [0.0; 4], fovy_deg: 60.0, sampled_us: 0 }),
-            &mut b,
-        );
-        assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))));
+        // A zero quaternion, and finite components whose length overflows (normalising
+        // either gives no rotation at all).
+        for orientation in [[0.0; 4], [2e200, 0.0, 0.0, 1.0]] {
+            let mut b = Vec::new();
+            encode_frame(
+                &Message::Camera(CameraPacket { frame: 1, position: [0.0; 3], orientation, fovy_deg: 60.0, sampled_us: 0 }),
+                &mut b,
+            );
+            assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))), "{orientation:?}");
+        }
     }
 
     proptest! {

@@ -145,7 +145,8 @@ impl Message {
             Message::Camera(c) => {
                 let finite = c.position.iter().chain(&c.orientation).all(|v| v.is_finite()) && c.fovy_deg.is_finite();
                 let q = c.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
-                if !finite || q < 1e-6 || !(c.fovy_deg > 0.0 && c.fovy_deg < 180.0) {
+                // q overflows to infinity for huge finite components: refused too.
+                if !finite || !(q >= 1e-6 && q.is_finite()) || !(c.fovy_deg > 0.0 && c.fovy_deg < 180.0) {
                     return Err(WireError::BadCamera(format!(
                         "frame {}: position {:?}, orientation {:?}, fovy {}",
                         c.frame, c.position, c.orientation, c.fovy_deg
