@@ -24,16 +24,7 @@ while (($#)); do
     *) echo "bandwidth: unknown argument $1" >&2; exit 2 ;;
   esac
 done
-# Paths given are relative to where the script was started; then work from the repository.
-abs() { [[ -z $1 ]] || realpath -m "$1"; }
-scene=$(abs "$scene") path=$(abs "$path") out=$(abs "$out")
-cd "$(dirname "$0")/.."
-scripts/setup.sh
-export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-cargo build --release --locked --bins
-osw=target/release/osw
-mkdir -p "$out"
-source scripts/walk-input.sh
+source "$(dirname "$0")/walk-input.sh"
 for kind in deltas full; do
   flag=(); [[ $kind == full ]] && flag=(--full)
   if ((netns)); then
