@@ -142,7 +142,7 @@ impl VisibilityTester for Answered<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::tester::AllVisible;
     use glam::DVec3;
@@ -151,7 +151,7 @@ mod tests {
     /// A hand-built scene: root group 0 over leaves 1 (x in [0,1]) and 2 (x in [10,11]);
     /// node 3 is the root's HLOD (error 0.5); 4 and 5 are leaf 1's levels 0 and 1 (error 0.1);
     /// 6 is leaf 2's level 0. All boxes span y, z in [0, 1].
-    fn scene() -> Vec<NodeRecord> {
+    pub(crate) fn scene() -> Vec<NodeRecord> {
         let node = |kind: NodeKind, x0: f32, x1: f32, error: f32, parent: u32, children: (u32, u32), lods: (u32, u32)| NodeRecord {
             bbox_min: [x0, 0.0, 0.0],
             bbox_max: [x1, 1.0, 1.0],
@@ -175,7 +175,7 @@ mod tests {
         ]
     }
 
-    fn view_from(eye: DVec3, target: DVec3) -> View {
+    pub(crate) fn view_from(eye: DVec3, target: DVec3) -> View {
         View::new(&Camera::look_at(eye, target, 60.0), DVec3::ZERO, 100, 100, 0.01)
     }
 

@@ -9,6 +9,7 @@
 //! - [`sw`], [`chc`], [`hzb`]: the baselines of papers 001 and 002 (stop-and-wait, coherent
 //!   hierarchical culling, a software Z pyramid).
 //! - [`delta`]: visible-set deltas, V(i) = (V(i-1) - removed) ∪ added (paper 000 sec. 3.4).
+//! - [`states`]: nodes classified visible / frustum-culled / occlusion-culled, for display.
 //! - [`front`]: the front update that re-selects last frame's visible set for a new camera
 //!   (paper 000 sec. 4.6), used to draw occluders.
 
@@ -19,6 +20,7 @@ pub mod front;
 pub mod frustum;
 pub mod hc;
 pub mod hzb;
+pub mod states;
 pub mod sw;
 pub mod tester;
 pub mod view;

@@ -133,7 +133,7 @@ pub fn write_outputs(
         rvg_ms_median: quantile(&col(|r| r.rvg_ms), 0.5),
         scene: set.scene.display().to_string(),
         scene_hash: format!("{hi:016x}{lo:016x}"),
-        path: a.path.display().to_string(),
+        path: a.path.as_ref().map_or("(interactive walk)".into(), |p| p.display().to_string()),
         width: w,
         height: h,
     };

@@ -23,8 +23,11 @@ pub enum GpuError {
     Device(String),
 }
 
-/// A device and its queue.
+/// A device and its queue, and the instance and adapter they came from (a window's surface
+/// is made from them).
 pub struct Gpu {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
@@ -39,7 +42,15 @@ impl Gpu {
     /// Opens an adapter: `name` picks the first whose name contains it (case-insensitive);
     /// `None` prefers a hardware adapter and falls back to a software one.
     pub fn new(name: Option<&str>) -> Result<Gpu, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        Gpu::with_instance(name, wgpu::InstanceDescriptor::new_without_display_handle())
+    }
+
+    /// As [`Gpu::new`], on an instance that can make surfaces for windows of `display`.
+    pub fn for_display(name: Option<&str>, display: Box<dyn wgpu::wgt::WgpuHasDisplayHandle>) -> Result<Gpu, GpuError> {
+        Gpu::with_instance(name, wgpu::InstanceDescriptor::new_with_display_handle(display))
+    }
+
+    fn with_instance(name: Option<&str>, mut desc: wgpu::InstanceDescriptor) -> Result<Gpu, GpuError> {
         desc.backends = wgpu::Backends::VULKAN;
         let instance = wgpu::Instance::new(desc);
         let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
@@ -85,7 +96,7 @@ impl Gpu {
             let mut s = slot.lock().unwrap_or_else(|p| p.into_inner());
             s.get_or_insert_with(|| e.to_string());
         }));
-        Ok(Gpu { device, queue, info, features, first_error })
+        Ok(Gpu { instance, adapter, device, queue, info, features, first_error })
     }
 
     /// Waits until the GPU has finished all submitted work; reports the first GPU error since

@@ -9,7 +9,10 @@ use bytemuck::{Pod, Zeroable};
 /// What a draw writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
+    /// Colour and depth, each object in its own colour.
     Color,
+    /// Colour and depth, every node in this RGB colour (shaded): nodes coloured by state.
+    Tinted([u8; 3]),
     Depth,
     Item,
 }
@@ -34,7 +37,19 @@ impl ViewUniform {
 pub struct DrawData {
     pub id: u32,
     pub object: u32,
-    pub pad: [u32; 2],
+    /// RGB in the low three bytes and 255 in the high one, or 0: the object's colour.
+    pub tint: u32,
+    pub pad: u32,
+}
+
+impl Pass {
+    /// The [`DrawData::tint`] of this pass's draws.
+    pub fn tint(self) -> u32 {
+        match self {
+            Pass::Tinted([r, g, b]) => u32::from_le_bytes([r, g, b, 255]),
+            _ => 0,
+        }
+    }
 }
 
 pub struct DrawPipelines {
@@ -121,7 +136,7 @@ impl DrawPipelines {
 
     pub fn pipeline(&self, pass: Pass) -> &wgpu::RenderPipeline {
         match pass {
-            Pass::Color => &self.color,
+            Pass::Color | Pass::Tinted(_) => &self.color,
             Pass::Depth => &self.depth,
             Pass::Item => &self.item,
         }

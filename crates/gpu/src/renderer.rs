@@ -164,7 +164,7 @@ impl Renderer {
         for &id in ids {
             self.residency.ensure(&self.gpu, &scene, id)?;
             let n = scene.node(id);
-            self.draw_data.push(DrawData { id, object: n.object, pad: [0; 2] });
+            self.draw_data.push(DrawData { id, object: n.object, tint: pass.tint(), pad: 0 });
             stats.nodes += 1;
             stats.triangles += n.triangles as u64;
         }
@@ -177,7 +177,7 @@ impl Renderer {
         {
             let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
             let color_view = match pass {
-                Pass::Color => Some(&self.target.color),
+                Pass::Color | Pass::Tinted(_) => Some(&self.target.color),
                 Pass::Item => Some(&self.target.item),
                 Pass::Depth => None,
             };
@@ -186,7 +186,7 @@ impl Renderer {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: load(if pass == Pass::Color { SKY } else { wgpu::Color::BLACK }),
+                    load: load(if pass == Pass::Item { wgpu::Color::BLACK } else { SKY }),
                     store: wgpu::StoreOp::Store,
                 },
             });

@@ -92,7 +92,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     if let Some(peer) = &peer {
         rt.spawn(link::keep_connected(peer.clone(), me, events_tx));
     }
-    let mut sw = switch::Switch::new(index, set.tau, set.batch, a.full, renderer, events);
+    let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events);
     let log = sw.start().and_then(|first| sw.run(first));
     sw.goodbye(if log.is_ok() { "done" } else { "error" });
     if sw.peer_losses + sw.peer_rejoins > 0 || sw.cameras_dropped > 0 {

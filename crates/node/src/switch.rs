@@ -18,7 +18,8 @@
 //!
 //! Cameras: in path playback every camera carries its frame number and frame k uses the
 //! camera numbered k (deterministic runs); RVG sends camera k+2 after it has frame k, so a node
-//! never holds more than three.
+//! never holds more than three. Each camera carries the frame's tau (RVG changes it
+//! interactively), so the node that is OR and the one that is HC select LODs alike.
 
 use crate::link::Event;
 use osw_cull::delta::{apply, diff};
@@ -84,7 +85,6 @@ struct Link {
 }
 
 pub struct Switch {
-    pub tau: f64,
     pub batch: usize,
     /// Send keyframes (the whole V(i)) instead of deltas.
     pub full: bool,
@@ -126,9 +126,8 @@ fn camera(c: &CameraPacket) -> Camera {
 }
 
 impl Switch {
-    pub fn new(index: u64, tau: f64, batch: usize, full: bool, renderer: Renderer, events: Receiver<Event>) -> Switch {
+    pub fn new(index: u64, batch: usize, full: bool, renderer: Renderer, events: Receiver<Event>) -> Switch {
         Switch {
-            tau,
             batch,
             full,
             renderer,
@@ -343,11 +342,11 @@ impl Switch {
         if solo {
             // The OR pass of paper 004 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let mut front = Vec::new();
-            update_front(r.scene.nodes(), &self.visible, &view, self.tau, &mut front);
+            update_front(r.scene.nodes(), &self.visible, &view, cam.tau_px, &mut front);
             drawn = r.draw(&view, &front, Pass::Depth, true)?.nodes;
         }
         let mut pvs = Vec::new();
-        let hc = hc_pass(r, &view, self.tau, HcTest::Hybrid, &mut pvs)?;
+        let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, &mut pvs)?;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         diff(&self.visible, &pvs, &mut added, &mut removed);
         // RVG gets the whole set when it may not hold this node's V(i-1): while running alone.
@@ -415,7 +414,7 @@ impl Switch {
         r.begin_frame();
         let view = r.view(&camera(&cam));
         let mut front = Vec::new();
-        update_front(r.scene.nodes(), &self.visible, &view, self.tau, &mut front);
+        update_front(r.scene.nodes(), &self.visible, &view, cam.tau_px, &mut front);
         let mut drawn = r.draw(&view, &front, Pass::Depth, true)?.nodes;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         loop {

@@ -74,6 +74,7 @@ impl Traffic {
             position: [0.0; 3],
             orientation: [0.0, 0.0, 0.0, 1.0],
             fovy_deg: 60.0,
+            tau_px: 0.0,
             sampled_us: osw_wire::clock::now_us(),
         });
         let empty = Message::Delta(Delta { frame: frames as u64, added: IdList::default(), removed: IdList::default() });

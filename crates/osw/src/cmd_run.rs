@@ -2,6 +2,7 @@
 //! three processes (the `osw-node` and `osw-display` binaries beside this one), waits for the
 //! display to finish the path, collects the statistics into DIR, and shuts everything down.
 //! When a process fails, the others are stopped and the error names it and its last words.
+//! `osw play` is `osw run --window`: a path replayed in the window.
 
 use anyhow::{Context, bail};
 use std::io::{BufRead, BufReader};
@@ -14,9 +15,17 @@ pub struct Args {
     /// Scene file.
     #[arg(long)]
     scene: PathBuf,
-    /// Camera path CSV.
+    /// Camera path CSV; with --interactive, where the walk starts [default there: outside
+    /// the scene, looking at it].
+    #[arg(long, required_unless_present = "interactive")]
+    path: Option<PathBuf>,
+    /// Show the frames in a window as they are displayed (X11; without a screen, under Xvfb).
     #[arg(long)]
-    path: PathBuf,
+    window: bool,
+    /// Walk through the scene in a window instead of playing a path (keys: see
+    /// `osw-display --help` and the window's overlay); ends with Esc or closing the window.
+    #[arg(long)]
+    interactive: bool,
     /// Pixels of error allowed by LOD selection.
     #[arg(long, default_value_t = 0.0)]
     tau: f64,
@@ -87,6 +96,14 @@ fn address(p: &mut Proc) -> anyhow::Result<String> {
     }
 }
 
+/// `osw play`: replays a path (e.g. one recorded in a walk) in the window.
+pub fn play(a: Args) -> anyhow::Result<()> {
+    if a.path.is_none() {
+        bail!("osw play needs --path: the camera path to replay");
+    }
+    run(Args { window: true, ..a })
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out)?;
     let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
@@ -98,8 +115,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             name.into(),
             "--scene".into(),
             s(&a.scene),
-            "--tau".into(),
-            a.tau.to_string(),
             "--size".into(),
             size.clone(),
         ];
@@ -119,8 +134,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut args_d = vec![
         "--scene".into(),
         s(&a.scene),
-        "--path".into(),
-        s(&a.path),
         "--nodes".into(),
         format!("{addr_a},{addr_b}"),
         "--tau".into(),
@@ -130,17 +143,31 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "--out".into(),
         s(&a.out),
     ];
-    if a.no_frames {
-        args_d.push("--no-frames".into());
+    if let Some(p) = &a.path {
+        args_d.extend(["--path".into(), s(p)]);
+    }
+    for (on, flag) in [(a.no_frames, "--no-frames"), (a.window, "--window"), (a.interactive, "--interactive")] {
+        if on {
+            args_d.push(flag.into());
+        }
     }
     let mut pd = spawn("display", &display, &args_d, &a.out)?;
-    let frames = osw_scene::path::read(&a.path)?.len() as u64;
-    let bar = crate::progress::frames(frames, "switch");
+    // A walk has no length: no bar, only what the display says (recordings, screenshots).
+    let bar = match &a.path {
+        Some(p) if !a.interactive => crate::progress::frames(osw_scene::path::read(p)?.len() as u64, "switch"),
+        _ => indicatif::ProgressBar::hidden(),
+    };
     let display_out = pd.child.stdout.take().context("display stdout")?;
     let ticker = {
         let bar = bar.clone();
         std::thread::spawn(move || {
-            BufReader::new(display_out).lines().map_while(Result::ok).filter(|l| l.starts_with("frame ")).for_each(|_| bar.inc(1))
+            for line in BufReader::new(display_out).lines().map_while(Result::ok) {
+                match line.starts_with("frame ") {
+                    true => bar.inc(1),
+                    // On stdout, as the display says it, above the bar.
+                    false => bar.suspend(|| out!("osw: {line}")),
+                }
+            }
         })
     };
     let mut procs = [pd, pa, pb];

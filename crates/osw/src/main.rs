@@ -51,6 +51,9 @@ enum Cmd {
     Compare(cmd_compare::Args),
     /// Run the occlusion switch on this host: two nodes and the display, three processes.
     Run(cmd_run::Args),
+    /// Replay a camera path in a window (`osw run --window`): e.g. a path recorded in a walk
+    /// (`osw run --interactive`, key R).
+    Play(cmd_run::Args),
     /// Error against run time: every mode at every tau, compared with exact visibility and
     /// full-detail images; report.md, report.json and a plot.
     Report(cmd_report::Args),
@@ -74,6 +77,7 @@ fn main() -> std::process::ExitCode {
         Cmd::Exact(a) => cmd_exact::run(a),
         Cmd::Compare(a) => cmd_compare::run(a),
         Cmd::Run(a) => cmd_run::run(a),
+        Cmd::Play(a) => cmd_run::play(a),
         Cmd::Report(a) => cmd_report::run(a),
         Cmd::Bandwidth(a) => cmd_bandwidth::run(a),
         Cmd::Latency(a) => cmd_latency::run(a),

@@ -9,28 +9,14 @@ mod common;
 use common::*;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 
 const SIZE: &str = "192x192";
-
-fn bin(n: &str) -> PathBuf {
-    Path::new(env!("CARGO_BIN_EXE_osw")).with_file_name(n)
-}
 
 /// A loopback address with a port free now.
 fn free_addr() -> String {
     let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     l.local_addr().unwrap().to_string()
-}
-
-/// Kills the process when dropped, so a failing test leaves nothing behind.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
 }
 
 fn node(name: &str, scene: &Path, listen: &str, peer: Option<&str>, log: &Path) -> Proc {

@@ -104,6 +104,7 @@ fn check_bandwidth(run: &Path, full: &Path, out: &Path) {
             position: [0.0; 3],
             orientation: [0.0, 0.0, 0.0, 1.0],
             fovy_deg: 60.0,
+            tau_px: 0.0,
             sampled_us: osw_wire::clock::now_us(),
         })) as f64;
         assert_eq!(num(r, "hc_to_rvg_bytes") - num(r, "hc_to_or_bytes"), camera, "frame {i}: {r:?}");

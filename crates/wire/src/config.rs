@@ -29,7 +29,8 @@ pub struct ClusterArgs {
     /// Scene file: the same file, by content hash, in every process [default: the config's].
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    /// Pixels of error for LOD selection [default: the config's, else 0].
+    /// Pixels of error for LOD selection; the display sends it with every camera, so its value
+    /// is the one the nodes use [default: the config's, else 0].
     #[arg(long)]
     pub tau: Option<f64>,
     /// Image size, WIDTHxHEIGHT [default: the config's, else 1024x1024].

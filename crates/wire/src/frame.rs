@@ -76,6 +76,7 @@ mod tests {
                 position: [1e7, 2.0, -3.5],
                 orientation: [0.0, 0.0, 0.0, 1.0],
                 fovy_deg: 60.0,
+                tau_px: 2.5,
                 sampled_us: 123,
             }),
             Message::Delta(Delta { frame: 7, added: IdList::from_ids(&[1, 5, 900]), removed: IdList::from_ids(&[2]) }),
@@ -103,14 +104,21 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_3() {
+    fn golden_bytes_of_version_4() {
+        // A change here changes the protocol: bump PROTOCOL_VERSION.
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 4);
         // An end of frame: length 10, variant 3, frame 7, tests 10, levels 2, hc_us 5, or_us 6,
-        // pvs 3, then the link stamps 1, 2, 3 (bincode standard: varint integers). A change
-        // here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 3);
+        // pvs 3, then the link stamps 1, 2, 3 (bincode standard: varint integers).
         let mut b = Vec::new();
         encode_frame(&samples()[3], &mut b);
         assert_eq!(b, vec![10, 0, 0, 0, 3, 7, 10, 2, 5, 6, 3, 1, 2, 3]);
+        // A camera: variant 1, frame 7, eight f64 (position, orientation, fovy) and tau as
+        // little-endian IEEE doubles, then sampled_us 123: 2 + 9 * 8 + 1 = 75 bytes, the
+        // paper's 72 (sec. 3.5) plus tau, the frame number and the stamp.
+        let mut b = Vec::new();
+        encode_frame(&samples()[1], &mut b);
+        let doubles: Vec<u8> = [1e7, 2.0, -3.5, 0.0, 0.0, 0.0, 1.0, 60.0, 2.5].iter().flat_map(|d: &f64| d.to_le_bytes()).collect();
+        assert_eq!(b, [&[75u8, 0, 0, 0, 1, 7][..], &doubles, &[123]].concat());
     }
 
     #[test]
@@ -142,6 +150,7 @@ mod tests {
                     position: bad,
                     orientation: [0.0, 0.0, 0.0, 1.0],
                     fovy_deg: 60.0,
+                    tau_px: 0.0,
                     sampled_us: 0,
                 }),
                 &mut b,
@@ -153,7 +162,7 @@ mod tests {
         for orientation in [[0.0; 4], [2e200, 0.0, 0.0, 1.0]] {
             let mut b = Vec::new();
             encode_frame(
-                &Message::Camera(CameraPacket { frame: 1, position: [0.0; 3], orientation, fovy_deg: 60.0, sampled_us: 0 }),
+                &Message::Camera(CameraPacket { frame: 1, position: [0.0; 3], orientation, fovy_deg: 60.0, tau_px: 0.0, sampled_us: 0 }),
                 &mut b,
             );
             assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))), "{orientation:?}");

@@ -36,6 +36,9 @@ pub struct CameraPacket {
     /// Unit quaternion x, y, z, w.
     pub orientation: [f64; 4],
     pub fovy_deg: f64,
+    /// Pixels of error allowed by LOD selection for this frame: set by RVG (changed
+    /// interactively), so that both nodes select the same LODs for the same frame.
+    pub tau_px: f64,
     /// When RVG sampled this camera ([`crate::clock::now_us`] on RVG's host).
     pub sampled_us: u64,
 }
@@ -146,10 +149,11 @@ impl Message {
                 let finite = c.position.iter().chain(&c.orientation).all(|v| v.is_finite()) && c.fovy_deg.is_finite();
                 let q = c.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
                 // q overflows to infinity for huge finite components: refused too.
-                if !finite || !(q >= 1e-6 && q.is_finite()) || !(c.fovy_deg > 0.0 && c.fovy_deg < 180.0) {
+                let tau_ok = c.tau_px.is_finite() && c.tau_px >= 0.0;
+                if !finite || !(q >= 1e-6 && q.is_finite()) || !(c.fovy_deg > 0.0 && c.fovy_deg < 180.0) || !tau_ok {
                     return Err(WireError::BadCamera(format!(
-                        "frame {}: position {:?}, orientation {:?}, fovy {}",
-                        c.frame, c.position, c.orientation, c.fovy_deg
+                        "frame {}: position {:?}, orientation {:?}, fovy {}, tau {}",
+                        c.frame, c.position, c.orientation, c.fovy_deg, c.tau_px
                     )));
                 }
             }

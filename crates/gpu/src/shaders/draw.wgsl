@@ -6,8 +6,9 @@
 struct Draw {
     id: u32,
     object: u32,
-    pad0: u32,
-    pad1: u32,
+    // RGBA8 (alpha 255) to colour the node by its state, or 0: the object's own colour.
+    tint: u32,
+    pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> view: ViewUniform;
@@ -40,8 +41,12 @@ fn hash(v: u32) -> u32 {
 fn fs_color(in: VertexOut) -> @location(0) vec4<f32> {
     // Flat shading from screen-space derivatives: no normals stored in the scene file.
     let n = normalize(cross(dpdx(in.rel), dpdy(in.rel)));
-    let h = hash(draws[in.draw].object);
-    let base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
+    let d = draws[in.draw];
+    let h = hash(d.object);
+    var base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
+    if (d.tint != 0u) {
+        base = unpack4x8unorm(d.tint).rgb;
+    }
     let light = 0.35 + 0.65 * abs(dot(n, normalize(vec3<f32>(0.4, 0.8, 0.3))));
     return vec4<f32>(base * light, 1.0);
 }

@@ -5,7 +5,22 @@
 use osw_scene::SceneFile;
 use osw_scene::format::{NONE, NodeKind};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output};
+
+/// A binary of this workspace beside `osw` (osw-node, osw-display).
+pub fn bin(n: &str) -> PathBuf {
+    Path::new(env!("CARGO_BIN_EXE_osw")).with_file_name(n)
+}
+
+/// Kills the process when dropped, so a failing test leaves nothing behind.
+pub struct Proc(pub Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
 
 pub fn osw(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_osw")).args(args).env("OSW_MESH_CACHE", "/nonexistent").output().expect("run osw")

@@ -1,0 +1,158 @@
+//! Receiving one frame: the camera, the visible-set deltas (or a keyframe) and the end of
+//! frame from the node that is HC for it, and V(i) = (V(i-1) - removed) ∪ added (paper 000
+//! sec. 3.4).
+
+use crate::links::{self, Cluster, Note};
+use crate::stats::FrameRow;
+use osw_cull::delta::apply;
+use osw_wire::messages::{CameraPacket, Message};
+use std::collections::VecDeque;
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::time::{Duration, Instant};
+
+/// Longest wait for the HC node's next message.
+const WAIT: Duration = Duration::from_secs(30);
+
+/// How often a wait hands control back (a window keeps answering while the frame comes in).
+const SLICE: Duration = Duration::from_millis(15);
+
+/// A node's message as it arrived: node, message, frame bytes, arrival time.
+type Arrival = (usize, Message, u64, u64);
+
+pub struct Frames {
+    notes: Receiver<Note>,
+    pub cluster: Cluster,
+    /// V(i), sorted LOD ids.
+    pub visible: Vec<u32>,
+    max_id: u32,
+    /// The node that sent the previous frame and when it sent its end of frame.
+    prev_eof: Option<(usize, u64)>,
+    /// Messages not for the frame at hand yet (the next HC may start before this frame is
+    /// shown) or from the node that is not its source (kept in case the source is lost).
+    held: VecDeque<Arrival>,
+}
+
+impl Frames {
+    /// Waits until both nodes are connected.
+    pub fn connect(notes: Receiver<Note>, max_id: u32, idle: &mut dyn FnMut()) -> anyhow::Result<Frames> {
+        let mut f = Frames { notes, cluster: Cluster::default(), visible: Vec::new(), max_id, prev_eof: None, held: VecDeque::new() };
+        while f.cluster.nodes.iter().any(Option::is_none) {
+            let note = f.next_note(idle).map_err(|_| anyhow::anyhow!("the nodes did not connect within {WAIT:?}"))?;
+            f.cluster.note(note)?;
+        }
+        Ok(f)
+    }
+
+    /// The next note; `idle` runs every [`SLICE`] while there is none.
+    fn next_note(&self, idle: &mut dyn FnMut()) -> Result<Note, RecvTimeoutError> {
+        let start = Instant::now();
+        loop {
+            match self.notes.recv_timeout(SLICE) {
+                Err(RecvTimeoutError::Timeout) if start.elapsed() < WAIT => idle(),
+                r => return r,
+            }
+        }
+    }
+
+    /// Receives frame `i` and updates [`Frames::visible`] to V(i). Returns the frame's camera
+    /// and its row with what arrived filled in; `prev` is frame i-1's row (its HC → OR link
+    /// time is known only now).
+    pub fn frame(&mut self, i: u64, prev: Option<&mut FrameRow>, idle: &mut dyn FnMut()) -> anyhow::Result<(CameraPacket, FrameRow)> {
+        let mut row = FrameRow { frame: i, ..Default::default() };
+        // Frame i comes from the node that sends its camera first (the HC node, or the one
+        // running alone); if that node is lost before its end of frame, from the other.
+        let mut source: Option<(usize, CameraPacket)> = None;
+        let (mut added, mut removed, mut keyframe) = (Vec::new(), Vec::new(), None);
+        let mut replay: VecDeque<Arrival> = std::mem::take(&mut self.held);
+        let max_id = self.max_id;
+        loop {
+            let (node, m, bytes, at) = match replay.pop_front() {
+                Some(x) => x,
+                None => {
+                    let note = self.next_note(idle).map_err(|_| anyhow::anyhow!("frame {i}: nothing from the nodes for {WAIT:?}"))?;
+                    match self.cluster.note(note)? {
+                        Some(x) => x,
+                        None => {
+                            if let Some((lost, _)) = source.filter(|(n, _)| self.cluster.nodes[*n].is_none()) {
+                                tracing::warn!("frame {i}: node {} lost mid-frame; reading the frame from the other", links::NAMES[lost]);
+                                (source, keyframe, row.bytes, row.ids_sent) = (None, None, 0, 0);
+                                added.clear();
+                                removed.clear();
+                                replay = std::mem::take(&mut self.held);
+                            }
+                            continue;
+                        }
+                    }
+                }
+            };
+            let from_source = source.is_some_and(|(n, _)| n == node);
+            match m {
+                Message::Camera(c) if c.frame == i && source.is_none() => {
+                    source = Some((node, c));
+                    row.bytes += bytes;
+                }
+                // Another node's, or another frame's: kept while it may still be needed (an
+                // earlier frame's is a node taking over a frame this display already has).
+                m if !from_source || frame_of(&m) != Some(i) => {
+                    if frame_of(&m).is_some_and(|f| f >= i) {
+                        self.held.push_back((node, m, bytes, at));
+                    }
+                }
+                Message::Delta(d) if d.frame == i => {
+                    let (ad, rm) = (d.added.ids(max_id)?, d.removed.ids(max_id)?);
+                    (row.bytes, row.ids_sent) = (row.bytes + bytes, row.ids_sent + (ad.len() + rm.len()) as u64);
+                    added.extend(ad);
+                    removed.extend(rm);
+                }
+                Message::Keyframe(k) if k.frame == i => {
+                    // The whole V(i): replaces V(i-1) and what deltas would have built.
+                    row.bytes += bytes;
+                    let all = k.ids.ids(max_id)?;
+                    row.ids_sent += all.len() as u64;
+                    keyframe = Some(all);
+                }
+                Message::EndOfFrame(e) if e.frame == i => {
+                    row.bytes += bytes;
+                    row.hc_ms = e.stats.hc_us as f64 / 1e3;
+                    row.tests = e.stats.tests;
+                    let (hc, cam) = source.expect("from the source");
+                    // Every stamp on the display's clock. The end of frame is stamped when HC
+                    // queues it, behind the frame's deltas: its link time includes sending them.
+                    let clock = |n: usize| self.cluster.clocks[n];
+                    let ms = |later: f64, earlier: f64| (later - earlier) / 1e3;
+                    row.camera_link_ms = ms(clock(hc).to_display(e.clock.camera_received_us), cam.sampled_us as f64);
+                    row.eof_link_ms = ms(at as f64, clock(hc).to_display(e.clock.sent_us));
+                    if let (Some(prev), Some((sender, sent))) =
+                        (prev, self.prev_eof.filter(|p| p.0 != hc && e.clock.peer_eof_received_us > 0))
+                    {
+                        // This node was OR in frame i-1: the peer (HC then) sent its end of
+                        // frame then, on its clock, and it arrived here.
+                        prev.peer_link_ms = ms(clock(hc).to_display(e.clock.peer_eof_received_us), clock(sender).to_display(sent));
+                    }
+                    self.prev_eof = Some((hc, e.clock.sent_us));
+                    row.hc_node = hc as u32;
+                    row.degraded = self.cluster.nodes.iter().any(Option::is_none) as u32;
+                    break;
+                }
+                m => anyhow::bail!("frame {i}: unexpected message from node {}: {m:?}", links::NAMES[node]),
+            }
+        }
+        let cam = source.expect("a complete frame has a camera").1;
+        added.sort_unstable();
+        removed.sort_unstable();
+        self.visible = apply(keyframe.as_ref().unwrap_or(&self.visible), &removed, &added);
+        row.ids_full = self.visible.len() as u64;
+        Ok((cam, row))
+    }
+}
+
+/// The frame a frame message belongs to.
+fn frame_of(m: &Message) -> Option<u64> {
+    match m {
+        Message::Camera(c) => Some(c.frame),
+        Message::Delta(d) => Some(d.frame),
+        Message::Keyframe(k) => Some(k.frame),
+        Message::EndOfFrame(e) => Some(e.frame),
+        _ => None,
+    }
+}

@@ -1,0 +1,219 @@
+//! The window's side of the display: what the person asks for (walking, colours by state, a
+//! frozen culling camera, tau, recording the path, screenshots, the overlay) and what the
+//! window shows of each frame.
+
+use crate::controls::{Action, Controls};
+use crate::overlay::Overlay;
+use crate::stats::FrameRow;
+use crate::window::{Input, KEYS, Window};
+use osw_cull::View;
+use osw_cull::states::classify;
+use osw_gpu::Renderer;
+use osw_gpu::draw::Pass;
+use osw_scene::Camera;
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Colours by state (paper 000's colour plate): visible, occlusion-culled, frustum-culled.
+const VISIBLE: [u8; 3] = [70, 200, 80];
+const OCCLUDED: [u8; 3] = [220, 60, 50];
+const OUTSIDE: [u8; 3] = [70, 110, 230];
+
+struct Recording {
+    from: u64,
+    cameras: Vec<Camera>,
+    taus: Vec<f64>,
+}
+
+pub struct Ui {
+    pub window: Window,
+    /// Some when the person walks (`--interactive`); in path playback the path moves.
+    pub controls: Option<Controls>,
+    overlay: Option<Overlay>,
+    show_overlay: bool,
+    state_colours: bool,
+    /// The culling camera while frozen: the cluster culls for it, the window shows the walk.
+    frozen: Option<Camera>,
+    recording: Option<Recording>,
+    recordings: u32,
+    screenshot: bool,
+    quit: bool,
+    last_move: Instant,
+    /// Frames a second, smoothed.
+    fps: f64,
+    out: PathBuf,
+}
+
+/// Says what the display did on stdout (`osw run` passes it on); a closed stdout is no error.
+fn say(what: String) {
+    let _ = writeln!(std::io::stdout(), "{what}");
+}
+
+impl Ui {
+    pub fn new(window: Window, controls: Option<Controls>, height: u32, out: PathBuf) -> Ui {
+        let overlay = Overlay::load(height).map_err(|e| tracing::warn!("no overlay: {e}")).ok();
+        Ui {
+            window,
+            controls,
+            overlay,
+            show_overlay: true,
+            state_colours: false,
+            frozen: None,
+            recording: None,
+            recordings: 0,
+            screenshot: false,
+            quit: false,
+            last_move: Instant::now(),
+            fps: 0.0,
+            out,
+        }
+    }
+
+    /// Takes in what the person did since the last call.
+    pub fn pump(&mut self) {
+        for input in self.window.pump() {
+            let action = match (input, self.controls.as_mut()) {
+                (Input::Key(k, down), Some(c)) => c.key(k, down),
+                (Input::Key(crate::controls::Key::Do(a), true), None) => Some(a),
+                (Input::Drag(dx, dy), Some(c)) => {
+                    c.drag(dx, dy);
+                    None
+                }
+                (Input::ReleaseAll, Some(c)) => {
+                    c.release_all();
+                    None
+                }
+                _ => None,
+            };
+            match action {
+                Some(Action::Colours) => self.state_colours = !self.state_colours,
+                Some(Action::Freeze) => {
+                    self.frozen = match (self.frozen, &self.controls) {
+                        (None, Some(c)) => Some(c.camera()),
+                        _ => None,
+                    }
+                }
+                Some(Action::Record) => self.record(),
+                Some(Action::Screenshot) => self.screenshot = true,
+                Some(Action::Overlay) => self.show_overlay = !self.show_overlay,
+                Some(Action::Quit) => self.quit = true,
+                None => {}
+            }
+        }
+        self.quit |= self.window.closed();
+    }
+
+    /// The camera and tau to send for the next frame while walking, or `None` once the
+    /// person quit (or in path playback, where the path has the cameras).
+    pub fn next_camera(&mut self) -> Option<(Camera, f64)> {
+        self.pump();
+        let c = self.controls.as_mut().filter(|_| !self.quit)?;
+        c.advance(self.last_move.elapsed().as_secs_f64());
+        self.last_move = Instant::now();
+        Some((self.frozen.unwrap_or_else(|| c.camera()), c.tau))
+    }
+
+    /// Path playback: the person closed the window or pressed Escape.
+    pub fn quit(&self) -> bool {
+        self.quit
+    }
+
+    fn record(&mut self) {
+        match self.recording.take() {
+            None => self.recording = Some(Recording { from: u64::MAX, cameras: Vec::new(), taus: Vec::new() }),
+            Some(r) => self.save(r),
+        }
+    }
+
+    fn save(&mut self, r: Recording) {
+        if r.cameras.is_empty() {
+            return;
+        }
+        let path = self.out.join("paths").join(format!("recorded-{:03}.csv", self.recordings));
+        self.recordings += 1;
+        let written = std::fs::create_dir_all(self.out.join("paths")).map_err(|e| e.to_string());
+        match written.and_then(|_| osw_scene::path::write(&path, &r.cameras).map_err(|e| e.to_string())) {
+            Ok(()) => say(format!("recorded {} frames {}..={}", path.display(), r.from, r.from + r.cameras.len() as u64 - 1)),
+            Err(e) => tracing::error!("recording not saved: {e}"),
+        }
+        if r.taus.iter().any(|&t| t != r.taus[0]) {
+            tracing::warn!("tau changed while recording: the path keeps cameras only; it replays at one tau");
+        }
+    }
+
+    /// Stops a recording still running (the walk is over).
+    pub fn finish(&mut self) {
+        if let Some(r) = self.recording.take() {
+            self.save(r);
+        }
+    }
+
+    /// Renders what the window shows of frame `row.frame`, sent with `camera` at `tau` and
+    /// already drawn into the renderer's colour target as the frame is written. Drawn again
+    /// when the window's view differs: colours by state, or a frozen culling camera.
+    pub fn show(&mut self, r: &mut Renderer, visible: &[u32], camera: &Camera, tau: f64, row: &FrameRow) -> anyhow::Result<()> {
+        if let Some(rec) = self.recording.as_mut() {
+            rec.from = rec.from.min(row.frame);
+            rec.cameras.push(*camera);
+            rec.taus.push(tau);
+        }
+        let viewer = match (self.frozen, &self.controls) {
+            (Some(_), Some(c)) => c.camera(),
+            _ => *camera,
+        };
+        if self.state_colours {
+            let (view, culling) = (r.view(&viewer), r.view(camera));
+            let scene = std::sync::Arc::clone(&r.scene);
+            let mut front = Vec::new();
+            osw_cull::hardware_cull(scene.nodes(), &view, tau, &mut osw_cull::AllVisible, &mut front);
+            let s = classify(scene.nodes(), &front, visible, &culling.frustum);
+            r.draw(&view, &s.visible, Pass::Tinted(VISIBLE), true)?;
+            r.draw(&view, &s.occlusion_culled, Pass::Tinted(OCCLUDED), false)?;
+            r.draw(&view, &s.frustum_culled, Pass::Tinted(OUTSIDE), false)?;
+        } else if viewer != *camera {
+            let view: View = r.view(&viewer);
+            r.draw(&view, visible, Pass::Color, true)?;
+        }
+        let mut rgba = r.read_color()?;
+        let width = r.target.width;
+        if row.frame_ms > 0.0 {
+            let now = 1e3 / row.frame_ms;
+            self.fps = if self.fps == 0.0 { now } else { 0.9 * self.fps + 0.1 * now };
+        }
+        if let (true, Some(o)) = (self.show_overlay, &self.overlay) {
+            o.draw(&mut rgba, width, &self.lines(row, tau));
+        }
+        self.window.present(&r.gpu, &rgba, width)?;
+        if std::mem::take(&mut self.screenshot) {
+            let path = self.out.join("screenshots").join(format!("{:05}.png", row.frame));
+            std::fs::create_dir_all(self.out.join("screenshots"))?;
+            osw_render::output::write_png(&path, width, r.target.height, rgba).map_err(anyhow::Error::msg)?;
+            say(format!("screenshot {}", path.display()));
+        }
+        Ok(())
+    }
+
+    /// The overlay's text.
+    fn lines(&self, row: &FrameRow, tau: f64) -> Vec<String> {
+        let node = crate::links::NAMES.get(row.hc_node as usize).unwrap_or(&"?");
+        let mut l = vec![
+            format!("frame {}  {:.1} fps  latency {:.0} ms", row.frame, self.fps, row.latency_ms),
+            format!("HC node {node}{}", if row.degraded == 1 { "  DEGRADED: one node runs both roles" } else { "" }),
+            format!("PVS {} nodes  {} triangles  {} B/frame  tau {tau} px", row.pvs_nodes, row.triangles_drawn, row.bytes),
+        ];
+        let mut state = vec![if self.state_colours { "colours: green visible, red occluded, blue outside" } else { "colours: by object" }.to_string()];
+        if let Some(c) = &self.controls {
+            state.push(format!("speed {:.3}/s", c.speed));
+        }
+        if self.frozen.is_some() {
+            state.push("culling camera FROZEN".into());
+        }
+        if let Some(r) = &self.recording {
+            state.push(format!("REC {}", r.cameras.len()));
+        }
+        l.push(state.join("  "));
+        l.extend(KEYS.map(String::from));
+        l
+    }
+}
