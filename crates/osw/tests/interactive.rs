@@ -1,8 +1,9 @@
 //! Issue 7: the interactive walkthrough under Xvfb with scripted input (xdotool). A person's
 //! walk: move forward, start recording, turn and step sideways, stop recording, colour by
-//! state, take a screenshot, quit. Checked: the keys moved the camera, the screenshot and the
-//! window itself (grabbed from the X server with xwd) are not blank, and the recorded path
-//! replayed headless by `osw run` gives the walk's frames pixel for pixel.
+//! state, take a screenshot, quit. Checked: the keys moved the camera and a mouse drag turned
+//! it, the screenshot and the window itself (grabbed from the X server with xwd) are not
+//! blank, and the recorded path replayed headless by `osw run`, and in the window by
+//! `osw play`, gives the walk's frames pixel for pixel.
 //!
 //! Needs Xvfb, xdotool and xwd (scripts/setup.sh installs them); skipped with a message when
 //! they are missing, except under CI, where that is a failure.
@@ -117,6 +118,15 @@ fn a_walk_records_a_path_that_replays_to_the_same_frames() {
     std::thread::sleep(Duration::from_millis(300));
     x(&display, "xdotool", &["key", "r"]);
     let recorded = expect("osw: recorded ");
+    // Mouse look: a drag with the left button, recorded on its own.
+    x(&display, "xdotool", &["key", "r"]);
+    for _ in 0..8 {
+        x(&display, "xdotool", &["mousedown", "1", "mousemove_relative", "--", "-10", "4", "mouseup", "1"]);
+        std::thread::sleep(Duration::from_millis(60));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    x(&display, "xdotool", &["key", "r"]);
+    let dragged = expect("osw: recorded ");
     x(&display, "xdotool", &["key", "Tab", "p"]);
     let shot = expect("osw: screenshot ");
     let window_colours = xwd_colours(&x(&display, "xwd", &["-id", &window, "-silent"]));
@@ -142,6 +152,11 @@ fn a_walk_records_a_path_that_replays_to_the_same_frames() {
     let walk_start = osw_scene::path::read(&start).unwrap()[0].position;
     assert!((first.position - walk_start).length() > 0.0, "W moved the camera before the recording");
 
+    let looks = osw_scene::path::read(Path::new(dragged.split_whitespace().nth(2).unwrap())).unwrap();
+    let (f0, f1) = (looks[0].forward(), looks[looks.len() - 1].forward());
+    assert!(f0.angle_between(f1) > 0.05 && f1.y < f0.y, "a drag left and down turned the view: {f0} -> {f1}");
+    assert_eq!(looks[0].position, looks[looks.len() - 1].position, "a drag does not move the camera");
+
     let shot = Path::new(shot.trim_start_matches("osw: screenshot "));
     assert!(png_colours(shot) > 50, "screenshot {} is (nearly) blank", shot.display());
     assert!(window_colours > 50, "the window shows {window_colours} colours: blank");
@@ -152,5 +167,17 @@ fn a_walk_records_a_path_that_replays_to_the_same_frames() {
     for k in 0..cams.len() as u64 {
         let frame = |dir: &Path, i: u64| osw_render::output::read_png(&osw_render::output::frame_path(dir, i)).unwrap();
         assert!(frame(&replay, k) == frame(&live, a + k), "replayed frame {k} differs from the walk's frame {}", a + k);
+    }
+    // `osw play` shows the same path in the window, to its end, with the same frames.
+    let played = d.path().join("played");
+    let out = Command::new(env!("CARGO_BIN_EXE_osw"))
+        .args(["play", "--scene", s(&scene), "--path", s(path), "--tau", "1", "--size", SIZE, "--out", s(&played)])
+        .env("DISPLAY", &display)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "osw play: {}", String::from_utf8_lossy(&out.stderr));
+    for k in 0..cams.len() as u64 {
+        let frame = |dir: &Path| osw_render::output::read_png(&osw_render::output::frame_path(dir, k)).unwrap();
+        assert!(frame(&played) == frame(&replay), "played frame {k} differs from the headless replay");
     }
 }
