@@ -5,7 +5,7 @@
 
 use osw_wire::clock::Offset;
 use osw_wire::messages::{Hello, Message};
-use osw_wire::net::{connect, handshake, probe_clock, run_connection};
+use osw_wire::net::{NetError, connect, handshake, probe_clock, run_connection};
 use std::sync::mpsc::Sender;
 use std::time::Duration;
 use tokio::sync::mpsc::UnboundedSender;
@@ -25,13 +25,15 @@ pub enum Note {
     Down { node: usize, why: String, ever_up: bool },
 }
 
-/// Keeps node `node` at `addr` connected: the first attempt retries for `first_within`, later
-/// ones for as long as the display runs.
+/// Keeps node `node` at `addr` connected: the first connection is tried for `first_within`,
+/// later ones for as long as the display runs.
 pub async fn keep_node(node: usize, addr: String, me: Hello, notes: Sender<Note>, first_within: Duration) {
     let mut ever_up = false;
+    let start = std::time::Instant::now();
     loop {
         let attempt = async {
-            let mut c = connect(&addr, if ever_up { Duration::from_secs(3600) } else { first_within }).await?;
+            let within = if ever_up { Duration::from_secs(3600) } else { first_within.saturating_sub(start.elapsed()) };
+            let mut c = connect(&addr, within).await?;
             handshake(&mut c, &me, Duration::from_secs(10)).await?;
             let clock = probe_clock(&mut c, CLOCK_PROBES, Duration::from_secs(10)).await?;
             Ok::<_, osw_wire::net::NetError>((c, clock))
@@ -44,6 +46,13 @@ pub async fn keep_node(node: usize, addr: String, me: Hello, notes: Sender<Note>
                 }
                 ever_up = true;
                 run_connection(c, queue, |m, at, bytes| notes.send(Note::Message { node, m, bytes: bytes as u64, at }).is_ok()).await
+            }
+            // Before the node was ever up, a connection closed during the handshake (a relay
+            // or proxy with no node behind it yet) is tried again while the start-up wait
+            // lasts; a refusal (another protocol, scene or token) is final.
+            Err(e) if !ever_up && !matches!(e, NetError::Refused { .. }) && start.elapsed() < first_within => {
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                continue;
             }
             Err(e) => e.to_string(),
         };

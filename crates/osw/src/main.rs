@@ -17,6 +17,7 @@ mod cmd_compare;
 mod cmd_exact;
 mod cmd_info;
 mod cmd_latency;
+mod cmd_link;
 mod cmd_path;
 mod cmd_render;
 mod cmd_report;
@@ -61,6 +62,9 @@ enum Cmd {
     Bandwidth(cmd_bandwidth::Args),
     /// One-way latency per link and camera-to-display latency of a switch run.
     Latency(cmd_latency::Args),
+    /// A TCP relay that delays and loses like a lossy network (for kernels without netem):
+    /// put one in front of a node and point its peer and the display at it.
+    Link(cmd_link::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -81,6 +85,7 @@ fn main() -> std::process::ExitCode {
         Cmd::Report(a) => cmd_report::run(a),
         Cmd::Bandwidth(a) => cmd_bandwidth::run(a),
         Cmd::Latency(a) => cmd_latency::run(a),
+        Cmd::Link(a) => cmd_link::run(a),
     };
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -73,15 +73,49 @@ fn walk(d: &Path) -> (PathBuf, PathBuf) {
     (scene, path)
 }
 
+/// An impaired link in front of `to` (`osw link`): returns the relay and its address.
+fn link(to: &str, delay_ms: &str, loss: &str, seed: &str) -> (Proc, String) {
+    let mut p = Proc(
+        Command::new(env!("CARGO_BIN_EXE_osw"))
+            .args(["link", "--listen", "127.0.0.1:0", "--to", to, "--delay-ms", delay_ms, "--loss", loss, "--seed", seed])
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut line = String::new();
+    BufReader::new(p.0.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let addr = line.trim().strip_prefix("listening ").unwrap_or_else(|| panic!("osw link said {line:?}")).to_string();
+    (p, addr)
+}
+
 #[test]
 fn a_node_killed_and_restarted_rejoins_and_no_frame_is_lost() {
+    kill_and_restart(None);
+}
+
+/// As above, every link 5 ms long each way and losing 1% of its segments (the kernel here has
+/// no netem: `osw link` relays each connection, delaying and stalling it as TCP would).
+#[test]
+fn the_same_over_links_with_delay_and_loss() {
+    kill_and_restart(Some(("5", "0.01")));
+}
+
+fn kill_and_restart(impaired: Option<(&str, &str)>) {
     let d = tempfile::tempdir().unwrap();
     let (scene, path) = walk(d.path());
     let (addr_a, addr_b) = (free_addr(), free_addr());
+    // What the peer and the display connect to: the nodes, or relays in front of them.
+    let (_links, [to_a_from_b, to_a, to_b]) = match impaired {
+        None => (vec![], [addr_a.clone(), addr_a.clone(), addr_b.clone()]),
+        Some((delay, loss)) => {
+            let [(p1, x1), (p2, x2), (p3, x3)] = [(&addr_a, "1"), (&addr_a, "2"), (&addr_b, "3")].map(|(to, seed)| link(to, delay, loss, seed));
+            (vec![p1, p2, p3], [x1, x2, x3])
+        }
+    };
     let mut a = Some(node("a", &scene, &addr_a, None, &d.path().join("a1.log")));
-    let _b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
+    let _b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
     let out = d.path().join("run");
-    let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out);
+    let mut disp = display(&scene, &path, &format!("{to_a},{to_b}"), &out);
     let (mut killed_at, mut restarted_at) = (None, None);
     let status = follow(&mut disp, |n| {
         if n >= 50 && killed_at.is_none() {
@@ -97,6 +131,12 @@ fn a_node_killed_and_restarted_rejoins_and_no_frame_is_lost() {
     let sum = summary(&out);
     assert_eq!(sum["frames"], 300);
     assert!(sum["node_losses"].as_u64().unwrap() >= 1 && sum["node_rejoins"].as_u64().unwrap() >= 1, "{sum}");
+    if let Some((delay, _)) = impaired {
+        // The links were impaired: a camera takes at least the delay to reach its HC.
+        let link_ms = sum["camera_link_ms_median"].as_f64().unwrap();
+        assert!(link_ms >= delay.parse::<f64>().unwrap(), "camera link {link_ms} ms: the relays did not delay");
+        eprintln!("impaired links: camera link {link_ms:.1} ms median, latency {} ms median, {} ms max", sum["latency_ms_median"], sum["latency_ms_max"]);
+    }
     // The degraded span starts at the kill and ends once node a is back.
     let stats = std::fs::read_to_string(out.join("stats.csv")).unwrap();
     let degraded: Vec<u64> =
