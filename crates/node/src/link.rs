@@ -6,7 +6,8 @@
 
 use osw_wire::messages::{Hello, Message, Role};
 use osw_wire::net::{conn, handshake, run_connection};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
 use std::time::Duration;
 use tokio::sync::mpsc::UnboundedSender;
@@ -24,10 +25,46 @@ pub enum Event {
 
 pub const HANDSHAKE: Duration = Duration::from_secs(10);
 
+/// Most cameras from the display waiting for the frame loop. Playback needs three (k-1 in
+/// case of a takeover, k, k+1); more is a display sending faster than frames are made.
+pub const MAX_CAMERAS: usize = 8;
+
+/// Bounds the display's cameras between the connection and the frame loop: the camera
+/// receiver of paper 000 sec. 4.8.1 keeps only what the frame loop can use, so a flood of
+/// cameras is dropped as it arrives and counted, and fills neither memory nor the event queue
+/// (which the peer's messages share), however far the frame loop falls behind.
+#[derive(Default)]
+pub struct CameraGate {
+    waiting: AtomicUsize,
+    dropped: AtomicU64,
+}
+
+impl CameraGate {
+    /// A camera arrived: whether it may join the queue.
+    fn admit(&self) -> bool {
+        if self.waiting.fetch_add(1, Ordering::AcqRel) >= MAX_CAMERAS {
+            self.waiting.fetch_sub(1, Ordering::AcqRel);
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+            return false;
+        }
+        true
+    }
+
+    /// The frame loop took a camera off the queue.
+    pub fn taken(&self) {
+        self.waiting.fetch_sub(1, Ordering::AcqRel);
+    }
+
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
+    }
+}
+
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
-/// Runs a connection: handshake, then messages to `events` until it ends.
-pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>) {
+/// Runs a connection: handshake, then messages to `events` (the display's cameras through
+/// `gate`) until it ends.
+pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>, gate: Arc<CameraGate>) {
     let mut c = c;
     let peer = match handshake(&mut c, &me, HANDSHAKE).await {
         Ok(h) => h,
@@ -41,13 +78,10 @@ pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>) {
     if events.send(Event::Connected { role, name: peer.name.clone(), id, out }).is_err() {
         return;
     }
-    let why = run_connection(c, queue, |m, at, _| {
-        events
-            .send(match role {
-                Role::Node => Event::FromPeer(m, at),
-                Role::Display => Event::FromDisplay(m, at),
-            })
-            .is_ok()
+    let why = run_connection(c, queue, |m, at, _| match role {
+        Role::Display if matches!(m, Message::Camera(_)) && !gate.admit() => true,
+        Role::Display => events.send(Event::FromDisplay(m, at)).is_ok(),
+        Role::Node => events.send(Event::FromPeer(m, at)).is_ok(),
     })
     .await;
     let who = match role {
@@ -58,11 +92,11 @@ pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>) {
 }
 
 /// Accepts connections on `listener` forever, serving each.
-pub async fn accept(listener: tokio::net::TcpListener, me: Hello, events: Sender<Event>) {
+pub async fn accept(listener: tokio::net::TcpListener, me: Hello, events: Sender<Event>, gate: Arc<CameraGate>) {
     loop {
         match listener.accept().await {
             Ok((s, _)) => {
-                tokio::spawn(serve(conn(s), me.clone(), events.clone()));
+                tokio::spawn(serve(conn(s), me.clone(), events.clone(), Arc::clone(&gate)));
             }
             Err(e) => tracing::warn!("accept: {e}"),
         }
@@ -71,12 +105,29 @@ pub async fn accept(listener: tokio::net::TcpListener, me: Hello, events: Sender
 
 /// Node b's side of the peer link: connects to `addr` (retrying with backoff) and connects
 /// again whenever the connection ends, for as long as the process runs.
-pub async fn keep_connected(addr: String, me: Hello, events: Sender<Event>) {
+pub async fn keep_connected(addr: String, me: Hello, events: Sender<Event>, gate: Arc<CameraGate>) {
     loop {
         match osw_wire::net::connect(&addr, Duration::from_secs(3600)).await {
-            Ok(c) => serve(c, me.clone(), events.clone()).await,
+            Ok(c) => serve(c, me.clone(), events.clone(), Arc::clone(&gate)).await,
             Err(e) => tracing::warn!("{}: {e}", me.name),
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gate_holds_at_most_max_cameras_and_counts_the_rest() {
+        let g = CameraGate::default();
+        let admitted = (0..1000).filter(|_| g.admit()).count();
+        assert_eq!((admitted, g.dropped()), (MAX_CAMERAS, 1000 - MAX_CAMERAS as u64));
+        // The frame loop takes two: two more get in.
+        g.taken();
+        g.taken();
+        assert!(g.admit() && g.admit() && !g.admit());
+        assert_eq!(g.dropped(), 1001 - MAX_CAMERAS as u64);
     }
 }

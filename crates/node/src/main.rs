@@ -88,15 +88,16 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let listener = rt.block_on(tokio::net::TcpListener::bind(&listen)).map_err(|e| anyhow::anyhow!("cannot listen on {listen}: {e}"))?;
     writeln!(std::io::stdout(), "listening on {}", listener.local_addr()?)?;
     std::io::stdout().flush()?;
-    rt.spawn(link::accept(listener, me.clone(), events_tx.clone()));
+    let gate = Arc::new(link::CameraGate::default());
+    rt.spawn(link::accept(listener, me.clone(), events_tx.clone(), Arc::clone(&gate)));
     if let Some(peer) = &peer {
-        rt.spawn(link::keep_connected(peer.clone(), me, events_tx));
+        rt.spawn(link::keep_connected(peer.clone(), me, events_tx, Arc::clone(&gate)));
     }
-    let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events);
+    let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events, gate);
     let log = sw.start().and_then(|first| sw.run(first));
     sw.goodbye(if log.is_ok() { "done" } else { "error" });
-    if sw.peer_losses + sw.peer_rejoins > 0 || sw.cameras_dropped > 0 {
-        tracing::warn!("{} peer losses, {} rejoins, {} cameras dropped", sw.peer_losses, sw.peer_rejoins, sw.cameras_dropped);
+    if sw.peer_losses + sw.peer_rejoins > 0 || sw.cameras_dropped() > 0 {
+        tracing::warn!("{} peer losses, {} rejoins, {} cameras dropped", sw.peer_losses, sw.peer_rejoins, sw.cameras_dropped());
     }
     let log = log?;
     if let Some(p) = &a.stats {

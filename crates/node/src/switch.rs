@@ -21,7 +21,7 @@
 //! never holds more than three. Each camera carries the frame's tau (RVG changes it
 //! interactively), so the node that is OR and the one that is HC select LODs alike.
 
-use crate::link::Event;
+use crate::link::{CameraGate, Event, MAX_CAMERAS};
 use osw_cull::delta::{apply, diff};
 use osw_cull::front::update_front;
 use osw_gpu::draw::Pass;
@@ -31,16 +31,13 @@ use osw_scene::{Camera, NodeId};
 use osw_wire::clock::now_us;
 use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Role};
 use std::collections::{BTreeMap, VecDeque};
+use std::sync::Arc;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc::UnboundedSender;
 
 /// Longest wait for a camera or a peer message before the node gives up.
 pub const WAIT: Duration = Duration::from_secs(30);
-
-/// Most cameras held: playback needs three (k-1 in case of a takeover, k, k+1); more is a
-/// display flooding the node, and the farthest-ahead ones are dropped and counted.
-const MAX_CAMERAS: usize = 8;
 
 /// One frame of this node, for its statistics file.
 #[derive(Clone, Copy, Debug)]
@@ -90,6 +87,7 @@ pub struct Switch {
     pub full: bool,
     pub renderer: Renderer,
     events: Receiver<Event>,
+    gate: Arc<CameraGate>,
     peer: Option<Link>,
     display: Option<Link>,
     /// This node is HC on frames with this parity while the peer is up.
@@ -115,10 +113,12 @@ pub struct Switch {
     /// V(i-1), sorted LOD ids.
     visible: Vec<NodeId>,
     done: bool,
-    /// Peer losses and rejoins seen and cameras dropped, for the log.
+    /// Peer losses and rejoins seen, for the log.
     pub peer_losses: u32,
     pub peer_rejoins: u32,
-    pub cameras_dropped: u64,
+    /// Cameras dropped from the map here (farthest ahead); the gate counts those dropped on
+    /// arrival.
+    far_cameras_dropped: u64,
 }
 
 fn camera(c: &CameraPacket) -> Camera {
@@ -126,12 +126,13 @@ fn camera(c: &CameraPacket) -> Camera {
 }
 
 impl Switch {
-    pub fn new(index: u64, batch: usize, full: bool, renderer: Renderer, events: Receiver<Event>) -> Switch {
+    pub fn new(index: u64, batch: usize, full: bool, renderer: Renderer, events: Receiver<Event>, gate: Arc<CameraGate>) -> Switch {
         Switch {
             batch,
             full,
             renderer,
             events,
+            gate,
             peer: None,
             display: None,
             hc_parity: index,
@@ -148,19 +149,25 @@ impl Switch {
             done: false,
             peer_losses: 0,
             peer_rejoins: 0,
-            cameras_dropped: 0,
+            far_cameras_dropped: 0,
         }
+    }
+
+    /// Cameras from the display that were dropped: too many ahead (a flood).
+    pub fn cameras_dropped(&self) -> u64 {
+        self.far_cameras_dropped + self.gate.dropped()
     }
 
     /// Handles one event; peer messages are queued for [`Switch::peer_message`].
     fn handle(&mut self, e: Event) {
         match e {
             Event::FromDisplay(Message::Camera(c), at) => {
+                self.gate.taken();
                 self.cameras.insert(c.frame, (c, at));
                 if self.cameras.len() > MAX_CAMERAS {
                     self.cameras.pop_last();
-                    self.cameras_dropped += 1;
-                    if self.cameras_dropped == 1 {
+                    self.far_cameras_dropped += 1;
+                    if self.far_cameras_dropped == 1 {
                         tracing::warn!("more than {MAX_CAMERAS} cameras ahead: dropping the farthest");
                     }
                 }

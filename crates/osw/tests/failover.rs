@@ -221,3 +221,126 @@ fn silent_and_garbage_connections_do_not_stop_the_cluster() {
     let log = std::fs::read_to_string(d.path().join("a.log")).unwrap();
     assert!(log.contains("over the"), "the oversized frame was not refused by name: {log}");
 }
+
+/// A display that floods each node with a million cameras at once. Each node keeps what its
+/// frame loop can use, drops the rest as it arrives and counts it, answers a ping sent behind
+/// the flood (so it has read it all) with little more resident memory than before, and ends
+/// cleanly at the goodbye.
+#[test]
+fn a_camera_flood_is_dropped_counted_and_bounded() {
+    use osw_wire::{CameraPacket, Goodbye, Hello, Message, Ping, Role, decode_frame, encode_frame};
+    const FLOOD: u64 = 1_000_000;
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "city", 30_000, 2);
+    let path = d.path().join("one.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "1", "-o", s(&path)]);
+    let cam = osw_scene::path::read(&path).unwrap()[0];
+    let (addr_a, addr_b) = (free_addr(), free_addr());
+    let logs = [d.path().join("a.log"), d.path().join("b.log")];
+    let mut nodes = [node("a", &scene, &addr_a, None, &logs[0]), node("b", &scene, &addr_b, Some(&addr_a), &logs[1])];
+    let hello = Hello {
+        version: osw_wire::limits::PROTOCOL_VERSION,
+        scene_hash: osw_scene::SceneFile::open(&scene).unwrap().content_hash(),
+        name: "flood".into(),
+        role: Role::Display,
+        token: None,
+    };
+    let frame = |m: &Message| {
+        let mut b = Vec::new();
+        encode_frame(m, &mut b);
+        b
+    };
+    // Each connection's messages, read as they come (the nodes' frames are drained too).
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, Message)>();
+    let mut socks = Vec::new();
+    for (k, addr) in [&addr_a, &addr_b].into_iter().enumerate() {
+        let t = std::time::Instant::now();
+        let mut c = loop {
+            match std::net::TcpStream::connect(addr) {
+                Ok(c) => break c,
+                Err(_) if t.elapsed().as_secs() < 20 => std::thread::sleep(std::time::Duration::from_millis(50)),
+                Err(e) => panic!("node {k} does not listen: {e}"),
+            }
+        };
+        std::io::Write::write_all(&mut c, &frame(&Message::Hello(hello.clone()))).unwrap();
+        let (mut r, tx) = (c.try_clone().unwrap(), tx.clone());
+        std::thread::spawn(move || {
+            let (mut buf, mut chunk) = (Vec::new(), vec![0u8; 1 << 16]);
+            while let Ok(n @ 1..) = std::io::Read::read(&mut r, &mut chunk) {
+                buf.extend_from_slice(&chunk[..n]);
+                while let Ok(Some((m, used))) = decode_frame(&buf) {
+                    buf.drain(..used);
+                    if tx.send((k, m)).is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+        socks.push(c);
+    }
+    // Waits for a message matching `what` from each node in `from`.
+    let wait_for = |what: &dyn Fn(&Message) -> bool, label: &str, from: [bool; 2]| {
+        let mut got = from.map(|f| !f);
+        while !got.iter().all(|g| *g) {
+            let (k, m) = rx.recv_timeout(std::time::Duration::from_secs(60)).unwrap_or_else(|_| panic!("no {label} from both nodes"));
+            got[k] |= what(&m);
+        }
+    };
+    wait_for(&|m| matches!(m, Message::Hello(_)), "hello", [true; 2]);
+    let hwm_kb = |p: &Proc| -> u64 {
+        let status = std::fs::read_to_string(format!("/proc/{}/status", p.0.id())).unwrap();
+        let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
+        line.split_whitespace().nth(1).unwrap().parse().unwrap()
+    };
+    let cameras = |frames: std::ops::Range<u64>, out: &mut Vec<u8>| {
+        for k in frames {
+            encode_frame(
+            &Message::Camera(CameraPacket {
+                frame: k,
+                position: cam.position.to_array(),
+                orientation: cam.orientation.to_array(),
+                fovy_deg: cam.fovy_deg,
+                tau_px: 0.0,
+                sampled_us: 0,
+                }),
+                out,
+            );
+        }
+    };
+    let send_all = |socks: &mut Vec<std::net::TcpStream>, bytes: &[u8]| {
+        std::thread::scope(|sc| {
+            for c in socks.iter_mut() {
+                sc.spawn(move || std::io::Write::write_all(c, bytes).unwrap());
+            }
+        })
+    };
+    // A few frames as a display sends them, so that the renderers have what they keep.
+    let mut first = Vec::new();
+    cameras(0..8, &mut first);
+    send_all(&mut socks, &first);
+    // Node b is HC of the odd frames.
+    wait_for(&|m| matches!(m, Message::EndOfFrame(e) if e.frame == 7), "frame 7", [false, true]);
+    let before = nodes.each_ref().map(hwm_kb);
+    let mut flood = Vec::with_capacity(FLOOD as usize * 90);
+    cameras(8..8 + FLOOD, &mut flood);
+    flood.extend(frame(&Message::Ping(Ping { sent_us: 7 })));
+    send_all(&mut socks, &flood);
+    wait_for(&|m| matches!(m, Message::Pong(p) if p.ping_sent_us == 7), "pong after the flood", [true; 2]);
+    let after = nodes.each_ref().map(hwm_kb);
+    for c in &mut socks {
+        std::io::Write::write_all(c, &frame(&Message::Goodbye(Goodbye { reason: "flood done".into() }))).unwrap();
+    }
+    for (k, p) in nodes.iter_mut().enumerate() {
+        let log = || std::fs::read_to_string(&logs[k]).unwrap();
+        assert!(p.0.wait().unwrap().success(), "node {k}: {}", log());
+        let log = log();
+        let dropped: u64 = log
+            .lines()
+            .find_map(|l| l.split(" cameras dropped").next().filter(|_| l.contains(" cameras dropped"))?.rsplit(' ').next()?.parse().ok())
+            .unwrap_or_else(|| panic!("node {k} did not count dropped cameras: {log}"));
+        assert!(dropped >= FLOOD - 16, "node {k} dropped {dropped} of {FLOOD}");
+        // A million cameras are about 85 MB on the wire and over 100 MB queued as events.
+        assert!(after[k] < before[k] + (32 << 10), "node {k}: peak resident {} kB before the flood, {} kB after", before[k], after[k]);
+        eprintln!("node {k}: {dropped} cameras dropped; peak resident {} kB before, {} kB after", before[k], after[k]);
+    }
+}
