@@ -10,7 +10,7 @@ use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
-/// Longest wait for the HC node's next message.
+/// Longest wait for a frame (or for the nodes to connect).
 const WAIT: Duration = Duration::from_secs(30);
 
 /// How often a wait hands control back (a window keeps answering while the frame comes in).
@@ -36,20 +36,23 @@ impl Frames {
     /// Waits until both nodes are connected.
     pub fn connect(notes: Receiver<Note>, max_id: u32, idle: &mut dyn FnMut()) -> anyhow::Result<Frames> {
         let mut f = Frames { notes, cluster: Cluster::default(), visible: Vec::new(), max_id, prev_eof: None, held: VecDeque::new() };
+        let deadline = Instant::now() + WAIT;
         while f.cluster.nodes.iter().any(Option::is_none) {
-            let note = f.next_note(idle).map_err(|_| anyhow::anyhow!("the nodes did not connect within {WAIT:?}"))?;
+            let note = f.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("the nodes did not connect within {WAIT:?}"))?;
             f.cluster.note(note)?;
         }
         Ok(f)
     }
 
-    /// The next note; `idle` runs every [`SLICE`] while there is none.
-    fn next_note(&self, idle: &mut dyn FnMut()) -> Result<Note, RecvTimeoutError> {
-        let start = Instant::now();
+    /// The next note before `deadline`; `idle` runs every [`SLICE`] while there is none.
+    /// The deadline is the caller's whole wait: notes that bring nothing (a node that cannot
+    /// be reconnected fails again and again) do not extend it.
+    fn next_note(&self, deadline: Instant, idle: &mut dyn FnMut()) -> Result<Note, RecvTimeoutError> {
         loop {
             match self.notes.recv_timeout(SLICE) {
-                Err(RecvTimeoutError::Timeout) if start.elapsed() < WAIT => idle(),
-                r => return r,
+                Err(RecvTimeoutError::Timeout) if Instant::now() < deadline => idle(),
+                r if Instant::now() < deadline => return r,
+                _ => return Err(RecvTimeoutError::Timeout),
             }
         }
     }
@@ -65,11 +68,12 @@ impl Frames {
         let (mut added, mut removed, mut keyframe) = (Vec::new(), Vec::new(), None);
         let mut replay: VecDeque<Arrival> = std::mem::take(&mut self.held);
         let max_id = self.max_id;
+        let deadline = Instant::now() + WAIT;
         loop {
             let (node, m, bytes, at) = match replay.pop_front() {
                 Some(x) => x,
                 None => {
-                    let note = self.next_note(idle).map_err(|_| anyhow::anyhow!("frame {i}: nothing from the nodes for {WAIT:?}"))?;
+                    let note = self.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("frame {i}: not complete after {WAIT:?}"))?;
                     match self.cluster.note(note)? {
                         Some(x) => x,
                         None => {

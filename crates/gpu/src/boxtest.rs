@@ -63,7 +63,14 @@ impl BoxTestPipelines {
                     ..Default::default()
                 },
                 // GreaterEqual: a box face exactly at the occluder's depth counts as visible.
-                depth_stencil: Some(depth_state(false, wgpu::CompareFunction::GreaterEqual)),
+                // A box face coplanar with a face of the node's own geometry (a slab, a crate)
+                // rasterises from other triangles and can land a rounding step behind it: the
+                // bias moves box fragments nearer (reversed Z: greater) by a few steps and more
+                // at grazing angles, so a node drawn as an occluder never hides its own box.
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    bias: wgpu::DepthBiasState { constant: 64, slope_scale: 4.0, clamp: 0.0 },
+                    ..depth_state(false, wgpu::CompareFunction::GreaterEqual)
+                }),
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &module,

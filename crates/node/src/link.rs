@@ -32,7 +32,8 @@ pub const MAX_CAMERAS: usize = 8;
 /// Bounds the display's cameras between the connection and the frame loop: the camera
 /// receiver of paper 000 sec. 4.8.1 keeps only what the frame loop can use, so a flood of
 /// cameras is dropped as it arrives and counted, and fills neither memory nor the event queue
-/// (which the peer's messages share), however far the frame loop falls behind.
+/// (which the peer's messages share), however far the frame loop falls behind. It drops
+/// only when MAX_CAMERAS arrive within one frame's work; a display sends one a frame.
 #[derive(Default)]
 pub struct CameraGate {
     waiting: AtomicUsize,

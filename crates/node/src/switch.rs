@@ -116,9 +116,9 @@ pub struct Switch {
     /// Peer losses and rejoins seen, for the log.
     pub peer_losses: u32,
     pub peer_rejoins: u32,
-    /// Cameras dropped from the map here (farthest ahead); the gate counts those dropped on
-    /// arrival.
-    far_cameras_dropped: u64,
+    /// Cameras dropped here (the oldest, when more than MAX_CAMERAS are held); the gate counts
+    /// those dropped on arrival.
+    old_cameras_dropped: u64,
 }
 
 fn camera(c: &CameraPacket) -> Camera {
@@ -149,13 +149,14 @@ impl Switch {
             done: false,
             peer_losses: 0,
             peer_rejoins: 0,
-            far_cameras_dropped: 0,
+            old_cameras_dropped: 0,
         }
     }
 
-    /// Cameras from the display that were dropped: too many ahead (a flood).
+    /// Cameras from the display that were dropped: too many at once (a flood, or cameras
+    /// that piled up while this node was out of the switch).
     pub fn cameras_dropped(&self) -> u64 {
-        self.far_cameras_dropped + self.gate.dropped()
+        self.old_cameras_dropped + self.gate.dropped()
     }
 
     /// Handles one event; peer messages are queued for [`Switch::peer_message`].
@@ -164,11 +165,14 @@ impl Switch {
             Event::FromDisplay(Message::Camera(c), at) => {
                 self.gate.taken();
                 self.cameras.insert(c.frame, (c, at));
+                // The newest cameras are kept (sec. 4.8.1: the newest camera wins). Many pile
+                // up only while this node is not taking part: a restarted node waiting for its
+                // keyframe, whose frame is then the display's newest but two.
                 if self.cameras.len() > MAX_CAMERAS {
-                    self.cameras.pop_last();
-                    self.far_cameras_dropped += 1;
-                    if self.far_cameras_dropped == 1 {
-                        tracing::warn!("more than {MAX_CAMERAS} cameras ahead: dropping the farthest");
+                    self.cameras.pop_first();
+                    self.old_cameras_dropped += 1;
+                    if self.old_cameras_dropped == 1 {
+                        tracing::warn!("more than {MAX_CAMERAS} cameras held: dropping the oldest");
                     }
                 }
             }
@@ -353,7 +357,7 @@ impl Switch {
             drawn = r.draw(&view, &front, Pass::Depth, true)?.nodes;
         }
         let mut pvs = Vec::new();
-        let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, &mut pvs)?;
+        let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, &self.visible, &mut pvs)?;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         diff(&self.visible, &pvs, &mut added, &mut removed);
         // RVG gets the whole set when it may not hold this node's V(i-1): while running alone.

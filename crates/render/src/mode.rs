@@ -79,7 +79,15 @@ fn ms(t: Instant) -> f64 {
 
 /// The HC pass of the switch (paper 000 alg. 4.1) against the depth buffer as the OR pass left
 /// it, shared by `prev` and the switch node: appends the PVS, sorted and without duplicates.
-pub fn hc_pass(r: &mut Renderer, view: &View, tau: f64, hc: HcTest, pvs: &mut Vec<NodeId>) -> Result<HcStats, RenderError> {
+/// `previous` is V(i-1) (sorted), which OR drew as occluders.
+///
+/// Then a second pass, as in two-phase occlusion culling (zeux's niagara): nodes found visible
+/// that are not in V(i-1) had nothing drawn for them. Where a region comes into view (a turn,
+/// a disocclusion) there are no occluders at all, so everything behind it is found visible for
+/// one frame and gone the next, sent to RVG and the peer twice. Those additions are drawn into
+/// the depth buffer and tested again, exactly; the ones hidden behind others are dropped.
+/// Conservative: only geometry of this frame's PVS is added as occluder.
+pub fn hc_pass(r: &mut Renderer, view: &View, tau: f64, hc: HcTest, previous: &[NodeId], pvs: &mut Vec<NodeId>) -> Result<HcStats, RenderError> {
     let scene = std::sync::Arc::clone(&r.scene);
     let test = match hc {
         HcTest::Pyramid | HcTest::Hybrid => {
@@ -104,7 +112,18 @@ pub fn hc_pass(r: &mut Renderer, view: &View, tau: f64, hc: HcTest, pvs: &mut Ve
     }
     pvs.sort_unstable();
     pvs.dedup();
-    Ok(stats)
+    let added: Vec<NodeId> = pvs.iter().copied().filter(|id| previous.binary_search(id).is_err()).collect();
+    if added.is_empty() {
+        return Ok(stats);
+    }
+    r.draw(view, &added, Pass::Depth, false)?;
+    // As in the first pass, boxes around the eye or across the near plane are not tested.
+    let retest: Vec<NodeId> = added.into_iter().filter(|&id| !view.frustum.needs_no_test(&scene.node(id).aabb())).collect();
+    let mut seen = Vec::with_capacity(retest.len());
+    r.test_boxes(view, &retest, HcTest::Exact, &mut seen)?;
+    let hidden: Vec<NodeId> = retest.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
+    pvs.retain(|id| hidden.binary_search(id).is_err());
+    Ok(HcStats { tests: stats.tests + retest.len() as u32, occlusion_culled: stats.occlusion_culled + hidden.len() as u32, ..stats })
 }
 
 impl ModeState {
@@ -175,7 +194,7 @@ impl ModeState {
                 let or = r.draw(view, &self.occluders, Pass::Depth, true)?;
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
                 let t = Instant::now();
-                let hc = hc_pass(r, view, self.tau, self.hc, &mut pvs)?;
+                let hc = hc_pass(r, view, self.tau, self.hc, &self.visible, &mut pvs)?;
                 s.hc_ms = ms(t);
                 hc
             }
