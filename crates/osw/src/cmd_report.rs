@@ -392,8 +392,9 @@ fn markdown(r: &Report, a: &Args) -> String {
         "## Objects drawn against exactly visible objects (paper 000, table 3)\n\nLeaves drawn per exactly visible leaf \
          (PVS/exact; an HLOD counts for the visible leaves it stands for), and false-culled leaves over the whole path \
          (visible but not drawn: 0 at tau 0 for a conservative method). At tau > 0 the occluders are coarse LODs \
-         whose simplified surfaces can hide leaves that are visible at full detail; those count here, yet the image \
-         equals vfc's at the same tau (the PSNR columns below agree across methods).\n\n",
+         whose simplified surfaces can hide leaves that are visible at full detail (more so since HC's second pass \
+         draws the frame's additions at their LODs as occluders too); those count here, yet the image equals vfc's \
+         at the same tau (the PSNR columns below agree across methods).\n\n",
     );
     let (h, rows) = by_tau(
         "PVS/exact (false-culled)",
