@@ -100,18 +100,23 @@ fn the_same_over_links_with_delay_and_loss() {
     kill_and_restart(Some(("5", "0.01")));
 }
 
+/// What the peer and the display connect to: node a for b, node a and node b for the
+/// display; the nodes themselves, or `osw link` relays in front of them.
+fn links(addr_a: &str, addr_b: &str, impaired: Option<(&str, &str)>) -> (Vec<Proc>, [String; 3]) {
+    match impaired {
+        None => (vec![], [addr_a.to_string(), addr_a.to_string(), addr_b.to_string()]),
+        Some((delay, loss)) => {
+            let [(p1, x1), (p2, x2), (p3, x3)] = [(addr_a, "1"), (addr_a, "2"), (addr_b, "3")].map(|(to, seed)| link(to, delay, loss, seed));
+            (vec![p1, p2, p3], [x1, x2, x3])
+        }
+    }
+}
+
 fn kill_and_restart(impaired: Option<(&str, &str)>) {
     let d = tempfile::tempdir().unwrap();
     let (scene, path) = walk(d.path());
     let (addr_a, addr_b) = (free_addr(), free_addr());
-    // What the peer and the display connect to: the nodes, or relays in front of them.
-    let (_links, [to_a_from_b, to_a, to_b]) = match impaired {
-        None => (vec![], [addr_a.clone(), addr_a.clone(), addr_b.clone()]),
-        Some((delay, loss)) => {
-            let [(p1, x1), (p2, x2), (p3, x3)] = [(&addr_a, "1"), (&addr_a, "2"), (&addr_b, "3")].map(|(to, seed)| link(to, delay, loss, seed));
-            (vec![p1, p2, p3], [x1, x2, x3])
-        }
-    };
+    let (_links, [to_a_from_b, to_a, to_b]) = links(&addr_a, &addr_b, impaired);
     let mut a = Some(node("a", &scene, &addr_a, None, &d.path().join("a1.log")));
     let _b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
     let out = d.path().join("run");
@@ -160,12 +165,22 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
 
 #[test]
 fn a_restarted_display_is_served_from_the_start_of_its_path() {
+    display_restart(None);
+}
+
+#[test]
+fn a_restarted_display_over_links_with_delay_and_loss() {
+    display_restart(Some(("5", "0.01")));
+}
+
+fn display_restart(impaired: Option<(&str, &str)>) {
     let d = tempfile::tempdir().unwrap();
     let (scene, path) = walk(d.path());
     let (addr_a, addr_b) = (free_addr(), free_addr());
+    let (_links, [to_a_from_b, to_a, to_b]) = links(&addr_a, &addr_b, impaired);
     let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
-    let mut b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
-    let nodes = format!("{addr_a},{addr_b}");
+    let mut b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
+    let nodes = format!("{to_a},{to_b}");
     let first = d.path().join("first");
     let mut disp = display(&scene, &path, &nodes, &first);
     let lines = BufReader::new(disp.0.stdout.take().unwrap()).lines();
