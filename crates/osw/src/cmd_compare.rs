@@ -18,6 +18,10 @@ pub struct Args {
     /// `osw exact` output for the same scene and path: adds culling error.
     #[arg(long)]
     exact: Option<PathBuf>,
+    /// `osw exact --tau T` output at the runs' tau: false culling counted against what is
+    /// visible at that tau, culling error apart from LOD error (0 for a conservative method).
+    #[arg(long, requires = "exact")]
+    exact_lod: Option<PathBuf>,
     /// Output directory: compare.json and compare.csv.
     #[arg(long)]
     out: PathBuf,
@@ -37,6 +41,11 @@ struct Side {
     frames_with_false_culling: u64,
     pvs_exact_leaves_ratio_mean: f64,
     pvs_exact_triangles_ratio_mean: f64,
+    /// Against `--exact-lod`: nodes visible at the runs' tau that the PVS does not draw.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lod_false_culled_total: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lod_frames_with_false_culling: Option<u64>,
 }
 
 #[derive(Serialize, Default)]
@@ -68,7 +77,22 @@ fn side(errors: &[CullError]) -> Side {
         frames_with_false_culling: errors.iter().filter(|e| e.false_culled_leaves > 0).count() as u64,
         pvs_exact_leaves_ratio_mean: errors.iter().map(CullError::leaf_ratio).sum::<f64>() / n,
         pvs_exact_triangles_ratio_mean: errors.iter().map(CullError::triangle_ratio).sum::<f64>() / n,
+        ..Side::default()
     }
+}
+
+/// `osw exact` output: the visible nodes and triangles of each of `frames` frames.
+fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<u64>)> {
+    let leaves = read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
+    let tris: Vec<u64> = std::fs::read_to_string(dir.join("exact.csv"))?
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().and_then(|t| t.parse().ok()).unwrap_or(0))
+        .collect();
+    if leaves.len() < frames || tris.len() < frames {
+        bail!("{} has {} frames, the runs have {frames}", dir.display(), leaves.len());
+    }
+    Ok((leaves, tris))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -93,24 +117,29 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(exact) = &a.exact {
         let scene_path = sa["scene"].as_str().context("summary.json of --a names no scene")?;
         let scene = osw_scene::SceneFile::open(Path::new(scene_path))?;
-        let leaves = read_ids(&exact.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
-        let tris: Vec<u64> = std::fs::read_to_string(exact.join("exact.csv"))?
-            .lines()
-            .skip(1)
-            .map(|l| l.rsplit(',').next().and_then(|t| t.parse().ok()).unwrap_or(0))
-            .collect();
-        if leaves.len() < frames {
-            bail!("{} has {} frames, the runs have {frames}", exact.display(), leaves.len());
-        }
+        let (leaves, tris) = read_exact(exact, frames)?;
+        let lod = a.exact_lod.as_deref().map(|d| read_exact(d, frames)).transpose()?;
         for (which, dir) in [(0, &a.a), (1, &a.b)] {
             let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
+            if pvs.len() < frames {
+                bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), pvs.len());
+            }
             let mut errs = Vec::with_capacity(frames);
             for row in rows.iter_mut() {
                 let e = cull_error(&scene, &pvs[row.frame], &leaves[row.frame], tris[row.frame]).map_err(anyhow::Error::msg)?;
                 errs.push(e);
                 if which == 0 { row.a = Some(e) } else { row.b = Some(e) }
             }
-            if which == 0 { report.culling_a = Some(side(&errs)) } else { report.culling_b = Some(side(&errs)) }
+            let mut s = side(&errs);
+            if let Some((lod_leaves, lod_tris)) = &lod {
+                let mut missed = Vec::with_capacity(frames);
+                for f in 0..frames {
+                    missed.push(cull_error(&scene, &pvs[f], &lod_leaves[f], lod_tris[f]).map_err(anyhow::Error::msg)?.false_culled_leaves as u64);
+                }
+                s.lod_false_culled_total = Some(missed.iter().sum());
+                s.lod_frames_with_false_culling = Some(missed.iter().filter(|&&m| m > 0).count() as u64);
+            }
+            if which == 0 { report.culling_a = Some(s) } else { report.culling_b = Some(s) }
         }
         report.exact = Some(exact.display().to_string());
     }
@@ -153,8 +182,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     out!(
         "compare: {frames} frames, {image}{} → {}",
         report.culling_a.as_ref().map_or(String::new(), |s| format!(
-            ", a: {} false-culled leaves, PVS/exact leaves {:.2}",
-            s.false_culled_leaves_total, s.pvs_exact_leaves_ratio_mean
+            ", a: {} false-culled leaves{}, PVS/exact leaves {:.2}",
+            s.false_culled_leaves_total,
+            s.lod_false_culled_total.map_or(String::new(), |n| format!(" ({n} against visibility at its tau)")),
+            s.pvs_exact_leaves_ratio_mean
         )),
         a.out.display()
     );

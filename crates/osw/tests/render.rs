@@ -65,6 +65,23 @@ fn image_error_is_reported_at_tau_above_zero() {
     assert!(c["differing_fraction_max"].as_f64().unwrap() > 0.0);
     let csv = std::fs::read_to_string(d.path().join("cmp/compare.csv")).unwrap();
     assert_eq!(csv.lines().count(), 7);
+    // Culling error apart from LOD error: against what is visible in the scene as drawn at
+    // tau 8, prev culls nothing visible; a run that draws nothing misses every visible node.
+    let exact8 = d.path().join("exact8");
+    osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--tau", "8", "--out", s(&exact8)]);
+    let broken = d.path().join("broken");
+    std::fs::create_dir_all(&broken).unwrap();
+    std::fs::copy(d.path().join("prev8/summary.json"), broken.join("summary.json")).unwrap();
+    std::fs::write(broken.join("pvs.txt"), "\n".repeat(6)).unwrap();
+    let cmp8 = d.path().join("cmp8");
+    let args = |a: &Path| ["compare", "--a", s(a), "--b", s(&d.path().join("ref")), "--exact", s(&exact), "--exact-lod", s(&exact8), "--out", s(&cmp8)].map(String::from);
+    let culling = |a: &Path| {
+        osw_ok(&args(a).iter().map(String::as_str).collect::<Vec<_>>());
+        let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp8.join("compare.json")).unwrap()).unwrap();
+        c["culling_a"]["lod_false_culled_total"].as_u64().unwrap()
+    };
+    assert_eq!(culling(&d.path().join("prev8")), 0);
+    assert!(culling(&broken) > 0);
 }
 
 fn write_path(p: &Path, cams: &[Camera]) {

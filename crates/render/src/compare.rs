@@ -42,7 +42,10 @@ pub fn image_error(a: &[u8], b: &[u8]) -> ImageError {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct CullError {
     /// Exactly visible leaves that the PVS does not draw (neither their own LOD nor an
-    /// ancestor's HLOD): must be 0 for a conservative method at tau = 0.
+    /// ancestor's HLOD): must be 0 for a conservative method at tau = 0. Against exact
+    /// visibility at the run's tau (`osw exact --tau`), whose visible nodes include groups
+    /// shown by their HLOD, a group counts as drawn when the PVS draws it or anything under
+    /// it: then it must be 0 at every tau.
     pub false_culled_leaves: u32,
     /// Leaves the PVS draws at one of their own LODs, plus exactly visible leaves it covers
     /// with an ancestor's HLOD (an HLOD stands for the leaves it covers, so the hidden ones
@@ -76,18 +79,24 @@ pub fn cull_error(scene: &SceneFile, pvs: &[NodeId], exact_leaves: &[NodeId], ex
         drawn[node.parent as usize] = true;
         pvs_triangles += node.triangles as u64;
     }
-    // BVH ids are breadth first: parents before children.
+    // BVH ids are breadth first: parents before children. covered: drawn or under a drawn
+    // node; below: a node under it is drawn.
     let mut covered = drawn.clone();
     for id in 1..covered.len() {
         covered[id] |= covered[n[id].parent as usize];
+    }
+    let mut below = vec![false; drawn.len()];
+    for id in (1..drawn.len()).rev() {
+        below[n[id].parent as usize] |= drawn[id] || below[id];
     }
     let own = (0..drawn.len()).filter(|&i| drawn[i] && n[i].kind() == NodeKind::Leaf).count() as u32;
     let mut false_culled = 0;
     let mut under_hlod = 0;
     for &leaf in exact_leaves {
-        match covered.get(leaf as usize).ok_or_else(|| bad(leaf))? {
+        let (l, c) = (leaf as usize, *covered.get(leaf as usize).ok_or_else(|| bad(leaf))?);
+        match c || below[l] {
             false => false_culled += 1,
-            true if !drawn[leaf as usize] => under_hlod += 1,
+            true if !drawn[l] && !below[l] => under_hlod += 1,
             true => {}
         }
     }

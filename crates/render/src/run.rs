@@ -80,13 +80,13 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
 
 /// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles)
 /// and `exact_leaves.txt` (the visible leaves of each frame).
-pub fn exact_path(r: &mut Renderer, cams: &[Camera], out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
+pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
     let mut csv = String::from("frame,visible_leaves,visible_triangles\n");
     let mut leaves = String::new();
     for (i, cam) in cams.iter().enumerate() {
         r.begin_frame();
         let view = r.view(cam);
-        let e = r.exact(&view)?;
+        let e = r.exact(&view, tau)?;
         csv.push_str(&format!("{i},{},{}\n", e.leaves.len(), e.triangles));
         push_ids(&mut leaves, &e.leaves);
         tick();
