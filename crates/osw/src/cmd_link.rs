@@ -33,6 +33,7 @@ pub struct Args {
     /// 200 ms later.
     #[arg(long, default_value_t = 0.0)]
     loss: f64,
+    /// Seed of the loss draws: the same seed loses the same segments of the same traffic.
     #[arg(long, default_value_t = 1)]
     seed: u64,
 }
