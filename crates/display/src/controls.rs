@@ -83,7 +83,8 @@ impl Controls {
     }
 
     pub fn camera(&self) -> Camera {
-        let orientation = DQuat::from_rotation_y(self.yaw) * DQuat::from_rotation_x(self.pitch);
+        // Normalised here, as a path's cameras are when read: live and replayed frames match.
+        let orientation = (DQuat::from_rotation_y(self.yaw) * DQuat::from_rotation_x(self.pitch)).normalize();
         Camera { position: self.position, orientation, fovy_deg: self.fovy_deg }
     }
 

@@ -94,7 +94,11 @@ fn run(a: &Args) -> anyhow::Result<()> {
         rt.spawn(link::keep_connected(peer.clone(), me, events_tx, Arc::clone(&gate)));
     }
     let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events, gate);
-    let log = sw.start().and_then(|first| sw.run(first));
+    let log = match sw.start() {
+        Ok(Some(first)) => sw.run(first),
+        Ok(None) => Ok(Vec::new()),
+        Err(e) => Err(e),
+    };
     sw.goodbye(if log.is_ok() { "done" } else { "error" });
     if sw.peer_losses + sw.peer_rejoins > 0 || sw.cameras_dropped() > 0 {
         tracing::warn!("{} peer losses, {} rejoins, {} cameras dropped", sw.peer_losses, sw.peer_rejoins, sw.cameras_dropped());

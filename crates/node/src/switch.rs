@@ -23,10 +23,8 @@
 
 use crate::link::{CameraGate, Event, MAX_CAMERAS};
 use osw_cull::delta::{apply, diff};
-use osw_cull::front::update_front;
-use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{HcTest, Renderer};
-use osw_render::mode::hc_pass;
+use osw_render::mode::{draw_occluders, hc_pass};
 use osw_scene::{Camera, NodeId};
 use osw_wire::clock::now_us;
 use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Role};
@@ -90,6 +88,8 @@ pub struct Switch {
     gate: Arc<CameraGate>,
     peer: Option<Link>,
     display: Option<Link>,
+    /// Node a (0) or b (1).
+    index: u64,
     /// This node is HC on frames with this parity while the peer is up.
     hc_parity: u64,
     /// The camera the depth buffer holds occluders for (set by OR, or by a solo frame).
@@ -135,6 +135,7 @@ impl Switch {
             gate,
             peer: None,
             display: None,
+            index,
             hc_parity: index,
             depth_for: None,
             peer_in_step: false,
@@ -221,63 +222,94 @@ impl Switch {
         }
     }
 
-    fn next_event(&mut self, what: &str) -> anyhow::Result<()> {
-        let e = self.events.recv_timeout(WAIT).map_err(|_| anyhow::anyhow!("waited {WAIT:?} for {what}"))?;
+    /// Handles the next event, waiting at most until `deadline`: the end of the caller's whole
+    /// wait, which events that bring nothing it waits for (a camera flood) do not extend.
+    fn next_event(&mut self, what: &str, deadline: Instant) -> anyhow::Result<()> {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let e = self.events.recv_timeout(left).map_err(|_| anyhow::anyhow!("waited {WAIT:?} for {what}"))?;
         self.handle(e);
         Ok(())
     }
 
     /// Waits until the display and the peer are connected; then, unless the display starts
     /// the path (camera 0), this node restarted into a running cluster and rejoins it.
-    /// Returns the first frame to run.
-    pub fn start(&mut self) -> anyhow::Result<u64> {
+    /// Returns the first frame to run, or `None` when the display said goodbye first.
+    pub fn start(&mut self) -> anyhow::Result<Option<u64>> {
+        let deadline = Instant::now() + WAIT;
         while self.display.is_none() || self.peer.is_none() {
-            self.next_event("the display and the peer to connect")?;
+            self.next_event("the display and the peer to connect", deadline)?;
         }
+        let deadline = Instant::now() + WAIT;
         while self.cameras.is_empty() {
-            self.next_event("the first camera")?;
+            if self.done {
+                return Ok(None);
+            }
+            self.next_event("the first camera", deadline)?;
         }
         if self.cameras.contains_key(&0) {
             self.peer_in_step = true;
-            return Ok(0);
+            return Ok(Some(0));
         }
-        // Rejoin: ask the peer for its visible set; from the frame after it, this node is OR.
+        match self.rejoin(false)? {
+            None if !self.done => anyhow::bail!("the peer left before this node could rejoin"),
+            first => Ok(first),
+        }
+    }
+
+    /// Asks the peer for its visible set and waits for it (paper 000 has no failover: issue 6);
+    /// from the frame after it this node is OR, the peer alone once more. Returns that frame,
+    /// or `None` when the wait ends without one: the display said goodbye or restarted, the
+    /// peer is gone, or, for a `running` node, the peer asked first (it restarted and has no
+    /// visible set: this node hands it one instead).
+    fn rejoin(&mut self, running: bool) -> anyhow::Result<Option<u64>> {
         self.send_peer(Message::Rejoin);
+        let deadline = Instant::now() + WAIT;
         loop {
-            match self.peer_message("a keyframe from the peer", false)? {
-                Some((Message::Keyframe(k), _)) => {
+            // What the peer sent before the keyframe belongs to frames this node did not follow.
+            while let Some((m, _)) = self.peer_queue.pop_front() {
+                if let Message::Keyframe(k) = m {
                     self.visible = k.ids.ids(self.renderer.scene.header().node_count)?;
                     self.hc_parity = k.frame % 2;
                     self.peer_in_step = true;
+                    self.peer_rejoining = false;
+                    self.depth_for = None;
                     self.peer_rejoins += 1;
                     tracing::warn!("rejoined at frame {}", k.frame + 1);
-                    return Ok(k.frame + 1);
+                    return Ok(Some(k.frame + 1));
                 }
-                Some(_) => {}
-                None => anyhow::bail!("the peer left before this node could rejoin"),
             }
+            if self.done || self.display_restarted || self.peer.is_none() || (running && self.peer_rejoining) {
+                return Ok(None);
+            }
+            self.next_event("a keyframe from the peer", deadline)?;
         }
     }
 
     /// The camera of frame `k` and its arrival time, or `None` when the display said goodbye.
-    fn camera(&mut self, k: u64) -> anyhow::Result<Option<(CameraPacket, u64)>> {
+    /// With `newest_wins` (this node runs alone), when camera k was dropped, the oldest camera
+    /// after it: cameras arrive in order, so a newer one held means this node fell behind (the
+    /// other node, also alone while the link between them is cut, sets the display's pace),
+    /// and it catches up as sec. 4.8.1's receiver would, with the newest camera.
+    fn camera(&mut self, k: u64, newest_wins: bool) -> anyhow::Result<Option<(CameraPacket, u64)>> {
+        let deadline = Instant::now() + WAIT;
         loop {
-            if let Some(c) = self.cameras.get(&k).copied() {
-                // Older cameras are never needed again; camera k is, if this node takes over
-                // frame k after all.
-                self.cameras = self.cameras.split_off(&k.saturating_sub(1));
+            if let Some((&f, &c)) = self.cameras.range(k..).next().filter(|(f, _)| **f == k || newest_wins) {
+                // Older cameras are never needed again; camera f is, if this node takes over
+                // frame f after all.
+                self.cameras = self.cameras.split_off(&f.saturating_sub(1));
                 return Ok(Some(c));
             }
             if self.done || self.display_restarted {
                 return Ok(None);
             }
-            self.next_event(&format!("camera {k}"))?;
+            self.next_event(&format!("camera {k}"), deadline)?;
         }
     }
 
     /// The peer's next message; `None` when the display said goodbye or the peer is gone
     /// (or, with `in_step`, out of step: a new connection from a restarted peer).
     fn peer_message(&mut self, what: &str, in_step: bool) -> anyhow::Result<Option<(Message, u64)>> {
+        let deadline = Instant::now() + WAIT;
         loop {
             if let Some(m) = self.peer_queue.pop_front() {
                 return Ok(Some(m));
@@ -285,7 +317,7 @@ impl Switch {
             if self.done || self.display_restarted || self.peer.is_none() || (in_step && !self.peer_in_step) {
                 return Ok(None);
             }
-            self.next_event(what)?;
+            self.next_event(what, deadline)?;
         }
     }
 
@@ -299,13 +331,29 @@ impl Switch {
             if self.display_restarted {
                 i = self.start_over()?;
             }
+            // The link between the nodes was cut while both ran on, each alone, and is back:
+            // node b stops serving and rejoins as a restarted node would, so that the display
+            // never mixes frames of two visible sets (node a serves it meanwhile).
+            if !self.peer_in_step && self.index == 1 && self.peer.is_some() && !self.peer_rejoining {
+                tracing::warn!("the link to the peer is back: rejoining it");
+                match self.rejoin(true)? {
+                    Some(next) => {
+                        i = next;
+                        continue;
+                    }
+                    None if self.done => break,
+                    None => {}
+                }
+            }
             let f = if self.peer_in_step && i % 2 != self.hc_parity { self.or(i)? } else { self.hc(i)? };
             match f {
-                Some(f) => log.push(f),
+                Some(f) => {
+                    i = f.frame + 1;
+                    log.push(f);
+                }
                 None if self.display_restarted => continue,
                 None => break,
             }
-            i += 1;
         }
         Ok(log)
     }
@@ -318,8 +366,9 @@ impl Switch {
         self.visible.clear();
         self.peer_queue.clear();
         self.depth_for = None;
+        let deadline = Instant::now() + WAIT;
         while self.cameras.is_empty() {
-            self.next_event("the new display's first camera")?;
+            self.next_event("the new display's first camera", deadline)?;
         }
         Ok(*self.cameras.keys().next().expect("a camera"))
     }
@@ -341,7 +390,8 @@ impl Switch {
     /// HC for frame i, or both roles when no OR pass prepared camera i's depth buffer (the
     /// first frame, the peer gone, or the frame after handing the peer a keyframe).
     fn hc(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
-        let Some((cam, camera_received_us)) = self.camera(i)? else { return Ok(None) };
+        let Some((cam, camera_received_us)) = self.camera(i, !self.peer_in_step)? else { return Ok(None) };
+        let i = cam.frame;
         let t = Instant::now();
         self.sent = [0; 2];
         self.send_display(Message::Camera(cam));
@@ -352,9 +402,7 @@ impl Switch {
         let mut drawn = 0;
         if solo {
             // The OR pass of paper 004 fig. 5 on this GPU: the front of V(i-1) for camera i.
-            let mut front = Vec::new();
-            update_front(r.scene.nodes(), &self.visible, &view, cam.tau_px, &mut front);
-            drawn = r.draw(&view, &front, Pass::Depth, true)?.nodes;
+            drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true)?.nodes;
         }
         let mut pvs = Vec::new();
         let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, &self.visible, &mut pvs)?;
@@ -367,8 +415,13 @@ impl Switch {
             ids_sent = pvs.len() as u64;
             self.send_display(keyframe_of(i, &pvs));
         }
+        // The peer gets frame i only when it holds V(i-1): else it waits for a keyframe, and
+        // anything else would be stale when it comes.
+        let to_peer = self.peer_in_step;
         if self.full {
-            self.send_peer(keyframe_of(i, &pvs));
+            if to_peer {
+                self.send_peer(keyframe_of(i, &pvs));
+            }
         } else {
             // Batches of at most b ids (sec. 3.5), additions first: OR draws them.
             let chunks = added.len().div_ceil(self.batch).max(removed.len().div_ceil(self.batch));
@@ -380,7 +433,9 @@ impl Switch {
                     ids_sent += (a.len() + rm.len()) as u64;
                     self.send_display(delta.clone());
                 }
-                self.send_peer(delta);
+                if to_peer {
+                    self.send_peer(delta);
+                }
             }
         }
         let batches = if self.full { 1 } else { added.len().div_ceil(self.batch).max(removed.len().div_ceil(self.batch)) as u32 };
@@ -388,12 +443,19 @@ impl Switch {
             HcWireStats { tests: hc.tests, levels: hc.levels, hc_us: t.elapsed().as_micros() as u64, or_us: 0, pvs: pvs.len() as u32 };
         let clock = LinkStamps { sent_us: now_us(), camera_received_us, peer_eof_received_us: self.peer_eof_received_us };
         let eof = Message::EndOfFrame(EndOfFrame { frame: i, stats, clock });
-        self.send_peer(eof.clone());
+        if to_peer {
+            self.send_peer(eof.clone());
+        }
         self.send_display(eof);
         self.depth_for = Some(i);
         self.visible = pvs;
-        if self.peer_rejoining && self.peer.is_some() {
-            // Hand the restarted peer V(i): it is OR for frame i+1, this node alone once more.
+        // Hand the rejoining peer V(i): it is OR for frame i+1 (with camera i+2), this node
+        // alone once more. Only once this node has caught up with the display (it holds no
+        // camera past i+2): the peer may have set the display's pace before (both alone while
+        // the link between them was cut), and the frames it already served must not be
+        // served again from another visible set.
+        let caught_up = self.cameras.keys().next_back().is_none_or(|&f| f <= i + 2);
+        if self.peer_rejoining && self.peer.is_some() && caught_up {
             self.send_peer(keyframe_of(i, &self.visible));
             self.peer_rejoining = false;
             self.peer_in_step = true;
@@ -418,15 +480,13 @@ impl Switch {
     /// OR for frame i+1 while the peer is HC for frame i. When the peer is lost before its
     /// end of frame, this node runs frame i alone instead.
     fn or(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
-        let Some((cam, _)) = self.camera(i + 1)? else { return Ok(None) };
+        let Some((cam, _)) = self.camera(i + 1, false)? else { return Ok(None) };
         let t = Instant::now();
         let max_id = self.renderer.scene.header().node_count;
         let r = &mut self.renderer;
         r.begin_frame();
         let view = r.view(&camera(&cam));
-        let mut front = Vec::new();
-        update_front(r.scene.nodes(), &self.visible, &view, cam.tau_px, &mut front);
-        let mut drawn = r.draw(&view, &front, Pass::Depth, true)?.nodes;
+        let mut drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true)?.nodes;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         loop {
             match self.peer_message(&format!("frame {i} from the peer"), true)? {
@@ -438,7 +498,7 @@ impl Switch {
                 }
                 Some((Message::Delta(d), _)) if d.frame == i => {
                     let a = d.added.ids(max_id)?;
-                    drawn += self.renderer.draw(&view, &a, Pass::Depth, false)?.nodes;
+                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false)?.nodes;
                     added.extend(a);
                     removed.extend(d.removed.ids(max_id)?);
                 }
@@ -447,7 +507,7 @@ impl Switch {
                     let all = k.ids.ids(max_id)?;
                     let (mut a, mut rm) = (Vec::new(), Vec::new());
                     diff(&self.visible, &all, &mut a, &mut rm);
-                    drawn += self.renderer.draw(&view, &a, Pass::Depth, false)?.nodes;
+                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false)?.nodes;
                     added.extend(a);
                     removed.extend(rm);
                 }

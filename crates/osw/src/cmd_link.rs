@@ -42,6 +42,8 @@ pub struct Args {
 const SEGMENT: usize = 1448;
 /// Linux's minimum retransmission timeout: what a lost segment costs.
 const RTO: Duration = Duration::from_millis(200);
+/// Segments held per direction (about 6 MB).
+const IN_FLIGHT: usize = 4096;
 
 /// What one direction of a link does to the bytes on it.
 #[derive(Clone, Copy)]
@@ -64,7 +66,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         // The port actually bound (for `--listen 127.0.0.1:0`), for whoever started the relay.
         out!("listening {}", listener.local_addr()?);
         for n in 0u64.. {
-            let (down, from) = listener.accept().await?;
+            let (down, from) = match listener.accept().await {
+                Ok(c) => c,
+                // Out of file descriptors, say: the connections already relayed go on.
+                Err(e) => {
+                    tracing::warn!("accept: {e}");
+                    tokio::time::sleep(Duration::from_millis(100)).await;
+                    continue;
+                }
+            };
             let (to, seed) = (a.to.clone(), a.seed.wrapping_add(n.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
             tokio::spawn(async move {
                 let up = match TcpStream::connect(&to).await {
@@ -89,7 +99,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 
 /// Carries one direction until its reader ends or its writer fails.
 async fn relay(mut from: tokio::net::tcp::OwnedReadHalf, mut to: tokio::net::tcp::OwnedWriteHalf, imp: Impairment, mut rng: rand_pcg::Pcg64Mcg) {
-    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<(Instant, Vec<u8>)>();
+    // Bounded, like a TCP window: a sender faster than the link waits instead of filling memory.
+    let (tx, mut rx) = tokio::sync::mpsc::channel::<(Instant, Vec<u8>)>(IN_FLIGHT);
     let reader = async move {
         let mut buf = vec![0u8; 64 << 10];
         // Segments never overtake: each is due no earlier than the one before it.
@@ -102,7 +113,7 @@ async fn relay(mut from: tokio::net::tcp::OwnedReadHalf, mut to: tokio::net::tcp
                 let lost = imp.loss > 0.0 && rng.random::<f64>() < imp.loss;
                 let due = (Instant::now() + imp.delay + if lost { RTO } else { Duration::ZERO }).max(last_due);
                 last_due = due;
-                if tx.send((due, seg.to_vec())).is_err() {
+                if tx.send((due, seg.to_vec())).await.is_err() {
                     return;
                 }
             }

@@ -20,7 +20,7 @@ use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
 use osw_cull::sw::stop_and_wait;
 use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_one_batch};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{GpuTester, HcTest, InterleavedTester, RenderError, Renderer};
+use osw_gpu::renderer::{DrawStats, GpuTester, HcTest, InterleavedTester, RenderError, Renderer};
 use osw_scene::NodeId;
 use std::time::Instant;
 
@@ -69,12 +69,22 @@ pub struct ModeState {
     older: Vec<NodeId>,
     added: Vec<NodeId>,
     removed: Vec<NodeId>,
-    occluders: Vec<NodeId>,
     chc: Option<ChcState>,
 }
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
+}
+
+/// The OR pass's draw, shared by `prev` and the switch node: `ids` re-selected for `view` at
+/// `tau` (the front update of sec. 4.6) drawn into the depth buffer; `clear` starts a new one.
+/// OR draws the front of V(i-2), then HC's additions of frame i-1 as they arrive: HC chose
+/// those for camera i-1, so they are re-selected too and every occluder is geometry at tau
+/// for camera i (tau may also change between frames).
+pub fn draw_occluders(r: &mut Renderer, view: &View, ids: &[NodeId], tau: f64, clear: bool) -> Result<DrawStats, RenderError> {
+    let mut front = Vec::new();
+    update_front(r.scene.nodes(), ids, view, tau, &mut front);
+    r.draw(view, &front, Pass::Depth, clear)
 }
 
 /// The HC pass of the switch (paper 000 alg. 4.1) against the depth buffer as the OR pass left
@@ -86,7 +96,9 @@ fn ms(t: Instant) -> f64 {
 /// a disocclusion) there are no occluders at all, so everything behind it is found visible for
 /// one frame and gone the next, sent to RVG and the peer twice. Those additions are drawn into
 /// the depth buffer and tested again, exactly; the ones hidden behind others are dropped.
-/// Conservative: only geometry of this frame's PVS is added as occluder.
+/// Conservative: only geometry of this frame's PVS is added as occluder. The second pass uses
+/// the exact per-pixel test whichever test the first used: additions are few, and a pyramid
+/// built again for them would cost more than the test.
 pub fn hc_pass(r: &mut Renderer, view: &View, tau: f64, hc: HcTest, previous: &[NodeId], pvs: &mut Vec<NodeId>) -> Result<HcStats, RenderError> {
     let scene = std::sync::Arc::clone(&r.scene);
     let test = match hc {
@@ -136,7 +148,6 @@ impl ModeState {
             older: Vec::new(),
             added: Vec::new(),
             removed: Vec::new(),
-            occluders: Vec::new(),
             chc: None,
         }
     }
@@ -187,12 +198,10 @@ impl ModeState {
             }
             Mode::Prev => {
                 let t = Instant::now();
-                update_front(nodes, &self.older, view, self.tau, &mut self.occluders);
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
-                self.occluders.extend_from_slice(&self.added);
-                // Depth only: the result does not depend on the order of the draws.
-                let or = r.draw(view, &self.occluders, Pass::Depth, true)?;
-                (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
+                let front = draw_occluders(r, view, &self.older, self.tau, true)?;
+                let added = draw_occluders(r, view, &self.added, self.tau, false)?;
+                (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), front.nodes + added.nodes, front.triangles + added.triangles);
                 let t = Instant::now();
                 let hc = hc_pass(r, view, self.tau, self.hc, &self.visible, &mut pvs)?;
                 s.hc_ms = ms(t);

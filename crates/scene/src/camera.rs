@@ -49,7 +49,7 @@ impl Camera {
         let q = self.orientation;
         // A finite quaternion can still have a length that overflows (components near 1e200,
         // found by fuzzing): normalising it would give zeros.
-        if !q.is_finite() || !(q.length() >= 1e-6 && q.length().is_finite()) {
+        if !(q.is_finite() && q.length() >= 1e-6 && q.length().is_finite()) {
             return Err(format!("bad camera orientation {q:?}: expected a non-zero quaternion of finite length"));
         }
         if !(self.fovy_deg > 0.0 && self.fovy_deg < 180.0) {

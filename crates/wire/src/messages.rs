@@ -149,8 +149,10 @@ impl Message {
                 let finite = c.position.iter().chain(&c.orientation).all(|v| v.is_finite()) && c.fovy_deg.is_finite();
                 let q = c.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
                 // q overflows to infinity for huge finite components: refused too.
+                let orientation_ok = q >= 1e-6 && q.is_finite();
+                let fovy_ok = c.fovy_deg > 0.0 && c.fovy_deg < 180.0;
                 let tau_ok = c.tau_px.is_finite() && c.tau_px >= 0.0;
-                if !finite || !(q >= 1e-6 && q.is_finite()) || !(c.fovy_deg > 0.0 && c.fovy_deg < 180.0) || !tau_ok {
+                if !(finite && orientation_ok && fovy_ok && tau_ok) {
                     return Err(WireError::BadCamera(format!(
                         "frame {}: position {:?}, orientation {:?}, fovy {}, tau {}",
                         c.frame, c.position, c.orientation, c.fovy_deg, c.tau_px
