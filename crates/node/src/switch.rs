@@ -6,7 +6,8 @@
 //!   peer and RVG in batches of b ids, then end of frame with the statistics.
 //! - OR for frame i+1 (while the peer is HC for frame i): take camera i+1, draw the front of
 //!   V(i-1) updated for it (sec. 4.6) into the depth buffer at once, then each batch of
-//!   additions as it arrives, until end of frame; then V(i) = (V(i-1) - removed) ∪ added.
+//!   additions (updated for it too) as it arrives, until end of frame; then V(i) =
+//!   (V(i-1) - removed) ∪ added.
 //!
 //! Failover (issue 6): when the peer is gone, this node runs both roles in turn on its own GPU,
 //! the single-GPU loop of paper 004 fig. 5: for each frame it draws the front of V(i-1) for
@@ -14,7 +15,9 @@
 //! that RVG never depends on what the lost node sent last. A restarted peer asks to rejoin;
 //! at the end of its frame this node sends it a keyframe of V(k), runs frame k+1 alone once
 //! more (its depth buffer holds camera k's occluders) while the peer draws OR for k+2, and the
-//! roles alternate again from there.
+//! roles alternate again from there. When only the link between the nodes was cut, both ran
+//! alone meanwhile (the one behind catching up with the newest camera); when it is back, node b
+//! stops serving and rejoins node a in the same way.
 //!
 //! Cameras: in path playback every camera carries its frame number and frame k uses the
 //! camera numbered k (deterministic runs); RVG sends camera k+2 after it has frame k, so a node
