@@ -14,20 +14,24 @@ pub struct Level {
     pub offset: u32,
     pub width: u32,
     pub height: u32,
-    pub pad: u32,
+    /// Texels from one row to the next: level 0 is a copy of the depth texture, whose rows
+    /// are padded to 256 bytes.
+    pub pitch: u32,
 }
 
 /// The level table for a `width` x `height` depth buffer: halving (rounding up) down to 1x1.
 pub fn levels(width: u32, height: u32) -> Vec<Level> {
-    let mut out = vec![Level { offset: 0, width, height, pad: 0 }];
+    let mut out = vec![Level { offset: 0, width, height, pitch: crate::target::padded_row(width * 4) / 4 }];
     while let Some(&l) = out.last().filter(|l| l.width > 1 || l.height > 1) {
-        out.push(Level { offset: l.offset + l.width * l.height, width: l.width.div_ceil(2), height: l.height.div_ceil(2), pad: 0 });
+        let (width, height) = (l.width.div_ceil(2), l.height.div_ceil(2));
+        out.push(Level { offset: l.offset + l.pitch * l.height, width, height, pitch: width });
     }
     out
 }
 
 pub struct Pyramid {
     pub levels: Vec<Level>,
+    buffer: wgpu::Buffer,
     reduce: wgpu::ComputePipeline,
     cull: wgpu::ComputePipeline,
     reduce_groups: Vec<wgpu::BindGroup>,
@@ -50,7 +54,7 @@ impl Pyramid {
         use wgpu::util::DeviceExt;
         let d = &gpu.device;
         let levels = levels(target.width, target.height);
-        let texels: u32 = levels.iter().map(|l| l.width * l.height).sum();
+        let texels: u32 = levels.iter().map(|l| l.pitch * l.height).sum();
         let levels_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("pyramid levels"),
             contents: bytemuck::cast_slice(&levels),
@@ -59,7 +63,7 @@ impl Pyramid {
         let pyramid_buf = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("pyramid"),
             size: texels as u64 * 4,
-            usage: wgpu::BufferUsages::STORAGE,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let batch_buf = d.create_buffer(&wgpu::BufferDescriptor {
@@ -89,17 +93,9 @@ impl Pyramid {
         let reduce_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("depthreduce"),
             entries: &[
-                entry(
-                    0,
-                    wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                ),
-                entry(1, buffer(B::Storage { read_only: true })),
-                entry(2, buffer(B::Storage { read_only: false })),
-                entry(3, buffer(B::Uniform)),
+                entry(0, buffer(B::Storage { read_only: true })),
+                entry(1, buffer(B::Storage { read_only: false })),
+                entry(2, buffer(B::Uniform)),
             ],
         });
         let reduce = pipeline(
@@ -108,9 +104,9 @@ impl Pyramid {
             &module("depthreduce.comp.wgsl", include_str!("shaders/depthreduce.comp.wgsl")),
             "reduce",
         );
-        // One small uniform per level naming it: the dispatches of one frame go in one
-        // submission, so each needs its own.
-        let reduce_groups = (0..levels.len() as u32)
+        // One small uniform per level from 1 on naming it: the dispatches of one frame go in
+        // one submission, so each needs its own.
+        let reduce_groups = (1..levels.len() as u32)
             .map(|k| {
                 let step = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("reduce step"),
@@ -121,10 +117,9 @@ impl Pyramid {
                     label: Some("depthreduce"),
                     layout: &reduce_layout,
                     entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&target.depth) },
-                        wgpu::BindGroupEntry { binding: 1, resource: levels_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: pyramid_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 3, resource: step.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 0, resource: levels_buf.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: pyramid_buf.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: step.as_entire_binding() },
                     ],
                 })
             })
@@ -151,14 +146,15 @@ impl Pyramid {
                 .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
                 .collect::<Vec<_>>(),
         });
-        Pyramid { levels, reduce, cull, reduce_groups, cull_group, batch_buf }
+        Pyramid { levels, buffer: pyramid_buf, reduce, cull, reduce_groups, cull_group, batch_buf }
     }
 
     /// Records the reduction of the current depth buffer into the pyramid.
-    pub fn encode_build(&self, enc: &mut wgpu::CommandEncoder) {
+    pub fn encode_build(&self, target: &Target, enc: &mut wgpu::CommandEncoder) {
+        target.encode_depth_copy(enc, &self.buffer);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("depthreduce"), timestamp_writes: None });
         pass.set_pipeline(&self.reduce);
-        for (l, group) in self.levels.iter().zip(&self.reduce_groups) {
+        for (l, group) in self.levels.iter().skip(1).zip(&self.reduce_groups) {
             pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(l.width.div_ceil(8), l.height.div_ceil(8), 1);
         }
@@ -181,8 +177,9 @@ mod tests {
     #[test]
     fn level_table_packs_halving_levels() {
         let l = levels(5, 3);
-        let dims: Vec<(u32, u32, u32)> = l.iter().map(|l| (l.offset, l.width, l.height)).collect();
-        assert_eq!(dims, vec![(0, 5, 3), (15, 3, 2), (21, 2, 1), (23, 1, 1)]);
+        let dims: Vec<(u32, u32, u32, u32)> = l.iter().map(|l| (l.offset, l.width, l.height, l.pitch)).collect();
+        // Level 0's rows are padded to 256 bytes, 64 texels.
+        assert_eq!(dims, vec![(0, 5, 3, 64), (192, 3, 2, 3), (198, 2, 1, 2), (200, 1, 1, 1)]);
         assert_eq!(std::mem::size_of::<Level>(), 16);
     }
 }

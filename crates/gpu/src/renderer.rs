@@ -226,7 +226,7 @@ impl Renderer {
     /// [`HcTest::Pyramid`] (after the occluders are drawn, before the boxes are tested).
     pub fn build_pyramid(&mut self) {
         let mut enc = self.gpu.device.create_command_encoder(&Default::default());
-        self.pyramid.encode_build(&mut enc);
+        self.pyramid.encode_build(&self.target, &mut enc);
         self.gpu.queue.submit([enc.finish()]);
     }
 

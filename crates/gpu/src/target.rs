@@ -32,7 +32,7 @@ fn texture(gpu: &Gpu, label: &str, w: u32, h: u32, format: wgpu::TextureFormat, 
 }
 
 /// Rows of a texture copy are padded to 256 bytes.
-fn padded_row(bytes_per_row: u32) -> u32 {
+pub(crate) fn padded_row(bytes_per_row: u32) -> u32 {
     bytes_per_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
 }
 
@@ -70,6 +70,24 @@ impl Target {
     pub fn read_depth(&self, gpu: &Gpu) -> Result<Vec<f32>, GpuError> {
         let bytes = self.read(gpu, &self.depth_tex, 4)?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
+    /// Records a copy of the depth attachment into `buffer` from offset 0, rows padded as
+    /// [`padded_row`] says.
+    pub fn encode_depth_copy(&self, enc: &mut wgpu::CommandEncoder, buffer: &wgpu::Buffer) {
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.depth_tex,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::DepthOnly,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row(self.width * 4)), rows_per_image: None },
+            },
+            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+        );
     }
 
     fn read(&self, gpu: &Gpu, tex: &wgpu::Texture, texel: u32) -> Result<Vec<u8>, GpuError> {

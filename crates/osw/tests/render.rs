@@ -127,30 +127,20 @@ fn extreme_cameras_stay_conservative_and_finite() {
     write_path(&path, &cams);
     check_conservative(d.path(), &scene_path, &path, "extreme");
 
-    // Aspect 1:16 and 16:1.
+    // Aspect 1:16 and 16:1, with the exact test and with the pyramid (hybrid): a 16-texel row is
+    // padded to 64 in the pyramid's level 0.
     for size in ["16x256", "256x16"] {
         let out = d.path().join(format!("aspect{size}"));
-        for mode in ["vfc", "prev"] {
-            osw_ok(&[
-                "render",
-                "--scene",
-                s(&scene_path),
-                "--path",
-                s(&path),
-                "--mode",
-                mode,
-                "--hc",
-                "exact",
-                "--size",
-                size,
-                "--out",
-                s(&out.join(mode)),
-            ]);
+        for (run, mode, hc) in [("vfc", "vfc", "exact"), ("prev", "prev", "exact"), ("prev-hybrid", "prev", "hybrid")] {
+            let dir = out.join(run);
+            osw_ok(&["render", "--scene", s(&scene_path), "--path", s(&path), "--mode", mode, "--hc", hc, "--size", size, "--out", s(&dir)]);
         }
         osw_ok(&["exact", "--scene", s(&scene_path), "--path", s(&path), "--size", size, "--out", s(&out.join("exact"))]);
-        let c = compare(&out.join("prev"), &out.join("vfc"), &out.join("exact"), &out.join("cmp"));
-        assert_eq!(c["identical_frames"], cams.len(), "aspect {size}: {c}");
-        assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "aspect {size}: {c}");
+        for run in ["prev", "prev-hybrid"] {
+            let c = compare(&out.join(run), &out.join("vfc"), &out.join("exact"), &out.join(format!("cmp-{run}")));
+            assert_eq!(c["identical_frames"], cams.len(), "aspect {size}, {run}: {c}");
+            assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "aspect {size}, {run}: {c}");
+        }
     }
 }
 

@@ -63,7 +63,7 @@ fn cull(@builtin(global_invocation_id) id: vec3<u32>) {
     var far = 1e30;
     for (var y = t0.y; y <= t1.y; y++) {
         for (var x = t0.x; x <= t1.x; x++) {
-            far = min(far, pyramid[l.offset + y * l.width + x]);
+            far = min(far, pyramid[l.offset + y * l.pitch + x]);
         }
     }
     // The same rounding margin as the CPU reference. A visible box reports 1 + the level it

@@ -18,5 +18,6 @@ struct Level {
     offset: u32,
     width: u32,
     height: u32,
-    pad: u32,
+    // Texels from one row to the next (level 0: rows padded for the copy from the texture).
+    pitch: u32,
 }
