@@ -30,7 +30,7 @@ use osw_gpu::renderer::{HcTest, Renderer};
 use osw_render::mode::{draw_occluders, hc_pass};
 use osw_scene::{Camera, NodeId};
 use osw_wire::clock::now_us;
-use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Role};
+use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Rejoin, Role};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::sync::mpsc::Receiver;
@@ -100,8 +100,10 @@ pub struct Switch {
     /// The peer holds the same V(i-1) as this node: it can be OR. False from a peer's loss
     /// until the keyframe that brings it back in step.
     peer_in_step: bool,
-    /// The restarted peer asked for a keyframe.
-    peer_rejoining: bool,
+    /// The peer asked for a keyframe, and this is the first frame it has not served.
+    peer_rejoining: Option<u64>,
+    /// This node asked the peer for a keyframe on the current connection.
+    rejoin_asked: bool,
     /// A display connected after the first: a restarted display plays its path from its
     /// first camera, and the nodes start over with it.
     display_restarted: bool,
@@ -142,7 +144,8 @@ impl Switch {
             hc_parity: index,
             depth_for: None,
             peer_in_step: false,
-            peer_rejoining: false,
+            peer_rejoining: None,
+            rejoin_asked: false,
             display_restarted: false,
             displays_seen: 0,
             cameras: BTreeMap::new(),
@@ -180,10 +183,16 @@ impl Switch {
                     }
                 }
             }
-            Event::FromDisplay(Message::Goodbye(_), _) | Event::FromPeer(Message::Goodbye(_), _) => self.done = true,
-            Event::FromPeer(Message::Rejoin, _) => {
-                tracing::warn!("the peer rejoins: it gets a keyframe at the end of this frame");
-                self.peer_rejoining = true;
+            Event::FromDisplay(Message::Goodbye(_), _) => self.done = true,
+            // The peer's connection ends next: its loss is handled then (the display's goodbye
+            // ends this node, not the peer's, which may have failed).
+            Event::FromPeer(Message::Goodbye(g), _) => tracing::info!("the peer leaves: {}", g.reason),
+            Event::FromPeer(Message::Rejoin(r), _) => {
+                tracing::warn!("the peer rejoins: it gets a keyframe at the end of frame {} or later", r.next.saturating_sub(1));
+                // Whatever it held, it holds no longer (it restarted, or it ran alone).
+                self.peer_rejoining = Some(r.next);
+                self.peer_in_step = false;
+                self.peer_queue.clear();
             }
             Event::FromPeer(m, at) => self.peer_queue.push_back((m, at)),
             Event::FromDisplay(m, _) => tracing::warn!("unexpected message from the display: {m:?}"),
@@ -191,7 +200,17 @@ impl Switch {
                 tracing::info!("{role:?} {name} connected");
                 let link = Some(Link { id, out });
                 match role {
-                    Role::Node => self.peer = link,
+                    Role::Node => {
+                        // A new connection replacing one whose end is not seen yet: the peer
+                        // is out of step until it rejoins.
+                        if self.peer.is_some() {
+                            self.peer_in_step = false;
+                            self.peer_rejoining = None;
+                            self.peer_queue.clear();
+                        }
+                        self.rejoin_asked = false;
+                        self.peer = link;
+                    }
                     Role::Display => {
                         self.display = link;
                         self.displays_seen += 1;
@@ -216,7 +235,7 @@ impl Switch {
                         if role == Role::Node {
                             self.peer_losses += 1;
                             self.peer_in_step = false;
-                            self.peer_rejoining = false;
+                            self.peer_rejoining = None;
                             self.peer_queue.clear();
                         }
                     }
@@ -228,8 +247,8 @@ impl Switch {
     /// Handles the next event, waiting at most until `deadline`: the end of the caller's whole
     /// wait, which events that bring nothing it waits for (a camera flood) do not extend.
     fn next_event(&mut self, what: &str, deadline: Instant) -> anyhow::Result<()> {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let e = self.events.recv_timeout(left).map_err(|_| anyhow::anyhow!("waited {WAIT:?} for {what}"))?;
+        let left = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero());
+        let e = left.and_then(|d| self.events.recv_timeout(d).ok()).ok_or_else(|| anyhow::anyhow!("waited {WAIT:?} for {what}"))?;
         self.handle(e);
         Ok(())
     }
@@ -253,19 +272,21 @@ impl Switch {
             self.peer_in_step = true;
             return Ok(Some(0));
         }
-        match self.rejoin(false)? {
+        match self.rejoin(0, false)? {
             None if !self.done => anyhow::bail!("the peer left before this node could rejoin"),
             first => Ok(first),
         }
     }
 
     /// Asks the peer for its visible set and waits for it (paper 000 has no failover: issue 6);
-    /// from the frame after it this node is OR, the peer alone once more. Returns that frame,
-    /// or `None` when the wait ends without one: the display said goodbye or restarted, the
-    /// peer is gone, or, for a `running` node, the peer asked first (it restarted and has no
-    /// visible set: this node hands it one instead).
-    fn rejoin(&mut self, running: bool) -> anyhow::Result<Option<u64>> {
-        self.send_peer(Message::Rejoin);
+    /// `next` is the first frame this node has not served. From the frame after the
+    /// keyframe's (never before `next`) this node is OR, the peer alone once more. Returns
+    /// that frame, or `None` when the wait ends without one: the display said goodbye or
+    /// restarted, the peer is gone, or, for a `running` node, the peer asked too (it restarted
+    /// and has no visible set: this node hands it one instead).
+    fn rejoin(&mut self, next: u64, running: bool) -> anyhow::Result<Option<u64>> {
+        self.send_peer(Message::Rejoin(Rejoin { next }));
+        self.rejoin_asked = true;
         let deadline = Instant::now() + WAIT;
         loop {
             // What the peer sent before the keyframe belongs to frames this node did not follow.
@@ -274,14 +295,14 @@ impl Switch {
                     self.visible = k.ids.ids(self.renderer.scene.header().node_count)?;
                     self.hc_parity = k.frame % 2;
                     self.peer_in_step = true;
-                    self.peer_rejoining = false;
+                    self.peer_rejoining = None;
                     self.depth_for = None;
                     self.peer_rejoins += 1;
                     tracing::warn!("rejoined at frame {}", k.frame + 1);
                     return Ok(Some(k.frame + 1));
                 }
             }
-            if self.done || self.display_restarted || self.peer.is_none() || (running && self.peer_rejoining) {
+            if self.done || self.display_restarted || self.peer.is_none() || (running && self.peer_rejoining.is_some()) {
                 return Ok(None);
             }
             self.next_event("a keyframe from the peer", deadline)?;
@@ -337,9 +358,9 @@ impl Switch {
             // The link between the nodes was cut while both ran on, each alone, and is back:
             // node b stops serving and rejoins as a restarted node would, so that the display
             // never mixes frames of two visible sets (node a serves it meanwhile).
-            if !self.peer_in_step && self.index == 1 && self.peer.is_some() && !self.peer_rejoining {
+            if !self.peer_in_step && self.index == 1 && self.peer.is_some() && self.peer_rejoining.is_none() && !self.rejoin_asked {
                 tracing::warn!("the link to the peer is back: rejoining it");
-                match self.rejoin(true)? {
+                match self.rejoin(i, true)? {
                     Some(next) => {
                         i = next;
                         continue;
@@ -453,14 +474,15 @@ impl Switch {
         self.depth_for = Some(i);
         self.visible = pvs;
         // Hand the rejoining peer V(i): it is OR for frame i+1 (with camera i+2), this node
-        // alone once more. Only once this node has caught up with the display (it holds no
-        // camera past i+2): the peer may have set the display's pace before (both alone while
-        // the link between them was cut), and the frames it already served must not be
-        // served again from another visible set.
-        let caught_up = self.cameras.keys().next_back().is_none_or(|&f| f <= i + 2);
-        if self.peer_rejoining && self.peer.is_some() && caught_up {
+        // alone once more and sending the display a keyframe. Not before the frames the peer
+        // served (both alone while the link between them was cut): the display holds those
+        // from the peer's visible set, and must not get deltas against them from this one.
+        if let Some(next) = self.peer_rejoining
+            && self.peer.is_some()
+            && i + 1 >= next
+        {
             self.send_peer(keyframe_of(i, &self.visible));
-            self.peer_rejoining = false;
+            self.peer_rejoining = None;
             self.peer_in_step = true;
             self.hc_parity = (i + 1) % 2;
             self.peer_rejoins += 1;

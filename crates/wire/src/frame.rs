@@ -88,7 +88,7 @@ mod tests {
             Message::Ping(Ping { sent_us: 9 }),
             Message::Pong(Pong { ping_sent_us: 9, received_us: 10, sent_us: 11 }),
             Message::Heartbeat,
-            Message::Rejoin,
+            Message::Rejoin(Rejoin { next: 12 }),
             Message::Keyframe(Keyframe { frame: 8, ids: IdList::from_ids(&[0, 1, 2]) }),
             Message::Goodbye(Goodbye { reason: "done".into() }),
         ]
@@ -104,9 +104,9 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_4() {
+    fn golden_bytes_of_version_5() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 4);
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 5);
         // An end of frame: length 10, variant 3, frame 7, tests 10, levels 2, hc_us 5, or_us 6,
         // pvs 3, then the link stamps 1, 2, 3 (bincode standard: varint integers).
         let mut b = Vec::new();
@@ -119,6 +119,10 @@ mod tests {
         encode_frame(&samples()[1], &mut b);
         let doubles: Vec<u8> = [1e7, 2.0, -3.5, 0.0, 0.0, 0.0, 1.0, 60.0, 2.5].iter().flat_map(|d: &f64| d.to_le_bytes()).collect();
         assert_eq!(b, [&[75u8, 0, 0, 0, 1, 7][..], &doubles, &[123]].concat());
+        // A rejoin: variant 9, the next frame 12.
+        let mut b = Vec::new();
+        encode_frame(&Message::Rejoin(Rejoin { next: 12 }), &mut b);
+        assert_eq!(b, vec![2, 0, 0, 0, 9, 12]);
     }
 
     #[test]

@@ -118,6 +118,16 @@ pub struct Keyframe {
     pub ids: IdList,
 }
 
+/// What a rejoining node has served: the peer hands over V(i) at the end of a frame i with
+/// i + 1 >= `next`, so that the display, which may hold frames up to `next` - 1 from the
+/// asking node, gets every frame from i + 1 on from one visible set (the peer's frame i + 1 is
+/// a keyframe to the display).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Rejoin {
+    /// The first frame the asking node has not served (0 after a restart).
+    pub next: u64,
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Goodbye {
     pub reason: String,
@@ -136,9 +146,9 @@ pub enum Message {
     /// Sent by a connection's writer when it has had nothing to send for a while, so that a
     /// silent peer (a cut network) is noticed within [`crate::limits::SILENCE`].
     Heartbeat,
-    /// A node that restarted tells its peer it holds no visible set: the peer, running both
-    /// roles alone, sends it a keyframe and the switch resumes.
-    Rejoin,
+    /// A node asks its peer, running both roles alone, for a keyframe: after a restart, or
+    /// when the link between them is back after a cut.
+    Rejoin(Rejoin),
 }
 
 impl Message {
