@@ -384,12 +384,17 @@ impl Switch {
 
     /// A restarted display: forget the visible set (the display holds none) and run from its
     /// first camera, HC by parity as at start-up. Both nodes do this on their own; the first
-    /// frame's HC has no occluders, as at frame 0.
+    /// frame's HC has no occluders, as at frame 0. Both hold the same empty visible set then:
+    /// in step with a connected peer, whatever rejoin was under way.
     fn start_over(&mut self) -> anyhow::Result<u64> {
         self.display_restarted = false;
         self.visible.clear();
         self.peer_queue.clear();
         self.depth_for = None;
+        self.hc_parity = self.index;
+        self.peer_in_step = self.peer.is_some();
+        self.peer_rejoining = None;
+        self.rejoin_asked = false;
         let deadline = Instant::now() + WAIT;
         while self.cameras.is_empty() {
             self.next_event("the new display's first camera", deadline)?;
