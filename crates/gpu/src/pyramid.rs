@@ -34,7 +34,8 @@ pub struct Pyramid {
     buffer: wgpu::Buffer,
     reduce: wgpu::ComputePipeline,
     cull: wgpu::ComputePipeline,
-    reduce_groups: Vec<wgpu::BindGroup>,
+    /// Each reduction dispatch's bind group and the level whose texels it is dispatched over.
+    reduce_steps: Vec<(wgpu::BindGroup, Level)>,
     cull_group: wgpu::BindGroup,
     batch_buf: wgpu::Buffer,
 }
@@ -104,16 +105,18 @@ impl Pyramid {
             &module("depthreduce.comp.wgsl", include_str!("shaders/depthreduce.comp.wgsl")),
             "reduce",
         );
-        // One small uniform per level from 1 on naming it: the dispatches of one frame go in
-        // one submission, so each needs its own.
-        let reduce_groups = (1..levels.len() as u32)
+        // One small uniform per dispatch naming its levels (1 and 2, 3 and 4, ...): the
+        // dispatches of one frame go in one submission, so each needs its own.
+        let reduce_steps = (1..levels.len() as u32)
+            .step_by(2)
             .map(|k| {
+                let two = u32::from(k + 1 < levels.len() as u32);
                 let step = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("reduce step"),
-                    contents: bytemuck::cast_slice(&[k, 0, 0, 0]),
+                    contents: bytemuck::cast_slice(&[k, two, 0, 0]),
                     usage: wgpu::BufferUsages::UNIFORM,
                 });
-                d.create_bind_group(&wgpu::BindGroupDescriptor {
+                let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("depthreduce"),
                     layout: &reduce_layout,
                     entries: &[
@@ -121,7 +124,9 @@ impl Pyramid {
                         wgpu::BindGroupEntry { binding: 1, resource: pyramid_buf.as_entire_binding() },
                         wgpu::BindGroupEntry { binding: 2, resource: step.as_entire_binding() },
                     ],
-                })
+                });
+                // One invocation per texel of the top level written.
+                (group, levels[(k + two) as usize])
             })
             .collect();
 
@@ -146,7 +151,7 @@ impl Pyramid {
                 .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
                 .collect::<Vec<_>>(),
         });
-        Pyramid { levels, buffer: pyramid_buf, reduce, cull, reduce_groups, cull_group, batch_buf }
+        Pyramid { levels, buffer: pyramid_buf, reduce, cull, reduce_steps, cull_group, batch_buf }
     }
 
     /// Records the reduction of the current depth buffer into the pyramid.
@@ -154,7 +159,7 @@ impl Pyramid {
         target.encode_depth_copy(enc, &self.buffer);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("depthreduce"), timestamp_writes: None });
         pass.set_pipeline(&self.reduce);
-        for (l, group) in self.levels.iter().skip(1).zip(&self.reduce_groups) {
+        for (group, l) in &self.reduce_steps {
             pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(l.width.div_ceil(8), l.height.div_ceil(8), 1);
         }
