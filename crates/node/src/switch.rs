@@ -283,7 +283,7 @@ impl Switch {
     /// keyframe's (never before `next`) this node is OR, the peer alone once more. Returns
     /// that frame, or `None` when the wait ends without one: the display said goodbye or
     /// restarted, the peer is gone, or, for a `running` node, the peer asked too (it restarted
-    /// and has no visible set: this node hands it one instead).
+    /// and has no visible set: this node hands it one instead) or did not answer in time.
     fn rejoin(&mut self, next: u64, running: bool) -> anyhow::Result<Option<u64>> {
         self.send_peer(Message::Rejoin(Rejoin { next }));
         self.rejoin_asked = true;
@@ -305,7 +305,14 @@ impl Switch {
             if self.done || self.display_restarted || self.peer.is_none() || (running && self.peer_rejoining.is_some()) {
                 return Ok(None);
             }
-            self.next_event("a keyframe from the peer", deadline)?;
+            match self.next_event("a keyframe from the peer", deadline) {
+                // A running node goes on alone rather than leave the display with neither.
+                Err(e) if running => {
+                    tracing::warn!("{e}: going on alone");
+                    return Ok(None);
+                }
+                r => r?,
+            }
         }
     }
 
