@@ -1,0 +1,51 @@
+//! The GPU pyramid test (depth copied into level 0, two levels reduced per dispatch, boxes
+//! tested in compute) against its CPU reference, osw-cull's `HzbTester`, on the same depth
+//! buffer: the same answer for almost every box, never hidden where the reference sees it
+//! beyond rounding, and occluders that do hide boxes (a pyramid that answers "visible" to
+//! everything would be conservative too, and useless). The odd image size pads level 0's rows
+//! and leaves one level to reduce alone.
+
+use glam::DVec3;
+use osw_cull::hzb::{HzbTester, Pyramid};
+use osw_cull::VisibilityTester;
+use osw_gpu::draw::Pass;
+use osw_gpu::renderer::{HcTest, Renderer};
+use osw_scene::Camera;
+use std::sync::Arc;
+
+#[test]
+fn the_gpu_pyramid_answers_as_the_cpu_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plant.osw");
+    let objects = osw_scene::generators::generate(osw_scene::generators::GenKind::Plant, 200_000, 3).objects;
+    osw_scene::build_scene(objects, "test", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).unwrap();
+    let scene = Arc::new(osw_scene::SceneFile::open(&path).unwrap());
+    let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
+    let (w, h) = (300, 200);
+    let mut r = Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES).unwrap();
+    let root = scene.node(0).aabb();
+    let eye = root.center().as_dvec3() + DVec3::new(0.0, 1.7 - root.center().y as f64, -0.3 * root.extent().z as f64);
+    let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0));
+    // Occluders: every leaf's coarsest level.
+    let occluders: Vec<u32> =
+        (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod + n.lod_count - 1).collect();
+    r.draw(&view, &occluders, Pass::Depth, true).unwrap();
+    r.build_pyramid();
+    let boxes: Vec<u32> = (0..scene.bvh_count()).collect();
+    let mut gpu_answers = Vec::new();
+    r.test_boxes(&view, &boxes, HcTest::Pyramid, &mut gpu_answers).unwrap();
+
+    let cpu_pyramid = Pyramid::new(w, h, r.target.read_depth(&r.gpu).unwrap());
+    let mut cpu_answers = Vec::new();
+    // finer 3: the GPU shader's default.
+    HzbTester { nodes: scene.nodes(), pyramid: &cpu_pyramid, finer: 3 }.test(&view, &boxes, &mut cpu_answers);
+
+    let n = boxes.len();
+    let hidden = |a: &[osw_cull::Visibility]| a.iter().filter(|v| !v.visible).count();
+    let only_gpu_hides = gpu_answers.iter().zip(&cpu_answers).filter(|(g, c)| !g.visible && c.visible).count();
+    let differ = gpu_answers.iter().zip(&cpu_answers).filter(|(g, c)| g.visible != c.visible).count();
+    eprintln!("{n} boxes: GPU hides {}, CPU hides {}, {differ} differ, {only_gpu_hides} hidden by the GPU alone", hidden(&gpu_answers), hidden(&cpu_answers));
+    assert!(hidden(&cpu_answers) > n / 10, "the occluders hide too little for the test to mean anything");
+    assert!(differ * 100 <= n, "{differ} of {n} boxes answered differently");
+    assert!(only_gpu_hides * 1000 <= n, "{only_gpu_hides} of {n} boxes hidden by the GPU pyramid but visible to the reference");
+}
