@@ -40,7 +40,7 @@ impl Target {
     pub fn new(gpu: &Gpu, width: u32, height: u32) -> Target {
         use wgpu::TextureUsages as U;
         let color_tex = texture(gpu, "color", width, height, COLOR, U::RENDER_ATTACHMENT | U::COPY_SRC);
-        let depth_tex = texture(gpu, "depth", width, height, DEPTH, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
+        let depth_tex = texture(gpu, "depth", width, height, DEPTH, U::RENDER_ATTACHMENT | U::COPY_SRC);
         let item_tex = texture(gpu, "item", width, height, ITEM, U::RENDER_ATTACHMENT | U::COPY_SRC);
         Target {
             width,
