@@ -202,7 +202,8 @@ impl Ui {
             format!("HC node {node}{}", if row.degraded == 1 { "  DEGRADED: one node runs both roles" } else { "" }),
             format!("PVS {} nodes  {} triangles  {} B/frame  tau {tau} px", row.pvs_nodes, row.triangles_drawn, row.bytes),
         ];
-        let mut state = vec![if self.state_colours { "colours: green visible, red occluded, blue outside" } else { "colours: by object" }.to_string()];
+        let mut state =
+            vec![if self.state_colours { "colours: green visible, red occluded, blue outside" } else { "colours: by object" }.to_string()];
         if let Some(c) = &self.controls {
             state.push(format!("speed {:.3}/s", c.speed));
         }

@@ -57,7 +57,8 @@ fn key_for(code: KeyCode) -> Option<Key> {
 }
 
 /// The help lines of the overlay.
-pub const KEYS: [&str; 2] = ["WASD QE move  drag/arrows look  Z X speed  [ ] tau", "Tab colours  F freeze  R record  P shot  H overlay  Esc quit"];
+pub const KEYS: [&str; 2] =
+    ["WASD QE move  drag/arrows look  Z X speed  [ ] tau", "Tab colours  F freeze  R record  P shot  H overlay  Esc quit"];
 
 /// winit's side: makes the window once the loop runs, turns events into [`Input`]s.
 struct App {
@@ -202,7 +203,12 @@ impl Window {
         };
         let height = (rgba.len() / 4 / width as usize) as u32;
         gpu.queue.write_texture(
-            wgpu::TexelCopyTextureInfo { texture: &frame.texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyTextureInfo {
+                texture: &frame.texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
             data,
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * width), rows_per_image: None },
             wgpu::Extent3d { width: width.min(self.config.width), height: height.min(self.config.height), depth_or_array_layers: 1 },

@@ -267,9 +267,8 @@ impl Renderer {
                 // The geometry drawn into the depth buffer is made camera-relative in f32 with
                 // the eye rounded to f32 (draw.wgsl): it may sit up to two ulps of the eye's
                 // coordinates nearer than in f64, and a box must not hide behind its own contents.
-                let eps = (hi - lo).max_element() * 1e-6
-                    + lo.abs().max(hi.abs()).max_element() * 1e-6
-                    + view.eye.abs().max_element() * 2.4e-7;
+                let eps =
+                    (hi - lo).max_element() * 1e-6 + lo.abs().max(hi.abs()).max_element() * 1e-6 + view.eye.abs().max_element() * 2.4e-7;
                 let (lo, hi) = ((lo - eps).as_vec3(), (hi + eps).as_vec3());
                 self.gpu_boxes.push(GpuBox { lo: lo.extend(0.0).to_array(), hi: hi.extend(0.0).to_array() });
             }

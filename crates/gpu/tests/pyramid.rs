@@ -6,8 +6,8 @@
 //! and leaves one level to reduce alone.
 
 use glam::DVec3;
-use osw_cull::hzb::{HzbTester, Pyramid};
 use osw_cull::VisibilityTester;
+use osw_cull::hzb::{HzbTester, Pyramid};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{HcTest, Renderer};
 use osw_scene::Camera;
@@ -44,7 +44,11 @@ fn the_gpu_pyramid_answers_as_the_cpu_reference() {
     let hidden = |a: &[osw_cull::Visibility]| a.iter().filter(|v| !v.visible).count();
     let only_gpu_hides = gpu_answers.iter().zip(&cpu_answers).filter(|(g, c)| !g.visible && c.visible).count();
     let differ = gpu_answers.iter().zip(&cpu_answers).filter(|(g, c)| g.visible != c.visible).count();
-    eprintln!("{n} boxes: GPU hides {}, CPU hides {}, {differ} differ, {only_gpu_hides} hidden by the GPU alone", hidden(&gpu_answers), hidden(&cpu_answers));
+    eprintln!(
+        "{n} boxes: GPU hides {}, CPU hides {}, {differ} differ, {only_gpu_hides} hidden by the GPU alone",
+        hidden(&gpu_answers),
+        hidden(&cpu_answers)
+    );
     assert!(hidden(&cpu_answers) > n / 10, "the occluders hide too little for the test to mean anything");
     assert!(differ * 100 <= n, "{differ} of {n} boxes answered differently");
     assert!(only_gpu_hides * 1000 <= n, "{only_gpu_hides} of {n} boxes hidden by the GPU pyramid but visible to the reference");

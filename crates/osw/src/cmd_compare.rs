@@ -134,7 +134,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             if let Some((lod_leaves, lod_tris)) = &lod {
                 let mut missed = Vec::with_capacity(frames);
                 for f in 0..frames {
-                    missed.push(cull_error(&scene, &pvs[f], &lod_leaves[f], lod_tris[f]).map_err(anyhow::Error::msg)?.false_culled_leaves as u64);
+                    missed.push(
+                        cull_error(&scene, &pvs[f], &lod_leaves[f], lod_tris[f]).map_err(anyhow::Error::msg)?.false_culled_leaves as u64,
+                    );
                 }
                 s.lod_false_culled_total = Some(missed.iter().sum());
                 s.lod_frames_with_false_culling = Some(missed.iter().filter(|&&m| m > 0).count() as u64);

@@ -98,7 +98,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 }
 
 /// Carries one direction until its reader ends or its writer fails.
-async fn relay(mut from: tokio::net::tcp::OwnedReadHalf, mut to: tokio::net::tcp::OwnedWriteHalf, imp: Impairment, mut rng: rand_pcg::Pcg64Mcg) {
+async fn relay(
+    mut from: tokio::net::tcp::OwnedReadHalf,
+    mut to: tokio::net::tcp::OwnedWriteHalf,
+    imp: Impairment,
+    mut rng: rand_pcg::Pcg64Mcg,
+) {
     // Bounded, like a TCP window: a sender faster than the link waits instead of filling memory.
     let (tx, mut rx) = tokio::sync::mpsc::channel::<(Instant, Vec<u8>)>(IN_FLIGHT);
     let reader = async move {

@@ -110,14 +110,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let s = |p: &Path| p.display().to_string();
     let size = format!("{}x{}", a.size.0, a.size.1);
     let common = |name: &str| {
-        let mut v: Vec<String> = vec![
-            "--name".into(),
-            name.into(),
-            "--scene".into(),
-            s(&a.scene),
-            "--size".into(),
-            size.clone(),
-        ];
+        let mut v: Vec<String> = vec!["--name".into(), name.into(), "--scene".into(), s(&a.scene), "--size".into(), size.clone()];
         if a.full {
             v.push("--full".into());
         }

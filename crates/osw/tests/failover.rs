@@ -108,7 +108,8 @@ fn links(addr_a: &str, addr_b: &str, impaired: Option<(&str, &str)>) -> (Vec<Pro
     match impaired {
         None => (vec![], [addr_a.to_string(), addr_a.to_string(), addr_b.to_string()]),
         Some((delay, loss)) => {
-            let [(p1, x1), (p2, x2), (p3, x3)] = [(addr_a, "1"), (addr_a, "2"), (addr_b, "3")].map(|(to, seed)| link("127.0.0.1:0", to, delay, loss, seed));
+            let [(p1, x1), (p2, x2), (p3, x3)] =
+                [(addr_a, "1"), (addr_a, "2"), (addr_b, "3")].map(|(to, seed)| link("127.0.0.1:0", to, delay, loss, seed));
             (vec![p1, p2, p3], [x1, x2, x3])
         }
     }
@@ -142,7 +143,10 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
         // The links were impaired: a camera takes at least the delay to reach its HC.
         let link_ms = sum["camera_link_ms_median"].as_f64().unwrap();
         assert!(link_ms >= delay.parse::<f64>().unwrap(), "camera link {link_ms} ms: the relays did not delay");
-        eprintln!("impaired links: camera link {link_ms:.1} ms median, latency {} ms median, {} ms max", sum["latency_ms_median"], sum["latency_ms_max"]);
+        eprintln!(
+            "impaired links: camera link {link_ms:.1} ms median, latency {} ms median, {} ms max",
+            sum["latency_ms_median"], sum["latency_ms_max"]
+        );
     }
     // The degraded span starts at the kill and ends once node a is back.
     let stats = std::fs::read_to_string(out.join("stats.csv")).unwrap();
@@ -156,8 +160,12 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
         let f: Vec<&str> = l.split(',').collect();
         (f[0].parse().unwrap(), f[8].to_string())
     };
-    let a_last = stats.lines().skip(1).map(hc_of).filter(|(f, hc)| *f < first && hc == "0").map(|(f, _)| f).max().expect("node a sent no frame");
-    assert!(first >= killed_at.unwrap() && first <= a_last + 5, "degraded from {first}, node a last HC at {a_last}, killed at {killed_at:?}");
+    let a_last =
+        stats.lines().skip(1).map(hc_of).filter(|(f, hc)| *f < first && hc == "0").map(|(f, _)| f).max().expect("node a sent no frame");
+    assert!(
+        first >= killed_at.unwrap() && first <= a_last + 5,
+        "degraded from {first}, node a last HC at {a_last}, killed at {killed_at:?}"
+    );
     assert!(last >= restarted_at.unwrap() && last < 299, "degraded until {last}, restarted at {restarted_at:?}: never rejoined");
     // After the rejoin both nodes send frames again, in turn: the survivor may send a few more
     // alone (the restarted node connects to the display and to its peer at different times,
@@ -208,11 +216,15 @@ fn a_cut_link_between_the_nodes_heals_and_the_switch_resumes() {
     for n in ["a", "b"] {
         let log = std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap();
         let stats = std::fs::read_to_string(d.path().join(format!("{n}.csv"))).unwrap_or_else(|_| panic!("node {n} wrote no stats: {log}"));
-        let rows: Vec<(u64, &str)> = stats.lines().skip(1).map(|l| l.split(',').collect::<Vec<_>>()).map(|f| (f[0].parse().unwrap(), f[1])).collect();
+        let rows: Vec<(u64, &str)> =
+            stats.lines().skip(1).map(|l| l.split(',').collect::<Vec<_>>()).map(|f| (f[0].parse().unwrap(), f[1])).collect();
         let solo: Vec<u64> = rows.iter().filter(|(f, r)| *f > 0 && *r == "SOLO").map(|(f, _)| *f).collect();
         assert!(solo.first().is_some_and(|&f| f >= cut_at.unwrap()), "node {n}: alone at {solo:?}, cut at {cut_at:?}: {log}");
         let tail: Vec<&str> = rows.iter().filter(|(f, _)| *f > solo[solo.len() - 1]).map(|(_, r)| *r).collect();
-        assert!(tail.len() > 20 && tail.windows(2).all(|w| w[0] != w[1] && w[0] != "SOLO"), "node {n} did not resume the switch: {tail:?}: {log}");
+        assert!(
+            tail.len() > 20 && tail.windows(2).all(|w| w[0] != w[1] && w[0] != "SOLO"),
+            "node {n} did not resume the switch: {tail:?}: {log}"
+        );
     }
     check_against_references(d.path(), &scene, &path, &out);
 }
@@ -364,13 +376,13 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
     let cameras = |frames: std::ops::Range<u64>, out: &mut Vec<u8>| {
         for k in frames {
             encode_frame(
-            &Message::Camera(CameraPacket {
-                frame: k,
-                position: cam.position.to_array(),
-                orientation: cam.orientation.to_array(),
-                fovy_deg: cam.fovy_deg,
-                tau_px: 0.0,
-                sampled_us: 0,
+                &Message::Camera(CameraPacket {
+                    frame: k,
+                    position: cam.position.to_array(),
+                    orientation: cam.orientation.to_array(),
+                    fovy_deg: cam.fovy_deg,
+                    tau_px: 0.0,
+                    sampled_us: 0,
                 }),
                 out,
             );

@@ -145,9 +145,9 @@ fn a_walk_records_a_path_that_replays_to_the_same_frames() {
     assert_eq!(cams.len() as u64, b - a + 1, "{recorded}");
     assert!(cams.len() >= 5, "a recording of over a second holds frames: {}", cams.len());
     let first = &cams[0];
-    let (moved, turned) = cams.iter().fold((0f64, 0f64), |(m, t), c| {
-        (m.max((c.position - first.position).length()), t.max(c.forward().angle_between(first.forward())))
-    });
+    let (moved, turned) = cams
+        .iter()
+        .fold((0f64, 0f64), |(m, t), c| (m.max((c.position - first.position).length()), t.max(c.forward().angle_between(first.forward()))));
     assert!(moved > 0.0 && turned > 0.1, "the keys moved ({moved}) and turned ({turned} rad) the camera");
     let walk_start = osw_scene::path::read(&start).unwrap()[0].position;
     assert!((first.position - walk_start).length() > 0.0, "W moved the camera before the recording");

@@ -74,7 +74,10 @@ fn image_error_is_reported_at_tau_above_zero() {
     std::fs::copy(d.path().join("prev8/summary.json"), broken.join("summary.json")).unwrap();
     std::fs::write(broken.join("pvs.txt"), "\n".repeat(6)).unwrap();
     let cmp8 = d.path().join("cmp8");
-    let args = |a: &Path| ["compare", "--a", s(a), "--b", s(&d.path().join("ref")), "--exact", s(&exact), "--exact-lod", s(&exact8), "--out", s(&cmp8)].map(String::from);
+    let args = |a: &Path| {
+        ["compare", "--a", s(a), "--b", s(&d.path().join("ref")), "--exact", s(&exact), "--exact-lod", s(&exact8), "--out", s(&cmp8)]
+            .map(String::from)
+    };
     let culling = |a: &Path| {
         osw_ok(&args(a).iter().map(String::as_str).collect::<Vec<_>>());
         let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp8.join("compare.json")).unwrap()).unwrap();
@@ -133,7 +136,21 @@ fn extreme_cameras_stay_conservative_and_finite() {
         let out = d.path().join(format!("aspect{size}"));
         for (run, mode, hc) in [("vfc", "vfc", "exact"), ("prev", "prev", "exact"), ("prev-hybrid", "prev", "hybrid")] {
             let dir = out.join(run);
-            osw_ok(&["render", "--scene", s(&scene_path), "--path", s(&path), "--mode", mode, "--hc", hc, "--size", size, "--out", s(&dir)]);
+            osw_ok(&[
+                "render",
+                "--scene",
+                s(&scene_path),
+                "--path",
+                s(&path),
+                "--mode",
+                mode,
+                "--hc",
+                hc,
+                "--size",
+                size,
+                "--out",
+                s(&dir),
+            ]);
         }
         osw_ok(&["exact", "--scene", s(&scene_path), "--path", s(&path), "--size", size, "--out", s(&out.join("exact"))]);
         for run in ["prev", "prev-hybrid"] {

@@ -46,7 +46,10 @@ fn report_covers_every_mode_and_tau_and_resumes() {
             } else {
                 // Coarser LODs change pixels; vfc at tau 8 draws fewer triangles than at tau 0.
                 assert!(e["differing_fraction_mean"].as_f64().unwrap() > 0.0, "{mode}: {e}");
-                eprintln!("{mode} tau {tau}: false-culled {} at tau, {} at full detail", e["false_culled_at_tau_total"], e["false_culled_leaves_total"]);
+                eprintln!(
+                    "{mode} tau {tau}: false-culled {} at tau, {} at full detail",
+                    e["false_culled_at_tau_total"], e["false_culled_leaves_total"]
+                );
                 // The switch culls conservatively for the scene as drawn at its tau.
                 if mode == "switch" || mode == "prev" {
                     assert_eq!(e["false_culled_at_tau_total"], 0, "{mode}: {e}");

@@ -99,7 +99,14 @@ pub fn draw_occluders(r: &mut Renderer, view: &View, ids: &[NodeId], tau: f64, c
 /// Conservative: only geometry of this frame's PVS is added as occluder. The second pass uses
 /// the exact per-pixel test whichever test the first used: additions are few, and a pyramid
 /// built again for them would cost more than the test.
-pub fn hc_pass(r: &mut Renderer, view: &View, tau: f64, hc: HcTest, previous: &[NodeId], pvs: &mut Vec<NodeId>) -> Result<HcStats, RenderError> {
+pub fn hc_pass(
+    r: &mut Renderer,
+    view: &View,
+    tau: f64,
+    hc: HcTest,
+    previous: &[NodeId],
+    pvs: &mut Vec<NodeId>,
+) -> Result<HcStats, RenderError> {
     let scene = std::sync::Arc::clone(&r.scene);
     let test = match hc {
         HcTest::Pyramid | HcTest::Hybrid => {
@@ -140,16 +147,7 @@ pub fn hc_pass(r: &mut Renderer, view: &View, tau: f64, hc: HcTest, previous: &[
 
 impl ModeState {
     pub fn new(mode: Mode, tau: f64, hc: HcTest) -> ModeState {
-        ModeState {
-            mode,
-            tau,
-            hc,
-            visible: Vec::new(),
-            older: Vec::new(),
-            added: Vec::new(),
-            removed: Vec::new(),
-            chc: None,
-        }
+        ModeState { mode, tau, hc, visible: Vec::new(), older: Vec::new(), added: Vec::new(), removed: Vec::new(), chc: None }
     }
 
     /// The visible set of the last frame rendered (LOD ids, sorted).
