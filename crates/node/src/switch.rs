@@ -117,6 +117,8 @@ pub struct Switch {
     sent: [u64; 2],
     /// V(i-1), sorted LOD ids.
     visible: Vec<NodeId>,
+    /// Scratch space for the occluders OR draws.
+    occluders: Vec<NodeId>,
     done: bool,
     /// Peer losses and rejoins seen, for the log.
     pub peer_losses: u32,
@@ -153,6 +155,7 @@ impl Switch {
             peer_eof_received_us: 0,
             sent: [0; 2],
             visible: Vec::new(),
+            occluders: Vec::new(),
             done: false,
             peer_losses: 0,
             peer_rejoins: 0,
@@ -438,7 +441,7 @@ impl Switch {
         let mut drawn = 0;
         if solo {
             // The OR pass of paper 004 fig. 5 on this GPU: the front of V(i-1) for camera i.
-            drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true)?.nodes;
+            drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
         }
         let mut pvs = Vec::new();
         let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, &self.visible, &mut pvs)?;
@@ -523,7 +526,7 @@ impl Switch {
         let r = &mut self.renderer;
         r.begin_frame();
         let view = r.view(&camera(&cam));
-        let mut drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true)?.nodes;
+        let mut drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         loop {
             match self.peer_message(&format!("frame {i} from the peer"), true)? {
@@ -535,7 +538,7 @@ impl Switch {
                 }
                 Some((Message::Delta(d), _)) if d.frame == i => {
                     let a = d.added.ids(max_id)?;
-                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false)?.nodes;
+                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false, &mut self.occluders)?.nodes;
                     added.extend(a);
                     removed.extend(d.removed.ids(max_id)?);
                 }
@@ -544,7 +547,7 @@ impl Switch {
                     let all = k.ids.ids(max_id)?;
                     let (mut a, mut rm) = (Vec::new(), Vec::new());
                     diff(&self.visible, &all, &mut a, &mut rm);
-                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false)?.nodes;
+                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false, &mut self.occluders)?.nodes;
                     added.extend(a);
                     removed.extend(rm);
                 }

@@ -69,6 +69,7 @@ pub struct ModeState {
     older: Vec<NodeId>,
     added: Vec<NodeId>,
     removed: Vec<NodeId>,
+    occluders: Vec<NodeId>,
     chc: Option<ChcState>,
 }
 
@@ -80,11 +81,18 @@ fn ms(t: Instant) -> f64 {
 /// `tau` (the front update of sec. 4.6) drawn into the depth buffer; `clear` starts a new one.
 /// OR draws the front of V(i-2), then HC's additions of frame i-1 as they arrive: HC chose
 /// those for camera i-1, so they are re-selected too and every occluder is geometry at tau
-/// for camera i (tau may also change between frames).
-pub fn draw_occluders(r: &mut Renderer, view: &View, ids: &[NodeId], tau: f64, clear: bool) -> Result<DrawStats, RenderError> {
-    let mut front = Vec::new();
-    update_front(r.scene.nodes(), ids, view, tau, &mut front);
-    r.draw(view, &front, Pass::Depth, clear)
+/// for camera i (tau may also change between frames). `front` is scratch space kept across
+/// frames.
+pub fn draw_occluders(
+    r: &mut Renderer,
+    view: &View,
+    ids: &[NodeId],
+    tau: f64,
+    clear: bool,
+    front: &mut Vec<NodeId>,
+) -> Result<DrawStats, RenderError> {
+    update_front(r.scene.nodes(), ids, view, tau, front);
+    r.draw(view, front, Pass::Depth, clear)
 }
 
 /// The HC pass of the switch (paper 000 alg. 4.1) against the depth buffer as the OR pass left
@@ -147,7 +155,17 @@ pub fn hc_pass(
 
 impl ModeState {
     pub fn new(mode: Mode, tau: f64, hc: HcTest) -> ModeState {
-        ModeState { mode, tau, hc, visible: Vec::new(), older: Vec::new(), added: Vec::new(), removed: Vec::new(), chc: None }
+        ModeState {
+            mode,
+            tau,
+            hc,
+            visible: Vec::new(),
+            older: Vec::new(),
+            added: Vec::new(),
+            removed: Vec::new(),
+            occluders: Vec::new(),
+            chc: None,
+        }
     }
 
     /// The visible set of the last frame rendered (LOD ids, sorted).
@@ -197,8 +215,8 @@ impl ModeState {
             Mode::Prev => {
                 let t = Instant::now();
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
-                let front = draw_occluders(r, view, &self.older, self.tau, true)?;
-                let added = draw_occluders(r, view, &self.added, self.tau, false)?;
+                let front = draw_occluders(r, view, &self.older, self.tau, true, &mut self.occluders)?;
+                let added = draw_occluders(r, view, &self.added, self.tau, false, &mut self.occluders)?;
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), front.nodes + added.nodes, front.triangles + added.triangles);
                 let t = Instant::now();
                 let hc = hc_pass(r, view, self.tau, self.hc, &self.visible, &mut pvs)?;
