@@ -22,6 +22,10 @@ pub struct Args {
     /// Largest chunk in triangles (objects above it are split).
     #[arg(long, default_value_t = osw_scene::limits::CHUNK_TRIANGLES, value_name = "N")]
     chunk_triangles: u32,
+    /// Split a chunk in two where its halves' boxes have less than this fraction of its box's
+    /// surface area, so that HC tests boxes that fit (elbowed pipes, railings); 0 never splits.
+    #[arg(long, default_value_t = osw_scene::limits::LOOSE_SPLIT, value_name = "FRACTION")]
+    loose_split: f32,
     /// World position of the scene's local origin, "X,Y,Z" (moves the whole scene, e.g. to test
     /// precision far from the origin).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_offset)]
@@ -43,6 +47,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.chunk_triangles == 0 {
         bail!("--chunk-triangles must be at least 1");
     }
+    if !(0.0..=1.0).contains(&a.loose_split) {
+        bail!("--loose-split must be a fraction from 0 to 1 (got {})", a.loose_split);
+    }
     let started = std::time::Instant::now();
     let bar = crate::progress::Bar::new();
     let (objects, input, notes) = match (&a.input, a.generator) {
@@ -63,7 +70,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         (None, None) => unreachable!("clap requires a source"),
     };
-    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, origin: a.offset.unwrap_or([0.0; 3]) };
+    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, loose_split: a.loose_split, origin: a.offset.unwrap_or([0.0; 3]) };
     let report = build_scene(objects, &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
     let report = report?;
@@ -80,6 +87,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.seconds,
         report.input_triangles_per_second / 1e6
     );
+    if report.loose_splits > 0 {
+        out!(
+            "split {} chunks in two whose boxes were loose (--loose-split {}): {} chunks",
+            report.loose_splits,
+            a.loose_split,
+            report.chunks
+        );
+    }
     for l in &report.left_out {
         out!("left out: {l}");
     }

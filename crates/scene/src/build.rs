@@ -3,9 +3,10 @@
 
 use crate::aabb::Aabb;
 use crate::bvh;
+use crate::chunk::{Chunks, SplitOptions};
 use crate::format::{NONE, NodeKind, NodeRecord};
 use crate::hlod::NoHlod;
-use crate::limits::{CHUNK_TRIANGLES, MIN_RELATIVE_ERROR};
+use crate::limits::{CHUNK_TRIANGLES, LOOSE_SPLIT, MIN_RELATIVE_ERROR};
 use crate::lod::{Level, LodStats};
 use crate::mesh::{CleanStats, Mesh, MeshError, Object};
 use crate::writer::{SceneData, write_scene};
@@ -19,13 +20,16 @@ use std::time::Instant;
 pub struct BuildOptions {
     /// Largest chunk, triangles (>= 1).
     pub chunk_triangles: u32,
+    /// Split chunks whose halves' boxes have less than this fraction of their box's surface
+    /// area (0: never; see [`crate::limits::LOOSE_SPLIT`]).
+    pub loose_split: f32,
     /// World position of the scene's local origin (see [`crate::format::Header::origin`]).
     pub origin: [f64; 3],
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        BuildOptions { chunk_triangles: CHUNK_TRIANGLES, origin: [0.0; 3] }
+        BuildOptions { chunk_triangles: CHUNK_TRIANGLES, loose_split: LOOSE_SPLIT, origin: [0.0; 3] }
     }
 }
 
@@ -47,6 +51,8 @@ pub struct BuildReport {
     pub input_triangles: u64,
     pub objects: u64,
     pub chunks: u64,
+    /// Chunks split in two because their box was loose (see [`crate::chunk`]).
+    pub loose_splits: u64,
     pub nodes: u64,
     pub leaves: u64,
     pub groups: u64,
@@ -127,17 +133,20 @@ pub fn make_scene(
     let min_error = (MIN_RELATIVE_ERROR * scene_box.extent().length()).max(f32::MIN_POSITIVE);
 
     progress.stage("chunk", objects.len() as u64);
-    let chunks: Vec<(u32, Mesh)> = timed(report, "chunk", |_| {
+    let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
+    let per_object: Vec<Chunks> = timed(report, "chunk", |_| {
         objects
             .par_iter()
-            .enumerate()
-            .flat_map_iter(|(i, o)| {
+            .map(|o| {
                 progress.advance(1);
-                crate::chunk::split(&o.mesh, opts.chunk_triangles).into_iter().map(move |m| (i as u32, m))
+                crate::chunk::split(&o.mesh, split)
             })
             .collect()
     });
     drop(objects);
+    report.loose_splits = per_object.iter().map(|c| c.loose_splits as u64).sum();
+    let chunks: Vec<(u32, Mesh)> =
+        per_object.into_iter().enumerate().flat_map(|(i, c)| c.meshes.into_iter().map(move |m| (i as u32, m))).collect();
     report.chunks = chunks.len() as u64;
 
     let boxes: Vec<Aabb> = chunks.iter().map(|(_, m)| m.bounds()).collect();
