@@ -79,7 +79,7 @@ impl Frames {
                         None => {
                             if let Some((lost, _)) = source.filter(|(n, _)| self.cluster.nodes[*n].is_none()) {
                                 tracing::warn!("frame {i}: node {} lost mid-frame; reading the frame from the other", links::NAMES[lost]);
-                                (source, keyframe, row.bytes, row.ids_sent) = (None, None, 0, 0);
+                                (source, keyframe, row.bytes, row.id_bytes, row.ids_sent) = (None, None, 0, 0, 0);
                                 added.clear();
                                 removed.clear();
                                 replay = std::mem::take(&mut self.held);
@@ -104,13 +104,14 @@ impl Frames {
                 }
                 Message::Delta(d) if d.frame == i => {
                     let (ad, rm) = (d.added.ids(max_id)?, d.removed.ids(max_id)?);
-                    (row.bytes, row.ids_sent) = (row.bytes + bytes, row.ids_sent + (ad.len() + rm.len()) as u64);
+                    (row.bytes, row.id_bytes) = (row.bytes + bytes, row.id_bytes + bytes);
+                    row.ids_sent += (ad.len() + rm.len()) as u64;
                     added.extend(ad);
                     removed.extend(rm);
                 }
                 Message::Keyframe(k) if k.frame == i => {
                     // The whole V(i): replaces V(i-1) and what deltas would have built.
-                    row.bytes += bytes;
+                    (row.bytes, row.id_bytes) = (row.bytes + bytes, row.id_bytes + bytes);
                     let all = k.ids.ids(max_id)?;
                     row.ids_sent += all.len() as u64;
                     keyframe = Some(all);

@@ -109,6 +109,40 @@ fn check_bandwidth(run: &Path, full: &Path, out: &Path) {
         })) as f64;
         assert_eq!(num(r, "hc_to_rvg_bytes") - num(r, "hc_to_or_bytes"), camera, "frame {i}: {r:?}");
     }
+    // The id-carrying messages, against their sizes coded again from the visible sets (pvs.txt).
+    let batch = b as usize;
+    for (dir, rows, full) in [(run, &display, false), (full, &display_full, true)] {
+        let sets: Vec<Vec<u32>> = std::fs::read_to_string(dir.join("pvs.txt"))
+            .unwrap()
+            .lines()
+            .map(|l| l.split_whitespace().map(|t| t.parse().unwrap()).collect())
+            .collect();
+        let mut before: &[u32] = &[];
+        for (i, v) in sets.iter().enumerate() {
+            let (added, removed): (Vec<u32>, Vec<u32>) = (
+                v.iter().copied().filter(|id| !before.contains(id)).collect(),
+                before.iter().copied().filter(|id| !v.contains(id)).collect(),
+            );
+            let frame = i as u64;
+            let expected: usize = if full {
+                osw_wire::frame_len(&osw_wire::Message::Keyframe(osw_wire::Keyframe { frame, ids: osw_wire::IdList::from_ids(v) }))
+            } else {
+                let part =
+                    |ids: &[u32], k: usize| osw_wire::IdList::from_ids(&ids[(k * batch).min(ids.len())..((k + 1) * batch).min(ids.len())]);
+                (0..added.len().div_ceil(batch).max(removed.len().div_ceil(batch)))
+                    .map(|k| {
+                        osw_wire::frame_len(&osw_wire::Message::Delta(osw_wire::Delta {
+                            frame,
+                            added: part(&added, k),
+                            removed: part(&removed, k),
+                        }))
+                    })
+                    .sum()
+            };
+            assert_eq!(num(&rows[i], "id_bytes"), expected as f64, "frame {i} (full: {full})");
+            before = v;
+        }
+    }
     let ids: f64 = bw.iter().map(|r| num(r, "ids_sent")).sum();
     let visible: f64 = bw.iter().map(|r| num(r, "visible")).sum();
     assert!((j["saved_fraction_ids"].as_f64().unwrap() - (1.0 - ids / visible)).abs() < 1e-9);
