@@ -33,4 +33,6 @@ for kind in deltas full; do
     $osw run --scene "$scene" --path "$path" --tau "$tau" --size "$size" --no-frames "${flag[@]}" --out "$out/$kind"
   fi
 done
-$osw bandwidth --run "$out/deltas" --full "$out/full" --out "$out"
+# Exact visibility of the same walk at the same tau: the saving a tight PVS could reach.
+$osw exact --scene "$scene" --path "$path" --tau "$tau" --size "$size" --out "$out/exact"
+$osw bandwidth --run "$out/deltas" --full "$out/full" --exact "$out/exact" --out "$out"

@@ -23,6 +23,10 @@ pub struct Args {
     /// The same walk run with `osw run --full` (whole visible set every frame).
     #[arg(long)]
     full: Option<PathBuf>,
+    /// `osw exact` output of the same path (exact_leaves.txt): the saving that sending exactly
+    /// the visible leaves would reach, which no tight PVS can beat by much.
+    #[arg(long)]
+    exact: Option<PathBuf>,
     /// Output directory: bandwidth.csv, bandwidth.json, bandwidth_ids.png/.svg,
     /// bandwidth_bytes.png/.svg.
     #[arg(long)]
@@ -143,6 +147,27 @@ struct Report {
     saved_fraction_bytes: Option<f64>,
     /// 1 - ids sent / visible-set size (the same run: what full transmission would send).
     saved_fraction_ids: f64,
+    /// The same for exact visibility: leaves entering and leaving it over its size, with `--exact`.
+    exact_saved_fraction_ids: Option<f64>,
+}
+
+/// Per frame, the leaves entering or leaving exact visibility (all of frame 0's, as the run
+/// sends) and how many are visible.
+fn exact_churn(dir: &Path, frames: usize) -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
+    let mut sets = osw_render::output::read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
+    if sets.len() != frames {
+        bail!("{} has {} frames, the run has {frames}", dir.display(), sets.len());
+    }
+    let (mut churn, mut size, mut previous) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut added, mut removed) = (Vec::new(), Vec::new());
+    for set in &mut sets {
+        set.sort_unstable();
+        osw_cull::delta::diff(&previous, set, &mut added, &mut removed);
+        churn.push((added.len() + removed.len()) as f64);
+        size.push(set.len() as f64);
+        previous = std::mem::take(set);
+    }
+    Ok((churn, size))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -154,6 +179,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         _ => inc.ids.len(),
     };
+    let exact = a.exact.as_deref().map(|d| exact_churn(d, frames)).transpose()?;
     std::fs::create_dir_all(&a.out)?;
     let mut csv = String::from("frame,ids_sent,visible,batches,hc_to_rvg_bytes,hc_to_or_bytes,rvg_camera_bytes,total_bytes,model_bytes");
     if full.is_some() {
@@ -185,6 +211,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 / mean(&(0..frames).map(|i| f.total(i)).collect::<Vec<_>>()).max(1.0)
         }),
         saved_fraction_ids: 1.0 - inc.ids.iter().sum::<f64>() / inc.visible.iter().sum::<f64>().max(1.0),
+        exact_saved_fraction_ids: exact.as_ref().map(|(churn, size)| 1.0 - churn.iter().sum::<f64>() / size.iter().sum::<f64>().max(1.0)),
         incremental: side(&inc),
         full: full.as_ref().map(side),
     };
@@ -198,6 +225,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     ];
     if let Some(f) = &full {
         ids.push(series("--full run", over_frames(&|i| f.ids[i])));
+    }
+    if let Some((churn, _)) = &exact {
+        ids.push(series("exact visibility (leaves entering + leaving)", over_frames(&|i| churn[i])));
     }
     crate::plot::write(
         &Chart { title: "Node ids sent per frame, incremental and full (paper 000 fig. 3)", x: "frame", y: "ids sent by HC", series: ids },
@@ -216,7 +246,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         &a.out.join("bandwidth_bytes"),
     )?;
     out!(
-        "bandwidth: {:.0} bytes a frame with deltas (model {:.0}){}, {:.1}% of ids saved → {}",
+        "bandwidth: {:.0} bytes a frame with deltas (model {:.0}){}, {:.1}% of ids saved{} → {}",
         report.incremental.bytes_per_frame_mean,
         report.incremental.model_bytes_per_frame_mean,
         report.full.as_ref().map_or(String::new(), |f| format!(
@@ -225,6 +255,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             report.saved_fraction_bytes.unwrap_or(0.0) * 100.0
         )),
         report.saved_fraction_ids * 100.0,
+        report.exact_saved_fraction_ids.map_or(String::new(), |e| format!(" (exact visibility: {:.1}%)", e * 100.0)),
         a.out.display()
     );
     Ok(())

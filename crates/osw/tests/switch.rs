@@ -68,7 +68,7 @@ fn the_switch_is_prev_split_across_processes() {
         _ => "OR",
     };
     assert!(roles.lines().skip(1).enumerate().all(|(i, l)| l.split(',').nth(1) == Some(expect(i))), "{roles}");
-    check_bandwidth(&run, &full, &d.path().join("bw"));
+    check_bandwidth(&run, &full, &exact, &d.path().join("bw"));
     check_latency(&run, &d.path().join("lat"));
 }
 
@@ -85,9 +85,10 @@ fn num(row: &std::collections::HashMap<String, String>, k: &str) -> f64 {
 }
 
 /// `osw bandwidth`: the bytes the HC nodes counted on sending equal those the display counted
-/// on receiving; the model is the paper's formula of the same n, h, b; --full sends every id.
-fn check_bandwidth(run: &Path, full: &Path, out: &Path) {
-    osw_ok(&["bandwidth", "--run", s(run), "--full", s(full), "--out", s(out)]);
+/// on receiving; the model is the paper's formula of the same n, h, b; --full sends every id;
+/// exact visibility's saving is its leaves' churn over its size.
+fn check_bandwidth(run: &Path, full: &Path, exact: &Path, out: &Path) {
+    osw_ok(&["bandwidth", "--run", s(run), "--full", s(full), "--exact", s(exact), "--out", s(out)]);
     let (bw, display, display_full) = (csv(&out.join("bandwidth.csv")), csv(&run.join("stats.csv")), csv(&full.join("stats.csv")));
     let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("bandwidth.json")).unwrap()).unwrap();
     let (h, b) = (j["incremental"]["header_bytes"].as_f64().unwrap(), j["incremental"]["batch"].as_f64().unwrap());
@@ -143,6 +144,15 @@ fn check_bandwidth(run: &Path, full: &Path, out: &Path) {
             before = v;
         }
     }
+    let sets: Vec<std::collections::HashSet<String>> = std::fs::read_to_string(exact.join("exact_leaves.txt"))
+        .unwrap()
+        .lines()
+        .map(|l| l.split_whitespace().map(String::from).collect())
+        .collect();
+    let churn: usize =
+        sets.iter().enumerate().map(|(i, e)| if i == 0 { e.len() } else { e.symmetric_difference(&sets[i - 1]).count() }).sum();
+    let size: usize = sets.iter().map(|e| e.len()).sum();
+    assert!((j["exact_saved_fraction_ids"].as_f64().unwrap() - (1.0 - churn as f64 / size as f64)).abs() < 1e-9, "{j}");
     let ids: f64 = bw.iter().map(|r| num(r, "ids_sent")).sum();
     let visible: f64 = bw.iter().map(|r| num(r, "visible")).sum();
     assert!((j["saved_fraction_ids"].as_f64().unwrap() - (1.0 - ids / visible)).abs() < 1e-9);
