@@ -61,7 +61,8 @@ impl Splitter<'_> {
     /// Splits `tris` into `out`; returns the number of splits made for loose boxes.
     fn split(&self, tris: &mut [u32], out: &mut Vec<Vec<u32>>) -> u32 {
         let full = tris.len() > self.max;
-        if !full && !(self.loose > 0.0 && tris.len() >= 2 * LOOSE_MIN_TRIANGLES) {
+        let may_be_loose = self.loose > 0.0 && tris.len() >= 2 * LOOSE_MIN_TRIANGLES;
+        if !full && !may_be_loose {
             return self.emit(tris, out);
         }
         let (lo, hi) = tris.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &t| {
