@@ -173,15 +173,17 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let drawn = r.draw(&view, &frames.visible, Pass::Color, true)?;
         row.rvg_ms = t.elapsed().as_secs_f64() * 1e3;
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
-        if !a.no_frames {
-            write_png(&frame_path(&a.out, i as u64), w, h, r.read_color()?).map_err(anyhow::Error::msg)?;
+        // Read back once for the PNG and the window both.
+        let rgba = if a.no_frames && ui.is_none() { None } else { Some(r.read_color()?) };
+        if let (false, Some(rgba)) = (a.no_frames, &rgba) {
+            write_png(&frame_path(&a.out, i as u64), w, h, rgba).map_err(anyhow::Error::msg)?;
         }
         row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
         row.rss_kb = osw_render::stats::resident_bytes() >> 10;
         row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
         last = Instant::now();
         if let Some(u) = ui.as_mut() {
-            u.show(&mut r, &frames.visible, &camera, cam.tau_px, &row)?;
+            u.show(&mut r, rgba, &frames.visible, &camera, cam.tau_px, &row)?;
         }
         push_ids(&mut pvs_txt, &frames.visible);
         rows.push(row);

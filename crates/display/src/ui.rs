@@ -150,9 +150,18 @@ impl Ui {
     }
 
     /// Renders what the window shows of frame `row.frame`, sent with `camera` at `tau` and
-    /// already drawn into the renderer's colour target as the frame is written. Drawn again
-    /// when the window's view differs: colours by state, or a frozen culling camera.
-    pub fn show(&mut self, r: &mut Renderer, visible: &[u32], camera: &Camera, tau: f64, row: &FrameRow) -> anyhow::Result<()> {
+    /// already drawn into the renderer's colour target as the frame is written (`frame`: its
+    /// pixels if the caller read them back). Drawn again when the window's view differs:
+    /// colours by state, or a frozen culling camera.
+    pub fn show(
+        &mut self,
+        r: &mut Renderer,
+        frame: Option<Vec<u8>>,
+        visible: &[u32],
+        camera: &Camera,
+        tau: f64,
+        row: &FrameRow,
+    ) -> anyhow::Result<()> {
         if let Some(rec) = self.recording.as_mut() {
             rec.from = rec.from.min(row.frame);
             rec.cameras.push(*camera);
@@ -162,6 +171,7 @@ impl Ui {
             (Some(_), Some(c)) => c.camera(),
             _ => *camera,
         };
+        let redraw = self.state_colours || viewer != *camera;
         if self.state_colours {
             let (view, culling) = (r.view(&viewer), r.view(camera));
             let scene = std::sync::Arc::clone(&r.scene);
@@ -175,7 +185,11 @@ impl Ui {
             let view: View = r.view(&viewer);
             r.draw(&view, visible, Pass::Color, true)?;
         }
-        let mut rgba = r.read_color()?;
+        // The frame as RVG drew it, read back once by the caller, unless it was drawn again.
+        let mut rgba = match frame {
+            Some(f) if !redraw => f,
+            _ => r.read_color()?,
+        };
         let width = r.target.width;
         if row.frame_ms > 0.0 {
             let now = 1e3 / row.frame_ms;
@@ -188,7 +202,7 @@ impl Ui {
         if std::mem::take(&mut self.screenshot) {
             let path = self.out.join("screenshots").join(format!("{:05}.png", row.frame));
             std::fs::create_dir_all(self.out.join("screenshots"))?;
-            osw_render::output::write_png(&path, width, r.target.height, rgba).map_err(anyhow::Error::msg)?;
+            osw_render::output::write_png(&path, width, r.target.height, &rgba).map_err(anyhow::Error::msg)?;
             say(format!("screenshot {}", path.display()));
         }
         Ok(())

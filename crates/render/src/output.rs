@@ -11,9 +11,11 @@ pub fn frame_path(dir: &Path, i: u64) -> PathBuf {
 }
 
 /// Writes an RGBA8 image as PNG.
-pub fn write_png(path: &Path, width: u32, height: u32, rgba: Vec<u8>) -> Result<(), String> {
-    let img = image::RgbaImage::from_raw(width, height, rgba).ok_or("image buffer of the wrong size")?;
-    img.save(path).map_err(|e| format!("{}: {e}", path.display()))
+pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<(), String> {
+    if rgba.len() as u64 != width as u64 * height as u64 * 4 {
+        return Err(format!("{}: image buffer of the wrong size", path.display()));
+    }
+    image::save_buffer(path, rgba, width, height, image::ColorType::Rgba8).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Reads a PNG as RGBA8: (width, height, pixels).

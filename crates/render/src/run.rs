@@ -49,7 +49,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
         frames.push(s);
         push_ids(&mut pvs, state.visible());
         if write_frames {
-            write_png(&frame_path(out, i as u64), r.target.width, r.target.height, r.read_color()?).map_err(RunError::Output)?;
+            write_png(&frame_path(out, i as u64), r.target.width, r.target.height, &r.read_color()?).map_err(RunError::Output)?;
         }
         tick();
     }
