@@ -9,7 +9,9 @@
 # --netns runs across three network namespaces with 100 Mb/s links (scripts/netns-cluster.sh,
 # root); else three processes on loopback (osw run). Without --scene, the generated plant
 # (TRIANGLES, FRAMES as in scripts/demo.sh). Results in DIR (default out/bandwidth):
-# bandwidth.json, bandwidth.csv, bandwidth_ids.png/.svg, bandwidth_bytes.png/.svg.
+# bandwidth.json, bandwidth.csv, bandwidth_ids.png/.svg, bandwidth_bytes.png/.svg, and exact/
+# (osw exact of the same walk: the leaves entering and leaving exact visibility, the walk's own
+# churn). A scene left in DIR by an earlier run is used again (scripts/walk-input.sh).
 set -euo pipefail
 scene="" path="" tau=5 size=1024x1024 netns=0 out=out/bandwidth
 while (($#)); do

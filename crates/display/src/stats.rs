@@ -102,6 +102,7 @@ pub fn write_outputs(
     let ids_sent: f64 = rows.iter().map(|r| r.ids_sent as f64).sum();
     let ids_full: f64 = rows.iter().map(|r| r.ids_full as f64).sum();
     let bytes: f64 = rows.iter().map(|r| r.bytes as f64).sum();
+    let id_bytes: f64 = rows.iter().map(|r| r.id_bytes as f64).sum();
     let [lo, hi] = scene.content_hash();
     let s = Summary {
         mode: "switch".into(),
@@ -117,7 +118,7 @@ pub fn write_outputs(
         ids_full_mean: mean(|r| r.ids_full as f64),
         incremental_saved_fraction: if ids_full > 0.0 { 1.0 - ids_sent / ids_full } else { 0.0 },
         bytes_per_id: bytes / ids_sent.max(1.0),
-        id_bytes_per_id: rows.iter().map(|r| r.id_bytes as f64).sum::<f64>() / ids_sent.max(1.0),
+        id_bytes_per_id: id_bytes / ids_sent.max(1.0),
         batch: set.batch,
         latency_ms_median: quantile(&col(|r| r.latency_ms), 0.5),
         latency_ms_p95: quantile(&col(|r| r.latency_ms), 0.95),

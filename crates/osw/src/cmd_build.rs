@@ -88,12 +88,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.input_triangles_per_second / 1e6
     );
     if report.loose_splits > 0 {
-        out!(
-            "split {} chunks in two whose boxes were loose (--loose-split {}): {} chunks",
-            report.loose_splits,
-            a.loose_split,
-            report.chunks
-        );
+        out!("{} loose splits (--loose-split {}): {} chunks", report.loose_splits, a.loose_split, report.chunks);
     }
     for l in &report.left_out {
         out!("left out: {l}");

@@ -24,6 +24,7 @@ fn five_million_triangle_scenes_build_and_keep_every_invariant() {
             "input_triangles",
             "objects",
             "chunks",
+            "loose_splits",
             "nodes",
             "leaves",
             "lod_levels_max",

@@ -29,6 +29,10 @@ pub struct Chunks {
 /// bounds. Every triangle lands in exactly one chunk; each chunk holds only the vertices it
 /// uses (a mesh that is not split is returned as it is).
 pub fn split(mesh: &Mesh, opts: SplitOptions) -> Chunks {
+    let n = mesh.triangle_count();
+    if n <= opts.max_triangles.max(1) as usize && !(opts.loose > 0.0 && n >= 2 * LOOSE_MIN_TRIANGLES as usize) {
+        return Chunks { meshes: vec![mesh.clone()], loose_splits: 0 };
+    }
     let tris = |t: &[u32]| [t[0], t[1], t[2]].map(|v| mesh.vertex(v));
     let centroids: Vec<Vec3> = mesh.indices.chunks_exact(3).map(|t| tris(t).into_iter().sum::<Vec3>() / 3.0).collect();
     let boxes: Vec<Aabb> = mesh.indices.chunks_exact(3).map(|t| tris(t).into_iter().fold(Aabb::EMPTY, Aabb::grow)).collect();
@@ -61,7 +65,7 @@ impl Splitter<'_> {
     /// Splits `tris` into `out`; returns the number of splits made for loose boxes.
     fn split(&self, tris: &mut [u32], out: &mut Vec<Vec<u32>>) -> u32 {
         let full = tris.len() > self.max;
-        let may_be_loose = self.loose > 0.0 && tris.len() >= 2 * LOOSE_MIN_TRIANGLES;
+        let may_be_loose = self.loose > 0.0 && tris.len() >= 2 * LOOSE_MIN_TRIANGLES as usize;
         if !full && !may_be_loose {
             return self.emit(tris, out);
         }
@@ -105,6 +109,8 @@ mod tests {
         let mut m = Mesh::default();
         shapes::grid_plane(&mut m, Vec3::ZERO, Vec3::new(100.0, 0.0, 30.0), 50, 15); // 1500 triangles
         // A plane's halves are no tighter than the plane: only the triangle limit splits it.
+        let whole = split(&m, SplitOptions { max_triangles: 4096, loose: 0.7 });
+        assert_eq!((whole.meshes.len(), whole.loose_splits), (1, 0));
         let chunks = split(&m, SplitOptions { max_triangles: 64, loose: 0.7 }).meshes;
         assert!(chunks.iter().all(|c| c.triangle_count() <= 64 && c.triangle_count() > 0));
         assert_eq!(chunks.iter().map(Mesh::triangle_count).sum::<usize>(), 1500);
@@ -141,6 +147,6 @@ mod tests {
         assert_eq!(c.meshes.iter().map(Mesh::triangle_count).sum::<usize>(), n);
         let parts: f32 = c.meshes.iter().map(|p| p.bounds().half_area()).sum();
         assert!(parts < 0.2 * whole, "parts' boxes {parts} against the L's {whole}");
-        assert!(c.meshes.iter().all(|p| p.triangle_count() >= LOOSE_MIN_TRIANGLES));
+        assert!(c.meshes.iter().all(|p| p.triangle_count() >= LOOSE_MIN_TRIANGLES as usize));
     }
 }

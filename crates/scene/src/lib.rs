@@ -4,7 +4,8 @@
 //! - [`mesh`]: indexed triangle meshes and the clean-up every input goes through.
 //! - [`import`]: glTF 2.0 (.gltf/.glb) and PLY readers; [`generators`]: the city, teapots and plant
 //!   generators.
-//! - [`chunk`]: splits large objects into chunks of bounded triangle count.
+//! - [`chunk`]: splits large objects into chunks of bounded triangle count, and halves chunks
+//!   whose box is loose.
 //! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
 //! - [`lod`] and [`hlod`]: static LOD chains per leaf, HLODs per interior node.
 //! - [`build`]: the pipeline above plus the report of what it left out.
