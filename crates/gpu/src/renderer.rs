@@ -44,8 +44,9 @@ pub enum HcTest {
 
 /// Largest pyramid level (box about 2^(level + 1 + finer) pixels wide, finer = 3 in
 /// boxcull.comp.wgsl) whose boxes the hybrid test re-tests exactly: 5 is about 512 pixels.
-/// Measured on the 5M plant walk at tau 5: level 4 / 5 / 7 gave PVS/exact leaves 2.31 / 2.01 /
-/// 1.67 for HC 17.6 / 21.1 / 50.9 ms a frame.
+/// Measured in prev (with HC's second pass) on the 5M plant (loose splits), 300-frame walk,
+/// tau 5, one run each: level 3 / 4 / 5 / 6 give PVS/exact leaves 1.335 / 1.318 / 1.299 / 1.273
+/// for HC 24.3 / 27.5 / 33.2 / 45.6 ms a frame.
 const HYBRID_LEVEL: u32 = 5;
 
 /// Background of colour frames: a pale sky, so that what is open to the outside reads as such.

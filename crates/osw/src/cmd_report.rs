@@ -68,8 +68,24 @@ struct Entry {
     identical_frames: u64,
     differing_fraction_mean: f64,
     differing_fraction_max: f64,
+    /// The switch's traffic and latency (its display's summary); none for the other modes.
+    traffic: Option<Traffic>,
     /// Why the run failed, when it did; its other fields are then empty.
     error: Option<String>,
+}
+
+/// What the switch sends (paper 000 sec. 3.5 and fig. 3) and how late frames are shown.
+#[derive(Serialize, Default, Clone)]
+struct Traffic {
+    ids_sent_mean: f64,
+    ids_full_mean: f64,
+    incremental_saved_fraction: f64,
+    /// All bytes HC sends RVG a frame: camera, deltas, end of frame.
+    bytes_per_frame_mean: f64,
+    /// Bytes of the id-carrying messages per id sent.
+    id_bytes_per_id: f64,
+    latency_ms_median: f64,
+    latency_ms_p95: f64,
 }
 
 #[derive(Serialize)]
@@ -243,6 +259,15 @@ fn entry(mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Entry> {
         identical_frames: c["identical_frames"].as_u64().unwrap_or(0),
         differing_fraction_mean: f(&c["differing_fraction_mean"]),
         differing_fraction_max: f(&c["differing_fraction_max"]),
+        traffic: (mode == "switch").then(|| Traffic {
+            ids_sent_mean: f(&s["ids_sent_mean"]),
+            ids_full_mean: f(&s["ids_full_mean"]),
+            incremental_saved_fraction: f(&s["incremental_saved_fraction"]),
+            bytes_per_frame_mean: f(&s["bytes_per_frame_mean"]),
+            id_bytes_per_id: f(&s["id_bytes_per_id"]),
+            latency_ms_median: f(&s["latency_ms_median"]),
+            latency_ms_p95: f(&s["latency_ms_p95"]),
+        }),
         error: None,
     })
 }
@@ -422,11 +447,13 @@ fn markdown(r: &Report, a: &Args) -> String {
     );
     table(&mut md, &h, &rows);
     md.push_str(
-        "## Per-method statistics (paper 001, table 1)\n\nMeans per frame; times are medians in ms; speedup is vfc's \
-         median frame time at the same tau over this method's.\n\n",
+        "## Per-method statistics (paper 001, table 1)\n\nMeans per frame; times are medians in ms; HC tests/s is tests \
+         over the HC time; speedup is vfc's median frame time at the same tau over this method's.\n\n",
     );
     let header: Vec<String> =
-        ["method", "tau", "tests", "OR ms", "HC ms", "RVG ms", "triangles", "frame ms", "p95 ms", "speedup"].map(String::from).to_vec();
+        ["method", "tau", "tests", "OR ms", "HC ms", "HC tests/s", "RVG ms", "triangles", "frame ms", "p95 ms", "speedup"]
+            .map(String::from)
+            .to_vec();
     let rows: Vec<Vec<String>> = r
         .runs
         .iter()
@@ -442,6 +469,7 @@ fn markdown(r: &Report, a: &Args) -> String {
                 format!("{:.0}", e.tests_mean),
                 format!("{:.1}", e.or_ms_median),
                 format!("{:.1}", e.hc_ms_median),
+                if e.tests_mean > 0.0 { format!("{:.0}k", e.tests_mean / e.hc_ms_median.max(1e-9)) } else { "–".into() },
                 format!("{:.1}", e.rvg_ms_median),
                 format!("{:.0}", e.triangles_drawn_mean),
                 format!("{:.1}", e.frame_ms_median),
@@ -489,5 +517,34 @@ fn markdown(r: &Report, a: &Args) -> String {
         .collect();
     table(&mut md, &header, &rows);
     md.push_str("![image error against frame time](error_vs_time.png)\n");
+    let switch: Vec<(&Entry, &Traffic)> = r.runs.iter().filter_map(|e| Some((e, e.traffic.as_ref()?))).collect();
+    if !switch.is_empty() {
+        md.push_str(
+            "\n## The switch's traffic (paper 000 sec. 3.5, fig. 3)\n\nMeans per frame over HC -> RVG: ids sent as deltas \
+             against the visible set's size (what sending it whole would cost), all bytes (camera, deltas, end of frame), \
+             and the bytes of the id-carrying messages per id; then latency from camera sample to displayed frame. \
+             `osw bandwidth` gives every link.\n\n",
+        );
+        let header: Vec<String> =
+            ["tau", "ids sent", "visible set", "ids saved %", "bytes", "bytes per id", "latency median ms", "latency p95 ms"]
+                .map(String::from)
+                .to_vec();
+        let rows: Vec<Vec<String>> = switch
+            .iter()
+            .map(|(e, t)| {
+                vec![
+                    e.tau.to_string(),
+                    format!("{:.1}", t.ids_sent_mean),
+                    format!("{:.1}", t.ids_full_mean),
+                    format!("{:.1}", t.incremental_saved_fraction * 100.0),
+                    format!("{:.0}", t.bytes_per_frame_mean),
+                    format!("{:.2}", t.id_bytes_per_id),
+                    format!("{:.1}", t.latency_ms_median),
+                    format!("{:.1}", t.latency_ms_p95),
+                ]
+            })
+            .collect();
+        table(&mut md, &header, &rows);
+    }
     md
 }

@@ -56,6 +56,15 @@ fn report_covers_every_mode_and_tau_and_resumes() {
                 }
             }
             assert!(!run.join("frames").exists(), "{mode} tau {tau}: frames kept without --keep-frames");
+            // The switch's traffic, as its display counted it; no traffic for the others.
+            if mode == "switch" {
+                let ids = csv_mean(&run.join("stats.csv"), "ids_sent");
+                assert!((e["traffic"]["ids_sent_mean"].as_f64().unwrap() - ids).abs() < 1e-9, "{e}");
+                let row = format!("| {tau} | {ids:.1} | {:.1} |", csv_mean(&run.join("stats.csv"), "ids_full"));
+                assert!(md.contains(&row), "report.md lacks the switch's traffic row {row}");
+            } else {
+                assert!(e["traffic"].is_null(), "{mode}: {e}");
+            }
         }
     }
     // PVS/exact against the exact run computed by `osw exact`: never below 1 at tau 0.
