@@ -79,8 +79,12 @@ impl Gpu {
         if !features.contains(WANTED) {
             return Err(GpuError::Missing { adapter: info.name.clone(), what: format!("{:?}", WANTED - features) });
         }
-        let limits =
-            wgpu::Limits { max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size, ..wgpu::Limits::default() };
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size,
+            // The vertex arena and a pass's indices are one buffer each.
+            max_buffer_size: adapter.limits().max_buffer_size,
+            ..wgpu::Limits::default()
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("osw"),
             required_features: features,

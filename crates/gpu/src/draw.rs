@@ -1,7 +1,8 @@
-//! Drawing LOD nodes: one draw per node, the node's entry in the per-draw buffer picked by
-//! instance index. Passes: colour + depth (RVG), depth only (OR's occluders), item ids +
-//! depth (exact visibility). All use the same vertex shader, so a node covers the same pixels
-//! at the same depth in every pass.
+//! Drawing LOD nodes: one draw per pass over the vertex arena (see [`crate::residency`]), each
+//! vertex carrying its node's id, which picks the node's object from a per-node table. Passes:
+//! colour + depth (RVG), depth only (OR's occluders), item ids + depth (exact visibility). All
+//! use the same vertex shader, so a node covers the same pixels at the same depth in every
+//! pass.
 
 use crate::target::{COLOR, DEPTH, ITEM};
 use bytemuck::{Pod, Zeroable};
@@ -17,33 +18,25 @@ pub enum Pass {
     Item,
 }
 
-/// The view uniform shared by all shaders: 80 bytes.
+/// The view uniform shared by all shaders: 96 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ViewUniform {
     pub view_proj: [[f32; 4]; 4],
     pub offset: [f32; 4],
+    /// x: the pass's tint, RGB in the low three bytes and 255 in the high one, or 0: each
+    /// object in its own colour.
+    pub tint: [u32; 4],
 }
 
 impl ViewUniform {
     pub fn new(view: &osw_cull::View) -> ViewUniform {
-        ViewUniform { view_proj: view.view_proj().to_cols_array_2d(), offset: view.offset().extend(0.0).to_array() }
+        ViewUniform { view_proj: view.view_proj().to_cols_array_2d(), offset: view.offset().extend(0.0).to_array(), tint: [0; 4] }
     }
 }
 
-/// Per-draw data: 16 bytes.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct DrawData {
-    pub id: u32,
-    pub object: u32,
-    /// RGB in the low three bytes and 255 in the high one, or 0: the object's colour.
-    pub tint: u32,
-    pub pad: u32,
-}
-
 impl Pass {
-    /// The [`DrawData::tint`] of this pass's draws.
+    /// The [`ViewUniform::tint`] of this pass.
     pub fn tint(self) -> u32 {
         match self {
             Pass::Tinted([r, g, b]) => u32::from_le_bytes([r, g, b, 255]),
@@ -102,9 +95,9 @@ impl DrawPipelines {
             immediate_size: 0,
         });
         let vbuf = [Some(wgpu::VertexBufferLayout {
-            array_stride: 12,
+            array_stride: std::mem::size_of::<crate::residency::ArenaVertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &[wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }],
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
         })];
         let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>| {
             let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend: None, write_mask: wgpu::ColorWrites::ALL })]);

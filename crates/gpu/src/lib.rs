@@ -1,7 +1,8 @@
 //! osw GPU renderer on wgpu (Vulkan; Mesa lavapipe when there is no GPU).
 //!
 //! - [`device`]: adapter choice and device set-up, with a clear error when there is no driver.
-//! - [`residency`]: geometry uploaded on first use from the mapped scene, under an LRU budget.
+//! - [`residency`]: geometry uploaded on first use from the mapped scene into one vertex arena,
+//!   under an LRU budget.
 //! - [`target`]: the offscreen colour, depth and item-buffer attachments and their readback.
 //! - [`draw`]: drawing a set of LOD nodes (colour for RVG, depth only for OR, item ids for
 //!   exact visibility).
@@ -17,6 +18,7 @@ pub mod draw;
 pub mod exact;
 pub mod limits;
 pub mod pyramid;
+mod ranges;
 pub mod readback;
 pub mod renderer;
 pub mod residency;

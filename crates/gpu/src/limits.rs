@@ -1,12 +1,9 @@
 //! Budgets of the GPU crate, each with its reason.
 
-/// Default geometry residency budget: 1 GiB holds a 20M-triangle scene at all its LODs
-/// (positions 12 B/vertex, u16/u32 indices) several times over; lavapipe's "GPU memory" is
+/// Default geometry residency budget: 1 GiB holds a 20M-triangle scene's vertices at all its
+/// LODs (16 B each: position and node id) several times over; lavapipe's "GPU memory" is
 /// host memory, so the budget is what keeps a process's footprint bounded.
 pub const RESIDENCY_BYTES: u64 = 1 << 30;
-
-/// Most draws (LOD nodes) in one frame; sizes the per-draw storage buffer (16 B each).
-pub const MAX_DRAWS: u32 = 1 << 20;
 
 /// Most boxes in one test batch; sizes the box and result buffers (32 B + 4 B each). A level
 /// of the BVH larger than this is tested in several batches.

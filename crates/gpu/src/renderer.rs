@@ -4,11 +4,12 @@
 
 use crate::boxtest::{BoxTestPipelines, GpuBox};
 use crate::device::{Gpu, GpuError};
-use crate::draw::{DrawData, DrawPipelines, Pass, ViewUniform};
+use crate::draw::{DrawPipelines, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
-use crate::residency::Residency;
+use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
 use osw_cull::{Occluders, View, Visibility, VisibilityTester};
+use osw_scene::file::Indices;
 use osw_scene::{NodeId, SceneError, SceneFile};
 use std::sync::Arc;
 
@@ -18,10 +19,12 @@ pub enum RenderError {
     Gpu(#[from] GpuError),
     #[error(transparent)]
     Scene(#[from] SceneError),
+    #[error(transparent)]
+    Residency(#[from] ResidencyError),
     #[error("image size {0}x{1} is out of range (1..={max} a side)", max = crate::limits::MAX_SIZE)]
     Size(u32, u32),
-    #[error("{0} draws in one pass, over the limit of {max}", max = crate::limits::MAX_DRAWS)]
-    TooManyDraws(usize),
+    #[error("{0} triangles in one pass, more than the largest GPU buffer holds ({1} bytes)")]
+    TooManyTriangles(u64, u64),
 }
 
 /// How HC tests boxes (issue 3: both measured, see the closing note).
@@ -71,8 +74,9 @@ pub struct Renderer {
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
     view_buf: wgpu::Buffer,
-    draws_buf: wgpu::Buffer,
     draw_group: wgpu::BindGroup,
+    /// The pass's indices into the vertex arena, gathered from the nodes' (see `draw`).
+    index_buf: wgpu::Buffer,
     boxes_buf: wgpu::Buffer,
     results_buf: wgpu::Buffer,
     results_staging: wgpu::Buffer,
@@ -80,7 +84,7 @@ pub struct Renderer {
     queries: wgpu::QuerySet,
     query_resolve: wgpu::Buffer,
     query_staging: wgpu::Buffer,
-    draw_data: Vec<DrawData>,
+    indices: Vec<u32>,
     gpu_boxes: Vec<GpuBox>,
 }
 
@@ -98,7 +102,11 @@ impl Renderer {
         let draw = DrawPipelines::new(&gpu.device);
         let boxtest = BoxTestPipelines::new(&gpu.device);
         let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);
-        let draws_buf = storage(&gpu, "draws", crate::limits::MAX_DRAWS as u64 * 16, U::STORAGE | U::COPY_DST);
+        // Each node's object, for its colour: static, indexed by node id.
+        let objects: Vec<u32> = scene.nodes().iter().map(|n| n.object).collect();
+        let objects_buf = storage(&gpu, "objects", (objects.len().max(1) * 4) as u64, U::STORAGE | U::COPY_DST);
+        gpu.queue.write_buffer(&objects_buf, 0, bytemuck::cast_slice(&objects));
+        let index_buf = storage(&gpu, "pass indices", 4, U::INDEX | U::COPY_DST);
         let n = crate::limits::MAX_BOXES as u64;
         let boxes_buf = storage(&gpu, "boxes", n * 32, U::STORAGE | U::COPY_DST);
         let results_buf = storage(&gpu, "box results", n * 4, U::STORAGE | U::COPY_SRC | U::COPY_DST);
@@ -108,7 +116,7 @@ impl Renderer {
                 bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
             gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
         };
-        let draw_group = bind(&draw.layout, &[&view_buf, &draws_buf]);
+        let draw_group = bind(&draw.layout, &[&view_buf, &objects_buf]);
         let box_group = bind(&boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
         let target = Target::new(&gpu, width, height);
         let pyramid = Pyramid::new(&gpu, &target, &view_buf, &boxes_buf, &results_buf);
@@ -129,13 +137,13 @@ impl Renderer {
             draw,
             boxtest,
             view_buf,
-            draws_buf,
             draw_group,
+            index_buf,
             boxes_buf,
             results_buf,
             results_staging,
             box_group,
-            draw_data: Vec::new(),
+            indices: Vec::new(),
             gpu_boxes: Vec::new(),
             gpu,
             scene,
@@ -155,24 +163,36 @@ impl Renderer {
 
     /// Draws LOD nodes `ids` (in the given order) for `view`. `clear` clears the pass's
     /// attachments first (colour to the sky, item ids to 0, depth to 0 = infinitely far), else draws on top.
+    ///
+    /// One draw call: the nodes' indices, read from the mapped file and offset to their
+    /// vertices in the arena, are gathered in the given order (so triangles rasterise in the
+    /// same order as one draw per node would, and depth ties resolve alike).
     pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
-        self.draw_data.clear();
-        if ids.len() > crate::limits::MAX_DRAWS as usize {
-            return Err(RenderError::TooManyDraws(ids.len()));
-        }
+        self.indices.clear();
         for &id in ids {
-            self.residency.ensure(&self.gpu, &scene, id)?;
-            let n = scene.node(id);
-            self.draw_data.push(DrawData { id, object: n.object, tint: pass.tint(), pad: 0 });
+            let base = self.residency.ensure(&self.gpu, &scene, id)?;
+            match scene.geometry(id)?.indices {
+                Indices::U16(ix) => self.indices.extend(ix.iter().map(|&i| base + i as u32)),
+                Indices::U32(ix) => self.indices.extend(ix.iter().map(|&i| base + i)),
+            }
             stats.nodes += 1;
-            stats.triangles += n.triangles as u64;
+            stats.triangles += scene.node(id).triangles as u64;
+        }
+        let bytes = self.indices.len() as u64 * 4;
+        if bytes > self.index_buf.size() {
+            let max = self.gpu.device.limits().max_buffer_size;
+            if bytes > max {
+                return Err(RenderError::TooManyTriangles(stats.triangles, max));
+            }
+            let size = bytes.next_power_of_two().min(max);
+            self.index_buf = storage(&self.gpu, "pass indices", size, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST);
         }
         let q = &self.gpu.queue;
-        q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
-        if !self.draw_data.is_empty() {
-            q.write_buffer(&self.draws_buf, 0, bytemuck::cast_slice(&self.draw_data));
+        q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform { tint: [pass.tint(), 0, 0, 0], ..ViewUniform::new(view) }));
+        if bytes > 0 {
+            q.write_buffer(&self.index_buf, 0, bytemuck::cast_slice(&self.indices));
         }
         let mut enc = self.gpu.device.create_command_encoder(&Default::default());
         {
@@ -208,13 +228,12 @@ impl Renderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            rp.set_pipeline(self.draw.pipeline(pass));
-            rp.set_bind_group(0, &self.draw_group, &[]);
-            for (i, d) in self.draw_data.iter().enumerate() {
-                let r = self.residency.get(d.id);
-                rp.set_vertex_buffer(0, r.vertices.slice(..));
-                rp.set_index_buffer(r.indices.slice(..), r.format);
-                rp.draw_indexed(0..r.index_count, 0, i as u32..i as u32 + 1);
+            if let (Some(arena), true) = (self.residency.arena(), bytes > 0) {
+                rp.set_pipeline(self.draw.pipeline(pass));
+                rp.set_bind_group(0, &self.draw_group, &[]);
+                rp.set_vertex_buffer(0, arena.slice(..));
+                rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);
+                rp.draw_indexed(0..self.indices.len() as u32, 0, 0..1);
             }
         }
         self.gpu.queue.submit([enc.finish()]);

@@ -48,6 +48,47 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
     }
 }
 
+/// A residency budget far below the walk's geometry: nodes are evicted and their arena ranges
+/// reused within the run, and every frame and visible set equals an unbounded run's.
+#[test]
+fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "plant", 300_000, 6);
+    let path = d.path().join("walk.csv");
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "30", "-o", s(&path)]);
+    let run = |name: &str, mib: &str| {
+        let out = d.path().join(name);
+        osw_ok(&[
+            "render",
+            "--scene",
+            s(&scene),
+            "--path",
+            s(&path),
+            "--mode",
+            "prev",
+            "--size",
+            "192x192",
+            "--residency-mib",
+            mib,
+            "--out",
+            s(&out),
+        ]);
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        (out, v)
+    };
+    let (big, vb) = run("big", "1024");
+    let (small, vs) = run("small", "1");
+    assert_eq!(vb["evictions"], 0, "{vb}");
+    assert!(vs["evictions"].as_u64().unwrap() > 0, "a 1 MiB budget must evict: {vs}");
+    assert!(vs["uploads"].as_u64().unwrap() > vb["uploads"].as_u64().unwrap(), "evicted nodes are uploaded again: {vs}");
+    let read = |p: &Path| std::fs::read(p).unwrap();
+    assert_eq!(read(&big.join("pvs.txt")), read(&small.join("pvs.txt")));
+    for i in 0..30 {
+        let f = format!("frames/{i:05}.png");
+        assert!(read(&big.join(&f)) == read(&small.join(&f)), "frame {i} differs under a small budget");
+    }
+}
+
 #[test]
 fn image_error_is_reported_at_tau_above_zero() {
     let d = tempfile::tempdir().unwrap();

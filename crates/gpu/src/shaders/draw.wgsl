@@ -2,31 +2,23 @@
 // Positions are scene-local; view.offset makes them camera-relative (issue 3: precision far
 // from the origin), view.view_proj is reversed Z with an infinite far plane.
 
-// One per draw, indexed by instance_index (each draw has one instance).
-struct Draw {
-    id: u32,
-    object: u32,
-    // RGBA8 (alpha 255) to colour the node by its state, or 0: the object's own colour.
-    tint: u32,
-    pad: u32,
-}
-
+// Each node's object (for its colour), indexed by node id.
 @group(0) @binding(0) var<uniform> view: ViewUniform;
-@group(0) @binding(1) var<storage, read> draws: array<Draw>;
+@group(0) @binding(1) var<storage, read> objects: array<u32>;
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) rel: vec3<f32>,
-    @location(1) @interpolate(flat) draw: u32,
+    @location(1) @interpolate(flat) node: u32,
 }
 
 @vertex
-fn vs_main(@location(0) position: vec3<f32>, @builtin(instance_index) instance: u32) -> VertexOut {
+fn vs_main(@location(0) position: vec3<f32>, @location(1) node: u32) -> VertexOut {
     let rel = position + view.offset.xyz;
     var out: VertexOut;
     out.clip = view.view_proj * vec4<f32>(rel, 1.0);
     out.rel = rel;
-    out.draw = instance;
+    out.node = node;
     return out;
 }
 
@@ -41,11 +33,10 @@ fn hash(v: u32) -> u32 {
 fn fs_color(in: VertexOut) -> @location(0) vec4<f32> {
     // Flat shading from screen-space derivatives: no normals stored in the scene file.
     let n = normalize(cross(dpdx(in.rel), dpdy(in.rel)));
-    let d = draws[in.draw];
-    let h = hash(d.object);
+    let h = hash(objects[in.node]);
     var base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
-    if (d.tint != 0u) {
-        base = unpack4x8unorm(d.tint).rgb;
+    if (view.tint.x != 0u) {
+        base = unpack4x8unorm(view.tint.x).rgb;
     }
     let light = 0.35 + 0.65 * abs(dot(n, normalize(vec3<f32>(0.4, 0.8, 0.3))));
     return vec4<f32>(base * light, 1.0);
