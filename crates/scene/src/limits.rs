@@ -26,7 +26,7 @@ pub const LOD_MIN_REDUCTION: f32 = 0.7;
 pub const LOD_TARGET_RATIO: f32 = 0.25;
 
 /// Meshes with at most this many triangles get no simplified LOD: a coarser level would save
-/// almost nothing against the per-draw cost.
+/// almost nothing and cost a node id and its selection.
 pub const LOD_MIN_TRIANGLES: u32 = 32;
 
 /// Most LOD levels per leaf (the original counts as level 0).
