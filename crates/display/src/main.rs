@@ -111,6 +111,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         name: "display".into(),
         role: Role::Display,
         token: set.token.clone(),
+        serving: false,
     };
     let (mut ui, gpu) = if a.window || a.interactive {
         let (window, gpu) = window::Window::open("osw walkthrough", w, h, a.cluster.adapter.as_deref())?;

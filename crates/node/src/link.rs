@@ -7,7 +7,7 @@
 use osw_wire::messages::{Hello, Message, Role};
 use osw_wire::net::{conn, handshake, run_connection};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
 use std::time::Duration;
 use tokio::sync::mpsc::UnboundedSender;
@@ -17,10 +17,21 @@ use tokio::sync::mpsc::UnboundedSender;
 /// so that the end of an old connection is not taken for the end of its replacement.
 #[derive(Debug)]
 pub enum Event {
-    Connected { role: Role, name: String, id: u64, out: UnboundedSender<Message> },
+    /// `serving`: the peer's [`Hello::serving`].
+    Connected {
+        role: Role,
+        name: String,
+        serving: bool,
+        id: u64,
+        out: UnboundedSender<Message>,
+    },
     FromDisplay(Message, u64),
     FromPeer(Message, u64),
-    Closed { role: Role, id: u64, why: String },
+    Closed {
+        role: Role,
+        id: u64,
+        why: String,
+    },
 }
 
 pub const HANDSHAKE: Duration = Duration::from_secs(10);
@@ -63,10 +74,18 @@ impl CameraGate {
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
+/// This node's hello, said at each handshake with whether it serves frames by then.
+#[derive(Clone)]
+pub struct Me {
+    pub hello: Hello,
+    pub serving: Arc<AtomicBool>,
+}
+
 /// Runs a connection: handshake, then messages to `events` (the display's cameras through
 /// `gate`) until it ends.
-pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>, gate: Arc<CameraGate>) {
+pub async fn serve(c: osw_wire::net::Conn, me: Me, events: Sender<Event>, gate: Arc<CameraGate>) {
     let mut c = c;
+    let me = Hello { serving: me.serving.load(Ordering::Acquire), ..me.hello };
     let peer = match handshake(&mut c, &me, HANDSHAKE).await {
         Ok(h) => h,
         Err(e) => {
@@ -76,7 +95,7 @@ pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>, gat
     };
     let (role, id) = (peer.role, NEXT_ID.fetch_add(1, Ordering::Relaxed));
     let (out, queue) = tokio::sync::mpsc::unbounded_channel();
-    if events.send(Event::Connected { role, name: peer.name.clone(), id, out }).is_err() {
+    if events.send(Event::Connected { role, name: peer.name.clone(), serving: peer.serving, id, out }).is_err() {
         return;
     }
     let why = run_connection(c, queue, |m, at, _| match role {
@@ -93,7 +112,7 @@ pub async fn serve(c: osw_wire::net::Conn, me: Hello, events: Sender<Event>, gat
 }
 
 /// Accepts connections on `listener` forever, serving each.
-pub async fn accept(listener: tokio::net::TcpListener, me: Hello, events: Sender<Event>, gate: Arc<CameraGate>) {
+pub async fn accept(listener: tokio::net::TcpListener, me: Me, events: Sender<Event>, gate: Arc<CameraGate>) {
     loop {
         match listener.accept().await {
             Ok((s, _)) => {
@@ -106,11 +125,11 @@ pub async fn accept(listener: tokio::net::TcpListener, me: Hello, events: Sender
 
 /// Node b's side of the peer link: connects to `addr` (retrying with backoff) and connects
 /// again whenever the connection ends, for as long as the process runs.
-pub async fn keep_connected(addr: String, me: Hello, events: Sender<Event>, gate: Arc<CameraGate>) {
+pub async fn keep_connected(addr: String, me: Me, events: Sender<Event>, gate: Arc<CameraGate>) {
     loop {
         match osw_wire::net::connect(&addr, Duration::from_secs(3600)).await {
             Ok(c) => serve(c, me.clone(), events.clone(), Arc::clone(&gate)).await,
-            Err(e) => tracing::warn!("{}: {e}", me.name),
+            Err(e) => tracing::warn!("{}: {e}", me.hello.name),
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
     }

@@ -79,6 +79,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         name: a.name.clone(),
         role: Role::Node,
         token: set.token.clone(),
+        serving: false,
     };
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
@@ -89,13 +90,17 @@ fn run(a: &Args) -> anyhow::Result<()> {
     writeln!(std::io::stdout(), "listening on {}", listener.local_addr()?)?;
     std::io::stdout().flush()?;
     let gate = Arc::new(link::CameraGate::default());
+    let me = link::Me { hello: me, serving: Arc::default() };
     rt.spawn(link::accept(listener, me.clone(), events_tx.clone(), Arc::clone(&gate)));
     if let Some(peer) = &peer {
-        rt.spawn(link::keep_connected(peer.clone(), me, events_tx, Arc::clone(&gate)));
+        rt.spawn(link::keep_connected(peer.clone(), me.clone(), events_tx, Arc::clone(&gate)));
     }
     let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events, gate);
     let log = match sw.start() {
-        Ok(Some(first)) => sw.run(first),
+        Ok(Some(first)) => {
+            me.serving.store(true, std::sync::atomic::Ordering::Release);
+            sw.run(first)
+        }
         Ok(None) => Ok(Vec::new()),
         Err(e) => Err(e),
     };

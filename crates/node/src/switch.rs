@@ -17,7 +17,8 @@
 //! more (its depth buffer holds camera k's occluders) while the peer draws OR for k+2, and the
 //! roles alternate again from there. When only the link between the nodes was cut, both ran
 //! alone meanwhile (the one behind catching up with the newest camera); when it is back, node b
-//! stops serving and rejoins node a in the same way.
+//! stops serving and rejoins node a in the same way. Each hello says whether its node has run
+//! frames, so that node b does not stop for a peer that was only started anew (that one asks).
 //!
 //! Cameras: in path playback every camera carries its frame number and frame k uses the
 //! camera numbered k (deterministic runs); RVG sends camera k+2 after it has frame k, so a node
@@ -104,6 +105,8 @@ pub struct Switch {
     peer_rejoining: Option<u64>,
     /// This node asked the peer for a keyframe on the current connection.
     rejoin_asked: bool,
+    /// The peer said in its hello that it had run frames (see `Hello::serving`).
+    peer_serving: bool,
     /// A display connected after the first: a restarted display plays its path from its
     /// first camera, and the nodes start over with it.
     display_restarted: bool,
@@ -148,6 +151,7 @@ impl Switch {
             peer_in_step: false,
             peer_rejoining: None,
             rejoin_asked: false,
+            peer_serving: false,
             display_restarted: false,
             displays_seen: 0,
             cameras: BTreeMap::new(),
@@ -199,8 +203,8 @@ impl Switch {
             }
             Event::FromPeer(m, at) => self.peer_queue.push_back((m, at)),
             Event::FromDisplay(m, _) => tracing::warn!("unexpected message from the display: {m:?}"),
-            Event::Connected { role, name, id, out } => {
-                tracing::info!("{role:?} {name} connected");
+            Event::Connected { role, name, serving, id, out } => {
+                tracing::info!("{role:?} {name} connected{}", if role == Role::Node && serving { " (serving)" } else { "" });
                 let link = Some(Link { id, out });
                 match role {
                     Role::Node => {
@@ -212,6 +216,7 @@ impl Switch {
                             self.peer_queue.clear();
                         }
                         self.rejoin_asked = false;
+                        self.peer_serving = serving;
                         self.peer = link;
                     }
                     Role::Display => {
@@ -368,7 +373,15 @@ impl Switch {
             // The link between the nodes was cut while both ran on, each alone, and is back:
             // node b stops serving and rejoins as a restarted node would, so that the display
             // never mixes frames of two visible sets (node a serves it meanwhile).
-            if !self.peer_in_step && self.index == 1 && self.peer.is_some() && self.peer_rejoining.is_none() && !self.rejoin_asked {
+            // A peer that was started anew holds nothing to hand over: it asks instead, once
+            // the display reaches it, and this node serves on meanwhile.
+            if !self.peer_in_step
+                && self.index == 1
+                && self.peer.is_some()
+                && self.peer_serving
+                && self.peer_rejoining.is_none()
+                && !self.rejoin_asked
+            {
                 tracing::warn!("the link to the peer is back: rejoining it");
                 match self.rejoin(i, true)? {
                     Some(next) => {

@@ -102,15 +102,18 @@ fn the_same_over_links_with_delay_and_loss() {
     kill_and_restart(Some(("5", "0.01")));
 }
 
-/// What the peer and the display connect to: node a for b, node a and node b for the
-/// display; the nodes themselves, or `osw link` relays in front of them.
-fn links(addr_a: &str, addr_b: &str, impaired: Option<(&str, &str)>) -> (Vec<Proc>, [String; 3]) {
+/// What the peer and the display connect to: node a for b, node a and node b for the display;
+/// the nodes themselves, or `osw link` relays in front of them. The display always reaches
+/// node a through a relay (returned apart, with its address), so that a test can hold that
+/// link down.
+fn links(addr_a: &str, addr_b: &str, impaired: Option<(&str, &str)>) -> (Vec<Proc>, (Proc, String), [String; 2]) {
+    let (delay, loss) = impaired.unwrap_or(("0", "0"));
+    let display_to_a = link("127.0.0.1:0", addr_a, delay, loss, "2");
     match impaired {
-        None => (vec![], [addr_a.to_string(), addr_a.to_string(), addr_b.to_string()]),
-        Some((delay, loss)) => {
-            let [(p1, x1), (p2, x2), (p3, x3)] =
-                [(addr_a, "1"), (addr_a, "2"), (addr_b, "3")].map(|(to, seed)| link("127.0.0.1:0", to, delay, loss, seed));
-            (vec![p1, p2, p3], [x1, x2, x3])
+        None => (vec![], display_to_a, [addr_a.to_string(), addr_b.to_string()]),
+        Some(_) => {
+            let [(p1, x1), (p3, x3)] = [(addr_a, "1"), (addr_b, "3")].map(|(to, seed)| link("127.0.0.1:0", to, delay, loss, seed));
+            (vec![p1, p3], display_to_a, [x1, x3])
         }
     }
 }
@@ -119,22 +122,33 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
     let d = tempfile::tempdir().unwrap();
     let (scene, path) = walk(d.path());
     let (addr_a, addr_b) = (free_addr(), free_addr());
-    let (_links, [to_a_from_b, to_a, to_b]) = links(&addr_a, &addr_b, impaired);
+    let (_links, (relay, to_a), [to_a_from_b, to_b]) = links(&addr_a, &addr_b, impaired);
+    let display_to_a = std::sync::Arc::new(std::sync::Mutex::new(Some(relay)));
     let mut a = Some(node("a", &scene, &addr_a, None, &d.path().join("a1.log")));
     let _b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
     let out = d.path().join("run");
     let mut disp = display(&scene, &path, &format!("{to_a},{to_b}"), &out);
-    let (mut killed_at, mut restarted_at) = (None, None);
+    let (mut killed_at, mut restarted_at, mut relay_back) = (None, None, None);
     let status = follow(&mut disp, |n| {
         if n >= 50 && killed_at.is_none() {
             drop(a.take());
+            drop(display_to_a.lock().unwrap().take());
             killed_at = Some(n);
         }
         if n >= 120 && restarted_at.is_none() {
             a = Some(node("a", &scene, &addr_a, None, &d.path().join("a2.log")));
             restarted_at = Some(n);
+            // The display reaches the restarted node a second and a half later than node b
+            // does, on a timer (a stalled display reads no frame to trigger on).
+            let (slot, to_a, addr_a) = (std::sync::Arc::clone(&display_to_a), to_a.clone(), addr_a.clone());
+            let (delay, loss) = impaired.map_or(("0".to_string(), "0".to_string()), |(d, l)| (d.to_string(), l.to_string()));
+            relay_back = Some(std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_millis(1500));
+                *slot.lock().unwrap() = Some(link(&to_a, &addr_a, &delay, &loss, "4").0);
+            }));
         }
     });
+    relay_back.expect("node a was restarted").join().unwrap();
     assert!(status.success(), "display: {}", std::fs::read_to_string(out.with_extension("log")).unwrap());
     let sum = summary(&out);
     assert_eq!(sum["frames"], 300);
@@ -178,6 +192,12 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
         .collect();
     let resumed = tail.windows(2).rposition(|w| w[0] == w[1]).map_or(0, |p| p + 1);
     assert!(resumed < 30 && tail.len() - resumed > 20, "the switch did not resume: {tail:?}");
+    // Node b served on while the restarted node a waited for the display (held off above): a
+    // peer started anew says so in its hello and asks to rejoin itself (b asks only a peer that
+    // was running, after a cut link).
+    let b_log = std::fs::read_to_string(d.path().join("b.log")).unwrap();
+    assert!(b_log.contains("rejoins: it gets a keyframe"), "node a never asked to rejoin:\n{b_log}");
+    assert!(!b_log.contains("rejoining it"), "node b stopped serving for a restarted peer:\n{b_log}");
     check_against_references(d.path(), &scene, &path, &out);
 }
 
@@ -243,7 +263,7 @@ fn display_restart(impaired: Option<(&str, &str)>) {
     let d = tempfile::tempdir().unwrap();
     let (scene, path) = walk(d.path());
     let (addr_a, addr_b) = (free_addr(), free_addr());
-    let (_links, [to_a_from_b, to_a, to_b]) = links(&addr_a, &addr_b, impaired);
+    let (_links, (_relay, to_a), [to_a_from_b, to_b]) = links(&addr_a, &addr_b, impaired);
     let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
     let mut b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
     let nodes = format!("{to_a},{to_b}");
@@ -325,6 +345,7 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
         name: "flood".into(),
         role: Role::Display,
         token: None,
+        serving: false,
     };
     let frame = |m: &Message| {
         let mut b = Vec::new();

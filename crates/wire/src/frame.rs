@@ -70,7 +70,14 @@ mod tests {
 
     fn samples() -> Vec<Message> {
         vec![
-            Message::Hello(Hello { version: 1, scene_hash: [1, 2], name: "a".into(), role: Role::Node, token: Some("t".into()) }),
+            Message::Hello(Hello {
+                version: 1,
+                scene_hash: [1, 2],
+                name: "a".into(),
+                role: Role::Node,
+                token: Some("t".into()),
+                serving: true,
+            }),
             Message::Camera(CameraPacket {
                 frame: 7,
                 position: [1e7, 2.0, -3.5],

@@ -25,6 +25,10 @@ pub struct Hello {
     pub role: Role,
     /// Shared cluster token, when the configuration sets one.
     pub token: Option<String>,
+    /// A node that has run frames (it holds a visible set), not one just started: a running
+    /// node asks a serving peer to rejoin when their link comes back, and a started one waits
+    /// for it to ask.
+    pub serving: bool,
 }
 
 /// A camera: 80 bytes of fields (the paper counts 72; we add the sample time for latency).
