@@ -138,12 +138,17 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
         if n >= 120 && restarted_at.is_none() {
             a = Some(node("a", &scene, &addr_a, None, &d.path().join("a2.log")));
             restarted_at = Some(n);
-            // The display reaches the restarted node a second and a half later than node b
-            // does, on a timer (a stalled display reads no frame to trigger on).
+            // The display reaches the restarted node only after node b has (b retries every
+            // 100 ms): its relay comes back 300 ms after node a listens, on a thread (a stalled
+            // display reads no frame to trigger on).
             let (slot, to_a, addr_a) = (std::sync::Arc::clone(&display_to_a), to_a.clone(), addr_a.clone());
             let (delay, loss) = impaired.map_or(("0".to_string(), "0".to_string()), |(d, l)| (d.to_string(), l.to_string()));
             relay_back = Some(std::thread::spawn(move || {
-                std::thread::sleep(std::time::Duration::from_millis(1500));
+                let t = std::time::Instant::now();
+                while std::net::TcpStream::connect(&addr_a).is_err() && t.elapsed().as_secs() < 20 {
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
+                std::thread::sleep(std::time::Duration::from_millis(300));
                 *slot.lock().unwrap() = Some(link(&to_a, &addr_a, &delay, &loss, "4").0);
             }));
         }
