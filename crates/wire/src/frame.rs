@@ -111,9 +111,14 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_5() {
+    fn golden_bytes_of_version_6() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 5);
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 6);
+        // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), token
+        // "t", and last the serving flag (protocol 6).
+        let mut b = Vec::new();
+        encode_frame(&samples()[0], &mut b);
+        assert_eq!(b, vec![11, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, b't', 1]);
         // An end of frame: length 10, variant 3, frame 7, tests 10, levels 2, hc_us 5, or_us 6,
         // pvs 3, then the link stamps 1, 2, 3 (bincode standard: varint integers).
         let mut b = Vec::new();
