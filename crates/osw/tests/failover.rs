@@ -69,8 +69,7 @@ fn check_against_references(d: &Path, scene: &Path, path: &Path, run: &Path) {
 
 fn walk(d: &Path) -> (PathBuf, PathBuf) {
     let scene = build_gen(d, "plant", 150_000, 7);
-    let path = d.join("walk.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "300", "-o", s(&path)]);
+    let path = camera_path(&scene, "walk", 300);
     (scene, path)
 }
 
@@ -298,8 +297,7 @@ fn display_restart(impaired: Option<(&str, &str)>) {
 fn silent_and_garbage_connections_do_not_stop_the_cluster() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "city", 30_000, 2);
-    let path = d.path().join("short.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "40", "-o", s(&path)]);
+    let path = camera_path(&scene, "orbit", 40);
     let (addr_a, addr_b) = (free_addr(), free_addr());
     let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
     let _b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
@@ -338,8 +336,7 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
     const FLOOD: u64 = 1_000_000;
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "city", 30_000, 2);
-    let path = d.path().join("one.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "1", "-o", s(&path)]);
+    let path = camera_path(&scene, "orbit", 1);
     let cam = osw_scene::path::read(&path).unwrap()[0];
     let (addr_a, addr_b) = (free_addr(), free_addr());
     let logs = [d.path().join("a.log"), d.path().join("b.log")];

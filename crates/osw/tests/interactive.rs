@@ -73,8 +73,7 @@ fn a_walk_records_a_path_that_replays_to_the_same_frames() {
     }
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "plant", 150_000, 7);
-    let start = d.path().join("start.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "2", "-o", s(&start)]);
+    let start = camera_path(&scene, "walk", 2);
     let (_xvfb, display) = xvfb();
     let live = d.path().join("live");
     let mut run = Proc(

@@ -60,8 +60,7 @@ fn three_namespaces_draw_what_loopback_draws() {
     }
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "plant", 100_000, 2);
-    let path = d.path().join("walk.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "24", "-o", s(&path)]);
+    let path = camera_path(&scene, "walk", 24);
     let (net, lo) = (d.path().join("netns"), d.path().join("loopback"));
     let out = cluster(&scene, &path, &net);
     assert!(out.status.success(), "netns-cluster failed: {}", String::from_utf8_lossy(&out.stderr));

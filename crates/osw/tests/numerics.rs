@@ -165,8 +165,7 @@ fn a_scene_of_a_million_nodes() {
     osw_ok(&["build", "--gen", "city", "--triangles", "3000000", "--chunk-triangles", "6", "-o", s(&scene)]);
     let sf = SceneFile::open(&scene).unwrap();
     assert!(sf.nodes().len() >= 1_000_000, "{} nodes", sf.nodes().len());
-    let path = d.path().join("walk.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "3", "-o", s(&path)]);
+    let path = camera_path(&scene, "walk", 3);
     let run = d.path().join("run");
     let exact = run.join("exact");
     osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", "128x128", "--out", s(&exact)]);

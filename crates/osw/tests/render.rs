@@ -13,8 +13,7 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
     let d = tempfile::tempdir().unwrap();
     for kind in ["plant", "city", "teapots"] {
         let scene = build_gen(d.path(), kind, 150_000, 4);
-        let path = d.path().join(format!("{kind}.csv"));
-        osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "24", "-o", s(&path)]);
+        let path = camera_path(&scene, "walk", 24);
         let run = check_conservative(d.path(), &scene, &path, kind);
         // prev culls: on a walk it draws fewer triangles than vfc.
         let tri = |m: &str| -> f64 {
@@ -54,8 +53,7 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
 fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "plant", 300_000, 6);
-    let path = d.path().join("walk.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "30", "-o", s(&path)]);
+    let path = camera_path(&scene, "walk", 30);
     let run = |name: &str, mib: &str| {
         let out = d.path().join(name);
         osw_ok(&[
@@ -93,8 +91,7 @@ fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
 fn image_error_is_reported_at_tau_above_zero() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "city", 150_000, 1);
-    let path = d.path().join("orbit.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "6", "-o", s(&path)]);
+    let path = camera_path(&scene, "orbit", 6);
     let exact = d.path().join("exact");
     osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);
     render(&scene, &path, ("vfc", "exact"), "0", &d.path().join("ref"));
@@ -214,8 +211,7 @@ fn a_scene_far_from_the_origin_renders_like_one_at_the_origin() {
     osw_ok(&["build", "--gen", "plant", "--triangles", "100000", "-o", s(&near)]);
     osw_ok(&["build", "--gen", "plant", "--triangles", "100000", "--offset", "1e7,-1e7,1e7", "-o", s(&far)]);
     for (scene, name) in [(&near, "near"), (&far, "far")] {
-        let p = d.path().join(format!("{name}.csv"));
-        osw_ok(&["path", "--scene", s(scene), "--kind", "walk", "--frames", "8", "-o", s(&p)]);
+        let p = camera_path(scene, "walk", 8);
         render(scene, &p, ("prev", "pyramid"), "0", &d.path().join(name));
     }
     for i in 0..8 {
@@ -227,8 +223,7 @@ fn a_scene_far_from_the_origin_renders_like_one_at_the_origin() {
         std::fs::create_dir_all(&out).unwrap();
         let sc = out.join("s.osw");
         osw_ok(&["build", "--gen", "city", "--triangles", "60000", "--offset", &format!("{scale},0,{scale}"), "-o", s(&sc)]);
-        let p = out.join("w.csv");
-        osw_ok(&["path", "--scene", s(&sc), "--kind", "walk", "--frames", "6", "-o", s(&p)]);
+        let p = camera_path(&sc, "walk", 6);
         check_conservative(&out, &sc, &p, "run");
     }
 }

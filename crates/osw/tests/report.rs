@@ -19,8 +19,7 @@ fn csv_mean(file: &Path, name: &str) -> f64 {
 fn report_covers_every_mode_and_tau_and_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let scene = build_gen(dir.path(), "plant", 60_000, 3);
-    let path = dir.path().join("walk.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "8", "--output", s(&path)]);
+    let path = camera_path(&scene, "walk", 8);
     let out = dir.path().join("report");
     let args = ["report", "--scene", s(&scene), "--path", s(&path), "--size", "128x128", "--taus", "0,8", "--out", s(&out)];
     osw_ok(&args);
@@ -89,8 +88,7 @@ fn report_covers_every_mode_and_tau_and_resumes() {
 fn report_refuses_unknown_modes_and_bad_taus() {
     let dir = tempfile::tempdir().unwrap();
     let scene = build_gen(dir.path(), "plant", 20_000, 1);
-    let path = dir.path().join("walk.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "2", "--output", s(&path)]);
+    let path = camera_path(&scene, "walk", 2);
     let out = dir.path().join("r");
     let base = ["report", "--scene", s(&scene), "--path", s(&path), "--out", s(&out)];
     osw_err(&[&base[..], &["--modes", "vfc,gigawalk"]].concat(), "gigawalk");

@@ -16,8 +16,7 @@ fn summary(dir: &Path) -> serde_json::Value {
 fn the_switch_is_prev_split_across_processes() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "plant", 150_000, 5);
-    let path = d.path().join("walk.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "walk", "--frames", "16", "-o", s(&path)]);
+    let path = camera_path(&scene, "walk", 16);
     let [run, full, prev, vfc, exact] = ["run", "full", "prev", "vfc", "exact"].map(|n| d.path().join(n));
     osw_ok(&["run", "--scene", s(&scene), "--path", s(&path), "--size", "256x256", "--out", s(&run)]);
     osw_ok(&["run", "--scene", s(&scene), "--path", s(&path), "--size", "256x256", "--full", "--out", s(&full)]);
@@ -186,8 +185,7 @@ fn check_latency(run: &Path, out: &Path) {
 fn a_killed_node_is_survived_then_reported_by_name() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "city", 60_000, 1);
-    let path = d.path().join("long.csv");
-    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "600", "-o", s(&path)]);
+    let path = camera_path(&scene, "orbit", 600);
     let out = d.path().join("run");
     let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
         .args(["run", "--scene", s(&scene), "--path", s(&path), "--size", "64x64", "--no-frames", "--out", s(&out)])
@@ -228,8 +226,7 @@ fn the_handshake_refuses_another_scene_and_a_wrong_token() {
     let d = tempfile::tempdir().unwrap();
     let one = build_gen(d.path(), "city", 20_000, 1);
     let two = build_gen(d.path(), "city", 20_000, 2);
-    let path = d.path().join("p.csv");
-    osw_ok(&["path", "--scene", s(&one), "--kind", "orbit", "--frames", "4", "-o", s(&path)]);
+    let path = camera_path(&one, "orbit", 4);
     let bin = |n: &str| Path::new(env!("CARGO_BIN_EXE_osw")).with_file_name(n);
     for (node_args, display_args, needle) in [
         (vec!["--scene", s(&one)], vec!["--scene", s(&two)], "different scene"),

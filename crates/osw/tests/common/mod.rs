@@ -50,6 +50,14 @@ pub fn build_gen(dir: &Path, kind: &str, triangles: u64, seed: u64) -> PathBuf {
     out
 }
 
+/// A camera path of `frames` frames of `kind` (`osw path`) through `scene`, written beside it.
+pub fn camera_path(scene: &Path, kind: &str, frames: u32) -> PathBuf {
+    let stem = scene.file_stem().unwrap().to_str().unwrap();
+    let out = scene.with_file_name(format!("{stem}-{kind}-{frames}.csv"));
+    osw_ok(&["path", "--scene", s(scene), "--kind", kind, "--frames", &frames.to_string(), "-o", s(&out)]);
+    out
+}
+
 /// Every structural invariant of a scene file, checked from the file alone:
 /// - ids dense: every node is reached exactly once from the root through children and LODs;
 /// - box containment: child boxes in parent boxes, LOD boxes in their owner's box, every
