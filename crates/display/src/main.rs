@@ -174,8 +174,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let drawn = r.draw(&view, &frames.visible, Pass::Color, true)?;
         row.rvg_ms = t.elapsed().as_secs_f64() * 1e3;
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
-        // Read back once for the PNG and the window both.
-        let rgba = if a.no_frames && ui.is_none() { None } else { Some(r.read_color()?) };
+        // Read back once for the PNG and the window both (unless the window draws another view).
+        let rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
         if let (false, Some(rgba)) = (a.no_frames, &rgba) {
             write_png(&frame_path(&a.out, i as u64), w, h, rgba).map_err(anyhow::Error::msg)?;
         }

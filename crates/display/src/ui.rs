@@ -149,6 +149,20 @@ impl Ui {
         }
     }
 
+    /// The camera the window looks through: the walker's while the culling camera is frozen.
+    fn viewer(&self, camera: &Camera) -> Camera {
+        match (self.frozen, &self.controls) {
+            (Some(_), Some(c)) => c.camera(),
+            _ => *camera,
+        }
+    }
+
+    /// Whether the window draws frame `camera` again (colours by state, or a frozen culling
+    /// camera) rather than show the frame as RVG drew it.
+    pub fn redraws(&self, camera: &Camera) -> bool {
+        self.state_colours || self.viewer(camera) != *camera
+    }
+
     /// Renders what the window shows of frame `row.frame`, sent with `camera` at `tau` and
     /// already drawn into the renderer's colour target as the frame is written (`frame`: its
     /// pixels if the caller read them back). Drawn again when the window's view differs:
@@ -167,11 +181,7 @@ impl Ui {
             rec.cameras.push(*camera);
             rec.taus.push(tau);
         }
-        let viewer = match (self.frozen, &self.controls) {
-            (Some(_), Some(c)) => c.camera(),
-            _ => *camera,
-        };
-        let redraw = self.state_colours || viewer != *camera;
+        let (viewer, redraw) = (self.viewer(camera), self.redraws(camera));
         if self.state_colours {
             let (view, culling) = (r.view(&viewer), r.view(camera));
             let scene = std::sync::Arc::clone(&r.scene);

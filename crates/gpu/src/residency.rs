@@ -84,11 +84,6 @@ impl Residency {
         }
     }
 
-    /// Bytes of resident vertices now.
-    pub fn bytes(&self) -> u64 {
-        self.bytes
-    }
-
     /// The arena, once anything is resident.
     pub fn arena(&self) -> Option<&wgpu::Buffer> {
         self.arena.as_ref()
