@@ -215,6 +215,10 @@ fn bad_command_lines_are_refused() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("expected city, teapots or plant"));
     osw_err(&["build", "--gen", "city", "--chunk-triangles", "0", "-o", o.to_str().unwrap()], "chunk-triangles");
+    for f in ["1.5", "-0.1", "NaN"] {
+        let arg = format!("--loose-split={f}");
+        osw_err(&["build", "--gen", "city", &arg, "-o", o.to_str().unwrap()], "--loose-split must be a fraction");
+    }
     osw_err(&["path", "--scene", "/nonexistent.osw", "--kind", "walk", "-o", "p.csv"], "/nonexistent.osw");
 }
 
