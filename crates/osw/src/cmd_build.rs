@@ -1,4 +1,4 @@
-//! `osw build`: input (glTF, GLB, PLY or a generator) → scene file + `<scene>.build.json`.
+//! `osw build`: input (glTF, GLB, OBJ, PLY or a generator) → scene file + `<scene>.build.json`.
 
 use anyhow::{Context, bail};
 use osw_scene::generators::GenKind;
@@ -8,7 +8,9 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 #[command(group = clap::ArgGroup::new("source").required(true).args(["input", "generator"]))]
 pub struct Args {
-    /// Input model: .gltf (external or embedded buffers), .glb or .ply (ASCII or binary LE).
+    /// Input model: .gltf (external or embedded buffers) or .glb (also quantized, meshopt-compressed
+    /// and instanced, as gltfpack writes them), .obj (with its .mtl files) or .ply (ASCII or
+    /// binary, float or double).
     input: Option<PathBuf>,
     /// Generate a scene instead: city, teapots or plant.
     #[arg(long = "gen", value_name = "KIND")]
@@ -26,8 +28,8 @@ pub struct Args {
     /// surface area, so that HC tests boxes that fit (elbowed pipes, railings); 0 never splits.
     #[arg(long, default_value_t = osw_scene::limits::LOOSE_SPLIT, value_name = "FRACTION")]
     loose_split: f32,
-    /// World position of the scene's local origin, "X,Y,Z" (moves the whole scene, e.g. to test
-    /// precision far from the origin).
+    /// Moves the scene by "X,Y,Z" in the world (e.g. a generated one, to test precision far from
+    /// the origin), in f64 like a model's own coordinates.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_offset)]
     offset: Option<[f64; 3]>,
     /// Output scene file; the report goes beside it as <scene>.build.json.
@@ -52,7 +54,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let started = std::time::Instant::now();
     let bar = crate::progress::Bar::new();
-    let (objects, input, notes) = match (&a.input, a.generator) {
+    let (mut objects, input, notes) = match (&a.input, a.generator) {
         (Some(path), _) => {
             let imported = osw_scene::import::read(path)?;
             let notes = imported.skipped.iter().map(|s| format!("skipped {s}")).collect::<Vec<_>>();
@@ -70,7 +72,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         (None, None) => unreachable!("clap requires a source"),
     };
-    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, loose_split: a.loose_split, origin: a.offset.unwrap_or([0.0; 3]) };
+    if let Some(offset) = a.offset {
+        let shift = glam::DAffine3::from_translation(glam::DVec3::from_array(offset));
+        objects.iter_mut().for_each(|o| o.placement = shift * o.placement);
+    }
+    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, loose_split: a.loose_split };
     let report = build_scene(objects, &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
     let report = report?;

@@ -94,9 +94,13 @@ fn gltf_external_embedded_and_glb_all_import_the_hierarchy() {
         let s = osw_scene::SceneFile::open(&out).unwrap();
         check_invariants(&s);
         assert_eq!(s.header().leaf_triangles, tris, "{name}");
-        // Transforms compose: x' = 10 + 2x, so the unit quad spans x in [10, 12].
-        let root = s.node(0);
-        assert_eq!((root.bbox_min[0], root.bbox_max[0], root.bbox_max[1]), (10.0, 12.0, 2.0), "{name}");
+        // Transforms compose: x' = 10 + 2x, so the unit quad spans x in [10, 12] in the world.
+        let (root, o) = (s.node(0), s.origin());
+        assert_eq!(
+            (o.x + root.bbox_min[0] as f64, o.x + root.bbox_max[0] as f64, o.y + root.bbox_max[1] as f64),
+            (10.0, 12.0, 2.0),
+            "{name}"
+        );
     }
     let report = std::fs::read_to_string(d.path().join("ext.gltf.build.json")).unwrap();
     assert!(report.contains("Points"), "the skipped POINTS primitive is not reported: {report}");
@@ -139,7 +143,7 @@ fn broken_gltf_and_glb_name_the_file_and_the_problem() {
     std::fs::write(p("empty.gltf"), r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[]}],"scene":0}"#).unwrap();
     build_err(&p("empty.gltf"), &out, "empty scene");
     build_err(&p("none.gltf"), &out, "none.gltf");
-    build_err(&p("x.obj"), &out, "unknown input format");
+    build_err(&p("x.stl"), &out, "unknown input format");
 }
 
 #[test]

@@ -1,4 +1,4 @@
-//! The scene build: objects → clean-up → chunks → BVH → LOD chains → HLODs → node table and
+//! The scene build: objects → placement around one origin → clean-up → chunks → BVH → LOD chains → HLODs → node table and
 //! geometry blocks (paper 000 sec. 4.1), and the report of what it made and what it left out.
 
 use crate::aabb::Aabb;
@@ -23,13 +23,11 @@ pub struct BuildOptions {
     /// Split chunks whose halves' boxes have less than this fraction of their box's surface
     /// area (0: never; see [`crate::limits::LOOSE_SPLIT`]).
     pub loose_split: f32,
-    /// World position of the scene's local origin (see [`crate::format::Header::origin`]).
-    pub origin: [f64; 3],
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        BuildOptions { chunk_triangles: CHUNK_TRIANGLES, loose_split: LOOSE_SPLIT, origin: [0.0; 3] }
+        BuildOptions { chunk_triangles: CHUNK_TRIANGLES, loose_split: LOOSE_SPLIT }
     }
 }
 
@@ -126,6 +124,7 @@ pub fn make_scene(
     progress: &dyn Progress,
 ) -> Result<SceneData, BuildError> {
     report.input_triangles = objects.iter().map(|o| o.mesh.triangle_count() as u64).sum();
+    let (objects, origin) = timed(report, "place", |_| crate::place::place(objects));
     progress.stage("clean", objects.len() as u64);
     let objects = timed(report, "clean", |report| clean(objects, report, progress))?;
     report.objects = objects.len() as u64;
@@ -175,7 +174,7 @@ pub fn make_scene(
     progress.stage("hlod", groups);
     let (hlods, hlod_stats) = timed(report, "hlod", |_| hlods(&tree, &chains, min_error, progress));
 
-    let scene = assemble(&tree, &chunks, chains, hlods, opts, report);
+    let scene = assemble(&tree, &chunks, chains, hlods, origin.to_array(), report);
     report_left_out(report, &lod_stats, &hlod_stats, groups);
     Ok(scene)
 }
@@ -187,7 +186,7 @@ fn clean(objects: Vec<Object>, report: &mut BuildReport, progress: &dyn Progress
         .map(|(index, o)| {
             progress.advance(1);
             let (mesh, stats) = o.mesh.clean().map_err(|source| BuildError::Mesh { index, name: o.name.clone(), source })?;
-            Ok((Object { name: o.name, mesh }, stats))
+            Ok((Object { mesh, ..o }, stats))
         })
         .collect();
     let mut stats = CleanStats::default();
@@ -291,7 +290,7 @@ fn assemble(
     chunks: &[(u32, Mesh)],
     chains: Vec<Vec<Level>>,
     hlods: Vec<Option<Level>>,
-    opts: &BuildOptions,
+    origin: [f64; 3],
     report: &mut BuildReport,
 ) -> SceneData {
     let bvh_count = tree.len() as u32;
@@ -365,15 +364,7 @@ fn assemble(
     let leaf_triangles = nodes[0].triangles;
     nodes.extend(lods);
     report.nodes = nodes.len() as u64;
-    SceneData {
-        origin: opts.origin,
-        bvh_count,
-        leaf_count: report.leaves as u32,
-        object_count: report.objects as u32,
-        leaf_triangles,
-        nodes,
-        blocks,
-    }
+    SceneData { origin, bvh_count, leaf_count: report.leaves as u32, object_count: report.objects as u32, leaf_triangles, nodes, blocks }
 }
 
 fn report_left_out(report: &mut BuildReport, lod: &LodStats, hlod: &HlodStats, groups: u64) {
@@ -407,7 +398,7 @@ mod tests {
 
     #[test]
     fn empty_input_is_an_error_naming_why() {
-        let o = Object { name: "nothing".into(), mesh: Mesh::default() };
+        let o = Object::new("nothing", Mesh::default());
         let e = make_scene(vec![o], &BuildOptions::default(), &mut BuildReport::default(), &()).unwrap_err();
         assert!(e.to_string().contains("empty scene"), "{e}");
     }
@@ -417,8 +408,7 @@ mod tests {
         let mut m = Mesh::default();
         shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
         m.positions[3][0] = f32::INFINITY;
-        let e = make_scene(vec![Object { name: "boxy".into(), mesh: m }], &BuildOptions::default(), &mut BuildReport::default(), &())
-            .unwrap_err();
+        let e = make_scene(vec![Object::new("boxy", m)], &BuildOptions::default(), &mut BuildReport::default(), &()).unwrap_err();
         assert!(e.to_string().contains("object 0 (boxy)") && e.to_string().contains("non-finite"), "{e}");
     }
 
@@ -428,7 +418,7 @@ mod tests {
         let mut m = Mesh::default();
         shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
         let mut report = BuildReport::default();
-        let s = make_scene(vec![Object { name: "b".into(), mesh: m }], &BuildOptions::default(), &mut report, &()).unwrap();
+        let s = make_scene(vec![Object::new("b", m)], &BuildOptions::default(), &mut report, &()).unwrap();
         assert_eq!(s.bvh_count, 1);
         assert_eq!(s.nodes.len(), 2);
         assert_eq!(s.nodes[0].kind(), NodeKind::Leaf);

@@ -4,6 +4,7 @@
 //! - [`mesh`]: indexed triangle meshes and the clean-up every input goes through.
 //! - [`import`]: glTF 2.0 (.gltf/.glb) and PLY readers; [`generators`]: the city, teapots and plant
 //!   generators.
+//! - [`place`]: one scene origin for the objects' f64 world coordinates, scene-local f32.
 //! - [`chunk`]: splits large objects into chunks of bounded triangle count, and halves chunks
 //!   whose box is loose.
 //! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
@@ -29,6 +30,7 @@ pub mod lod;
 pub mod mesh;
 pub mod path;
 pub mod path_gen;
+pub mod place;
 pub mod writer;
 
 pub use aabb::Aabb;

@@ -1,6 +1,9 @@
 //! Indexed triangle meshes, and the clean-up every input goes through before the build.
 //!
-//! Positions are scene-local f32 (the scene file stores one f64 origin). Degenerate triangles
+//! An input object's positions are f32 in its own frame, placed in the world by an f64 affine
+//! transform (a glTF node's world matrix, a PLY or OBJ file's anchor, a generator's offset);
+//! [`crate::place`] moves every object into scene-local f32 around one f64 origin, which the
+//! scene file stores. Degenerate triangles
 //! (two equal indices or zero area) are dropped and counted; non-finite positions and
 //! out-of-range indices are errors, because guessing would change what the user sees.
 
@@ -14,12 +17,23 @@ pub struct Mesh {
     pub indices: Vec<u32>,
 }
 
-/// One input object: a named mesh. Objects are what chunks are cut from; each keeps its index
-/// so that renderers can colour by object.
+/// One input object: a named mesh and where it stands in the world. Objects are what chunks are
+/// cut from; each keeps its index so that renderers can colour by object.
 #[derive(Clone, Debug, Default)]
 pub struct Object {
     pub name: String,
     pub mesh: Mesh,
+    /// Object frame → world, in f64: world coordinates of a real model (site coordinates of a
+    /// plant or a city, 1e6-1e9 units out) do not fit f32, so they are composed and kept in
+    /// f64 until the scene's origin is chosen. The identity once placed.
+    pub placement: glam::DAffine3,
+}
+
+impl Object {
+    /// An object whose mesh is already in world coordinates.
+    pub fn new(name: impl Into<String>, mesh: Mesh) -> Object {
+        Object { name: name.into(), mesh, placement: glam::DAffine3::IDENTITY }
+    }
 }
 
 /// What is wrong with a mesh that cannot be cleaned up without guessing.

@@ -38,7 +38,7 @@ pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
             let b = i / (LOTS_X * LOTS_Z) as u64;
             let lot = (i % (LOTS_X * LOTS_Z) as u64) as u32;
             let min = lot_origin(b) + Vec3::new((lot % LOTS_X) as f32 * LOT, 0.0, (lot / LOTS_X) as f32 * LOT);
-            Object { name: format!("building {i}"), mesh: building(min, windows, &mut super::rng(seed, i)) }
+            Object::new(format!("building {i}"), building(min, windows, &mut super::rng(seed, i)))
         })
         .collect();
     // Ground: streets as one subdivided plane plus a raised kerb slab per block.
@@ -48,7 +48,7 @@ pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
     for b in 0..blocks {
         add_box(&mut ground, lot_origin(b) - Vec3::new(1.0, 0.0, 1.0), lot_origin(b) + block + Vec3::new(1.0, 0.15, 1.0));
     }
-    objects.push(Object { name: "ground".into(), mesh: ground });
+    objects.push(Object::new("ground", ground));
     objects
 }
 

@@ -29,7 +29,7 @@ pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
     let size = Vec3::new(nx as f32 * BAY, 0.0, nz as f32 * BAY);
     let mut objects: Vec<Object> = (0..nx * nz * FLOORS as u64).into_par_iter().flat_map_iter(|b| bay(origin(b), b, seed, size)).collect();
     for f in 0..FLOORS {
-        objects.push(Object { name: format!("structure floor {f}"), mesh: structure(size, f, nx, nz) });
+        objects.push(Object::new(format!("structure floor {f}"), structure(size, f, nx, nz)));
     }
     objects.extend(walls(size, nx, nz, seed));
     objects
@@ -44,7 +44,7 @@ fn bay(o: Vec3, id: u64, seed: u64, size: Vec3) -> Vec<Object> {
     let inner = |r: &mut rand_pcg::Pcg64Mcg, margin: f32| {
         o + Vec3::new(r.random_range(margin..BAY - margin), SLAB, r.random_range(margin..BAY - margin))
     };
-    let mut push = |name: &str, mesh: Mesh| out.push(Object { name: format!("{name} {id}"), mesh });
+    let mut push = |name: &str, mesh: Mesh| out.push(Object::new(format!("{name} {id}"), mesh));
     let roll: f32 = r.random();
     if roll < 0.3 {
         // A vertical tank with a domed head.
@@ -179,7 +179,7 @@ fn walls(size: Vec3, nx: u64, nz: u64, seed: u64) -> Vec<Object> {
                 };
                 add_box(&mut m, lo, hi);
             }
-            out.push(Object { name: format!("wall {side} floor {f}"), mesh: m });
+            out.push(Object::new(format!("wall {side} floor {f}"), m));
         }
     }
     out

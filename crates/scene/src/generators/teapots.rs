@@ -29,7 +29,7 @@ pub fn mesh_cache() -> PathBuf {
 pub fn generate(triangles: u64, seed: u64) -> Generated {
     let mut notes = Vec::new();
     let utah = mesh_cache().join("teapot.ply");
-    let teapot = match crate::import::ply::read(&utah).map(|m| m.welded()) {
+    let teapot = match crate::import::ply::read(&utah).map(|o| o.mesh.welded()) {
         Ok(m) if !m.is_empty() => {
             notes.push(format!("teapots: the Utah teapot from {}", utah.display()));
             normalised(m)
@@ -60,7 +60,7 @@ pub fn generate(triangles: u64, seed: u64) -> Generated {
         let s = r.random_range(0.8..1.25);
         let mut mesh = teapot.clone();
         mesh.transform(&Affine3A::from_scale_rotation_translation(Vec3::splat(s), rot, at));
-        objects.push(Object { name: format!("teapot {}", objects.len()), mesh });
+        objects.push(Object::new(format!("teapot {}", objects.len()), mesh));
     }
     let rows = slot.div_ceil(COLUMNS) as f32;
     let mut ground = Mesh::default();
@@ -72,7 +72,7 @@ pub fn generate(triangles: u64, seed: u64) -> Generated {
         COLUMNS as u32 * 2,
         rows as u32 * 2,
     );
-    objects.push(Object { name: "ground".into(), mesh: ground });
+    objects.push(Object::new("ground", ground));
     Generated { objects, notes }
 }
 

@@ -1,103 +1,274 @@
-//! glTF 2.0 reader (.gltf with external or embedded buffers, .glb): the default scene's whole
-//! node hierarchy with transforms; every triangle primitive (indexed or not) becomes one object
-//! per mesh instance. Other primitive modes are skipped with a warning. Images are never
-//! decoded. Every accessor is checked against its buffer before it is read.
+//! glTF 2.0 reader (.gltf with external or embedded buffers, .glb) for models as exporters and
+//! gltfpack write them: the default scene's node hierarchy with transforms composed in f64;
+//! every triangle primitive (list, strip or fan; indexed or not; sparse or not) becomes part
+//! of one object per mesh instance (a node, or each instance of EXT_mesh_gpu_instancing);
+//! POSITION may be float or KHR_mesh_quantization's (normalized) integers; views may be
+//! EXT_meshopt_compression streams. Points and lines are skipped with a warning; Draco is
+//! refused with how to re-export. Images are never decoded. Every accessor is checked against
+//! its buffer before it is read.
+//!
+//! The `gltf` crate validates `extensionsRequired` against the extensions it implements, which
+//! excludes the ones above: the document is validated here in every other respect, and the
+//! required extensions are checked by [`gltf_raw::Raw::check_extensions`].
 
+use super::gltf_raw::{self, Raw};
 use super::{ImportError, Imported};
 use crate::mesh::{Mesh, Object};
-use glam::{Mat4, Vec3};
-use gltf::accessor::{DataType, Dimensions};
+use glam::{DAffine3, DMat4, DQuat, DVec3, Vec3};
+use gltf::accessor::{Accessor, DataType, Dimensions, Item};
+use gltf::mesh::Mode;
 use std::path::Path;
 
 /// Reads the glTF or GLB file at `path`, loading its buffers (files beside it or data URIs).
 pub fn read(path: &Path) -> Result<Imported, ImportError> {
     let bad = |what: String| ImportError::Malformed { path: path.to_owned(), what };
-    let bytes = std::fs::read(path).map_err(|source| ImportError::Io { path: path.to_owned(), source })?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| bad(format!("not valid glTF: {e}")))?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let buffers =
-        gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone()).map_err(|e| bad(format!("cannot load a buffer: {e}")))?;
-    let buffers: Vec<&[u8]> = buffers.iter().map(|b| b.0.as_slice()).collect();
-    let doc = &gltf.document;
+    let bytes = std::fs::read(path).map_err(|error| ImportError::Io { path: path.to_owned(), error })?;
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        let glb = gltf::binary::Glb::from_slice(&bytes).map_err(|e| bad(format!("not a valid GLB: {e}")))?;
+        (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
+    } else {
+        (bytes, None)
+    };
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(&json).map_err(|e| bad(format!("not valid glTF: {e}")))?;
+    validate(&root).map_err(bad)?;
+    let raw: Raw = serde_json::from_slice(&json).map_err(|e| bad(format!("not valid glTF: {e}")))?;
+    raw.check_extensions().map_err(bad)?;
+    let doc = gltf::Document::from_json_without_validation(root);
+    let buffers = load_buffers(&doc, &raw, path.parent().unwrap_or(Path::new(".")), blob).map_err(bad)?;
+    let buffers: Vec<&[u8]> = buffers.iter().map(Vec::as_slice).collect();
+
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         None => doc.nodes().filter(|n| !doc.nodes().any(|p| p.children().any(|c| c.index() == n.index()))).collect(),
     };
     let mut out = Imported::default();
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots.into_iter().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err(bad("node hierarchy deeper than 256 (a cycle?)".into()));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let raw_node = &raw.nodes[node.index()];
+        let world = parent * raw_node.local();
         if !world.is_finite() {
             return Err(bad(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(mesh) = node.mesh() {
-            let mut m = Mesh::default();
-            for prim in mesh.primitives() {
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    out.skipped.push(format!(
-                        "mesh {} primitive {}: mode {:?} is not a triangle list",
-                        mesh.index(),
-                        prim.index(),
-                        prim.mode()
-                    ));
-                    continue;
-                }
-                let part = primitive(&prim, &buffers).map_err(|e| bad(format!("mesh {} primitive {}: {e}", mesh.index(), prim.index())))?;
-                m.append(&part);
-            }
-            for p in &mut m.positions {
-                *p = world.transform_point3(Vec3::from_array(*p)).to_array();
-            }
+            let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| bad(format!("mesh {}: {e}", mesh.index())))?;
             let name = node.name().or(mesh.name()).map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
-            out.objects.push(Object { name, mesh: m });
+            match &raw_node.extensions.instancing {
+                None => out.objects.push(Object { name, mesh: m, placement: DAffine3::from_mat4(world) }),
+                Some(inst) => {
+                    let at = |e: String| bad(format!("node {} EXT_mesh_gpu_instancing: {e}", node.index()));
+                    for (k, t) in instances(inst, &doc, &buffers).map_err(at)?.into_iter().enumerate() {
+                        let placement = DAffine3::from_mat4(world * t);
+                        if !placement.is_finite() {
+                            return Err(at(format!("instance {k} has a non-finite transform")));
+                        }
+                        out.objects.push(Object { name: format!("{name} instance {k}"), mesh: m.clone(), placement });
+                    }
+                }
+            }
         }
         stack.extend(node.children().map(|c| (c, world, depth + 1)));
     }
     Ok(out)
 }
 
-fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<Mesh, String> {
-    let pos = prim.get(&gltf::Semantic::Positions).ok_or("no POSITION attribute")?;
-    if pos.data_type() != DataType::F32 || pos.dimensions() != Dimensions::Vec3 {
-        return Err(format!("POSITION is {:?} {:?}, expected float VEC3", pos.data_type(), pos.dimensions()));
+/// The `gltf` crate's validation (indices in range, so that its accessors cannot panic),
+/// without its check of `extensionsRequired`.
+fn validate(root: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::validation::Validate;
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, e| {
+        let path = path().to_string();
+        if !path.starts_with("extensionsRequired") {
+            errors.push(format!("{path}: {e}"));
+        }
+    });
+    match errors.as_slice() {
+        [] => Ok(()),
+        [first, ..] => Err(format!("not valid glTF: {first} ({} problems)", errors.len())),
     }
-    check(&pos, buffers)?;
-    if let Some(idx) = prim.indices() {
-        check(&idx, buffers)?;
-    }
-    let reader = prim.reader(|b| buffers.get(b.index()).copied());
-    let positions: Vec<[f32; 3]> = reader.read_positions().ok_or("POSITION data missing")?.collect();
-    let indices: Vec<u32> = match reader.read_indices() {
-        Some(i) => i.into_u32().collect(),
-        None => (0..positions.len() as u32).collect(),
-    };
-    Ok(Mesh { positions, indices })
 }
 
-/// Checks that `acc` lies inside its buffer view and the view inside its buffer, so that
-/// reading it cannot go out of bounds.
-fn check(acc: &gltf::Accessor, buffers: &[&[u8]]) -> Result<(), String> {
-    if acc.sparse().is_some() {
-        return Err(format!("accessor {} is sparse (not supported)", acc.index()));
+/// Every buffer's bytes; EXT_meshopt_compression fallback buffers (no data of their own) are
+/// made as large as the views decoded into them, then filled by decoding.
+fn load_buffers(doc: &gltf::Document, raw: &Raw, base: &Path, mut blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, String> {
+    let fallback = super::meshopt_views::fallback_sizes(doc, raw);
+    let mut buffers = Vec::with_capacity(doc.buffers().len());
+    for b in doc.buffers() {
+        let is_fallback = raw.buffers.get(b.index()).and_then(|r| r.extensions.meshopt.as_ref()).is_some_and(|m| m.fallback);
+        let data = if is_fallback {
+            if fallback[b.index()] > b.length() {
+                return Err(format!(
+                    "buffer {}: compressed views decode to {} bytes, past its length {}",
+                    b.index(),
+                    fallback[b.index()],
+                    b.length()
+                ));
+            }
+            vec![0u8; fallback[b.index()]]
+        } else {
+            let d = gltf::buffer::Data::from_source_and_blob(b.source(), Some(base), &mut blob)
+                .map_err(|e| format!("cannot load a buffer (buffer {}): {e}", b.index()))?;
+            if d.len() < b.length() {
+                return Err(format!("buffer {} has {} bytes, {} declared (file truncated?)", b.index(), d.len(), b.length()));
+            }
+            d.0
+        };
+        buffers.push(data);
     }
-    let view = acc.view().ok_or(format!("accessor {} has no buffer view", acc.index()))?;
-    let len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
-    let elem = acc.size();
-    let stride = view.stride().unwrap_or(elem).max(elem);
-    let view_end = view.offset().checked_add(view.length());
-    let need = match acc.count() {
-        0 => 0,
-        n => acc.offset() + (n - 1) * stride + elem,
+    super::meshopt_views::decode_views(doc, raw, &mut buffers)?;
+    Ok(buffers)
+}
+
+/// The triangles of every primitive of `mesh`, in the mesh's frame.
+fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], skipped: &mut Vec<String>) -> Result<Mesh, String> {
+    let mut m = Mesh::default();
+    for prim in mesh.primitives() {
+        if matches!(prim.mode(), Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
+            skipped.push(format!("mesh {} primitive {}: mode {:?} has no triangles", mesh.index(), prim.index(), prim.mode()));
+            continue;
+        }
+        m.append(&primitive(&prim, buffers).map_err(|e| format!("primitive {}: {e}", prim.index()))?);
+    }
+    Ok(m)
+}
+
+fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<Mesh, String> {
+    let pos = prim.get(&gltf::Semantic::Positions).ok_or("no POSITION attribute")?;
+    if pos.dimensions() != Dimensions::Vec3 {
+        return Err(format!("POSITION is {:?}, expected VEC3", pos.dimensions()));
+    }
+    let positions: Vec<[f32; 3]> = floats(&pos, buffers).map_err(|e| format!("POSITION: {e}"))?;
+    let order: Vec<u32> = match prim.indices() {
+        Some(idx) => {
+            check(&idx, buffers)?;
+            let reader = prim.reader(|b| buffers.get(b.index()).copied());
+            reader.read_indices().ok_or("index data missing")?.into_u32().collect()
+        }
+        None => (0..positions.len() as u32).collect(),
     };
-    if view_end.is_none_or(|e| e > len) || need > view.length() {
-        return Err(format!(
-            "accessor {} reaches past the end of its buffer (buffer {} has {len} bytes)",
-            acc.index(),
-            view.buffer().index()
-        ));
+    Ok(Mesh { positions, indices: triangle_list(prim.mode(), &order) })
+}
+
+/// A triangle list from the vertex order of a list, strip or fan (glTF 2.0 sec. 3.7.2.1).
+fn triangle_list(mode: Mode, v: &[u32]) -> Vec<u32> {
+    let n = v.len();
+    match mode {
+        Mode::TriangleStrip => (0..n.saturating_sub(2)).flat_map(|i| [v[i], v[i + 1 + i % 2], v[i + 2 - i % 2]]).collect(),
+        Mode::TriangleFan => (0..n.saturating_sub(2)).flat_map(|i| [v[i + 1], v[i + 2], v[0]]).collect(),
+        _ => v[..n - n % 3].to_vec(),
+    }
+}
+
+/// The per-instance transforms of EXT_mesh_gpu_instancing (T · R · S each).
+fn instances(inst: &gltf_raw::Instancing, doc: &gltf::Document, buffers: &[&[u8]]) -> Result<Vec<DMat4>, String> {
+    let accessor = |name: &str| -> Result<Option<Accessor>, String> {
+        inst.attributes.get(name).map(|&i| doc.accessors().nth(i).ok_or(format!("{name} accessor {i} does not exist"))).transpose()
+    };
+    let vec3s = |name: &str| -> Result<Option<Vec<[f32; 3]>>, String> {
+        accessor(name)?.map(|a| floats::<3>(&a, buffers).map_err(|e| format!("{name}: {e}"))).transpose()
+    };
+    let (t, s) = (vec3s("TRANSLATION")?, vec3s("SCALE")?);
+    let r = accessor("ROTATION")?.map(|a| floats::<4>(&a, buffers).map_err(|e| format!("ROTATION: {e}"))).transpose()?;
+    let counts: Vec<usize> = [t.as_ref().map(Vec::len), r.as_ref().map(Vec::len), s.as_ref().map(Vec::len)].into_iter().flatten().collect();
+    let count = *counts.first().ok_or("no TRANSLATION, ROTATION or SCALE attribute")?;
+    if counts.iter().any(|&c| c != count) {
+        return Err(format!("attribute counts differ: {counts:?}"));
+    }
+    let d3 = |v: &Option<Vec<[f32; 3]>>, k: usize, or: DVec3| v.as_ref().map_or(or, |v| Vec3::from_array(v[k]).as_dvec3());
+    Ok((0..count)
+        .map(|k| {
+            let q = r.as_ref().map_or(DQuat::IDENTITY, |r| DQuat::from_array(r[k].map(f64::from)).normalize());
+            DMat4::from_scale_rotation_translation(d3(&s, k, DVec3::ONE), q, d3(&t, k, DVec3::ZERO))
+        })
+        .collect())
+}
+
+/// A float or integer accessor of N components as f32: normalized integers mapped to [-1, 1]
+/// or [0, 1] as glTF 2.0 sec. 3.11 defines, others as their values (KHR_mesh_quantization's
+/// positions: the node transform dequantizes them, in f64).
+fn floats<const N: usize>(acc: &Accessor, buffers: &[&[u8]]) -> Result<Vec<[f32; N]>, String>
+where
+    [f32; N]: Item,
+    [i8; N]: Item,
+    [u8; N]: Item,
+    [i16; N]: Item,
+    [u16; N]: Item,
+    [u32; N]: Item,
+{
+    check(acc, buffers)?;
+    if acc.count() == 0 {
+        return Ok(Vec::new());
+    }
+    let norm = acc.normalized();
+    let scale = |c: f32, max: f32| if norm { (c / max).max(-1.0) } else { c };
+    Ok(match acc.data_type() {
+        DataType::F32 => items::<[f32; N]>(acc, buffers)?,
+        DataType::I8 => items::<[i8; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| scale(c as f32, 127.0))).collect(),
+        DataType::U8 => items::<[u8; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| scale(c as f32, 255.0))).collect(),
+        DataType::I16 => items::<[i16; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| scale(c as f32, 32767.0))).collect(),
+        DataType::U16 => items::<[u16; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| scale(c as f32, 65535.0))).collect(),
+        DataType::U32 if !norm => items::<[u32; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| c as f32)).collect(),
+        t => return Err(format!("component type {t:?}{} is not allowed here", if norm { " normalized" } else { "" })),
+    })
+}
+
+/// An accessor's elements, sparse substitution applied by the `gltf` crate.
+fn items<T: Item + Copy>(acc: &Accessor, buffers: &[&[u8]]) -> Result<Vec<T>, String> {
+    let iter = gltf::accessor::Iter::<T>::new(acc.clone(), |b| buffers.get(b.index()).copied());
+    let v: Vec<T> = iter.ok_or(format!("accessor {} data missing", acc.index()))?.collect();
+    if v.len() != acc.count() {
+        return Err(format!("accessor {} has {} of {} elements", acc.index(), v.len(), acc.count()));
+    }
+    Ok(v)
+}
+
+/// Checks that `acc` (and its sparse indices and values) lies inside its buffer view and the
+/// view inside its buffer, so that reading it cannot go out of bounds.
+fn check(acc: &Accessor, buffers: &[&[u8]]) -> Result<(), String> {
+    let elem = acc.size();
+    match (acc.view(), acc.sparse()) {
+        (None, None) => return Err(format!("accessor {} has no buffer view", acc.index())),
+        (Some(view), _) => in_view(acc.index(), &view, acc.offset(), acc.count(), elem, buffers)?,
+        (None, Some(_)) => {}
+    }
+    if let Some(sp) = acc.sparse() {
+        if sp.count() == 0 || sp.count() > acc.count() {
+            return Err(format!("accessor {}: sparse count {} outside 1..={}", acc.index(), sp.count(), acc.count()));
+        }
+        let (i, v) = (sp.indices(), sp.values());
+        in_view(acc.index(), &i.view(), i.offset(), sp.count(), i.index_type().size(), buffers)?;
+        in_view(acc.index(), &v.view(), v.offset(), sp.count(), elem, buffers)?;
     }
     Ok(())
+}
+
+fn in_view(acc: usize, view: &gltf::buffer::View, offset: usize, count: usize, elem: usize, buffers: &[&[u8]]) -> Result<(), String> {
+    let len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
+    let stride = view.stride().unwrap_or(elem).max(elem);
+    let view_end = view.offset().checked_add(view.length());
+    let need = match count {
+        0 => Some(0),
+        n => (n - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(elem)),
+    };
+    if view_end.is_none_or(|e| e > len) || need.is_none_or(|n| n > view.length()) {
+        return Err(format!("accessor {acc} reaches past the end of its buffer (buffer {} has {len} bytes)", view.buffer().index()));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_become_lists_with_the_spec_winding() {
+        let v = [10, 11, 12, 13, 14];
+        assert_eq!(triangle_list(Mode::TriangleStrip, &v), vec![10, 11, 12, 11, 13, 12, 12, 13, 14]);
+        assert_eq!(triangle_list(Mode::TriangleFan, &v), vec![11, 12, 10, 12, 13, 10, 13, 14, 10]);
+        assert_eq!(triangle_list(Mode::Triangles, &v), vec![10, 11, 12]);
+        assert!(triangle_list(Mode::TriangleStrip, &v[..2]).is_empty());
+    }
 }

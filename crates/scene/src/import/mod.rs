@@ -1,8 +1,11 @@
-//! Readers for scene inputs: glTF 2.0 (.gltf with external or embedded buffers, .glb) and PLY
-//! (ASCII and binary little-endian). Each returns objects with positions in the file's world
-//! frame; the build cleans them up.
+//! Readers for scene inputs: glTF 2.0 (.gltf with external or embedded buffers, .glb), OBJ
+//! and PLY. Each returns objects in their own frame with an f64 placement in the file's world
+//! (see [`crate::place`]); the build cleans them up.
 
 pub mod gltf;
+mod gltf_raw;
+mod meshopt_views;
+pub mod obj;
 pub mod ply;
 
 use crate::mesh::Object;
@@ -11,11 +14,12 @@ use std::path::{Path, PathBuf};
 /// An input that cannot be read. The message names the file and what is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
-    #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    /// (Not a `source`: the message already says it, and once is enough.)
+    #[error("{path}: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
     #[error("{path}: {what}")]
     Malformed { path: PathBuf, what: String },
-    #[error("{0}: unknown input format (expected .gltf, .glb or .ply)")]
+    #[error("{0}: unknown input format (expected .gltf, .glb, .obj or .ply)")]
     UnknownFormat(PathBuf),
 }
 
@@ -30,11 +34,8 @@ pub struct Imported {
 pub fn read(path: &Path) -> Result<Imported, ImportError> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("gltf") | Some("glb") => gltf::read(path),
-        Some("ply") => {
-            let mesh = ply::read(path)?;
-            let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-            Ok(Imported { objects: vec![Object { name, mesh }], skipped: Vec::new() })
-        }
+        Some("obj") => obj::read(path),
+        Some("ply") => Ok(Imported { objects: vec![ply::read(path)?], skipped: Vec::new() }),
         _ => Err(ImportError::UnknownFormat(path.to_owned())),
     }
 }

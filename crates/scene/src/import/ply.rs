@@ -1,9 +1,10 @@
-//! PLY reader (ASCII and binary little-endian, as the Stanford models ship): the `vertex`
-//! element's x, y, z and the `face` element's vertex index list; polygons are fanned into
-//! triangles; every other element and property is skipped.
+//! PLY reader (ASCII, binary little- and big-endian): the `vertex` element's x, y, z (float or
+//! double: survey and scan tools write large coordinates as double, which are kept in f64 up to
+//! the scene's origin, see [`crate::place`]) and the `face` element's vertex index list;
+//! polygons are fanned into triangles; every other element and property is skipped.
 
 use super::ImportError;
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, Object};
 use std::path::Path;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,10 +59,10 @@ struct Element {
     props: Vec<Property>,
 }
 
-/// A source of values: ASCII tokens or little-endian bytes.
+/// A source of values: ASCII tokens or bytes of either order.
 enum Body<'a> {
     Ascii(std::str::SplitAsciiWhitespace<'a>),
-    Binary(&'a [u8]),
+    Binary { bytes: &'a [u8], big_endian: bool },
 }
 
 impl Body<'_> {
@@ -71,41 +72,46 @@ impl Body<'_> {
                 let t = tokens.next().ok_or("unexpected end of data")?;
                 t.parse::<f64>().map_err(|_| format!("bad number {t:?}"))
             }
-            Body::Binary(bytes) => {
+            Body::Binary { bytes, big_endian } => {
                 let n = ty.size();
                 if bytes.len() < n {
                     return Err("unexpected end of data (file truncated?)".into());
                 }
                 let (v, rest) = bytes.split_at(n);
                 *bytes = rest;
-                let a = |k: usize| -> [u8; 8] {
-                    let mut b = [0u8; 8];
-                    b[..k].copy_from_slice(&v[..k]);
-                    b
-                };
+                // Little-endian in the low bytes of a u64 of the value's width.
+                let mut b = [0u8; 8];
+                b[..n].copy_from_slice(v);
+                if *big_endian {
+                    b[..n].reverse();
+                }
+                let u = u64::from_le_bytes(b);
                 Ok(match ty {
-                    Scalar::I8 => v[0] as i8 as f64,
-                    Scalar::U8 => v[0] as f64,
-                    Scalar::I16 => i16::from_le_bytes([v[0], v[1]]) as f64,
-                    Scalar::U16 => u16::from_le_bytes([v[0], v[1]]) as f64,
-                    Scalar::I32 => i32::from_le_bytes(a(4)[..4].try_into().expect("4 bytes")) as f64,
-                    Scalar::U32 => u32::from_le_bytes(a(4)[..4].try_into().expect("4 bytes")) as f64,
-                    Scalar::F32 => f32::from_le_bytes(a(4)[..4].try_into().expect("4 bytes")) as f64,
-                    Scalar::F64 => f64::from_le_bytes(a(8)),
+                    Scalar::I8 => u as u8 as i8 as f64,
+                    Scalar::U8 => u as u8 as f64,
+                    Scalar::I16 => u as u16 as i16 as f64,
+                    Scalar::U16 => u as u16 as f64,
+                    Scalar::I32 => u as u32 as i32 as f64,
+                    Scalar::U32 => u as u32 as f64,
+                    Scalar::F32 => f32::from_bits(u as u32) as f64,
+                    Scalar::F64 => f64::from_bits(u),
                 })
             }
         }
     }
 }
 
-/// Reads the PLY file at `path`.
-pub fn read(path: &Path) -> Result<Mesh, ImportError> {
-    let bytes = std::fs::read(path).map_err(|source| ImportError::Io { path: path.to_owned(), source })?;
-    parse(&bytes).map_err(|what| ImportError::Malformed { path: path.to_owned(), what })
+/// Reads the PLY file at `path` as one object named after the file.
+pub fn read(path: &Path) -> Result<Object, ImportError> {
+    let bytes = std::fs::read(path).map_err(|error| ImportError::Io { path: path.to_owned(), error })?;
+    let mut o = parse(&bytes).map_err(|what| ImportError::Malformed { path: path.to_owned(), what })?;
+    o.name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    Ok(o)
 }
 
-/// Parses PLY bytes. Errors say what is wrong; the mesh is not cleaned up.
-pub fn parse(bytes: &[u8]) -> Result<Mesh, String> {
+/// Parses PLY bytes into an unnamed object. Errors say what is wrong; the mesh is not cleaned
+/// up.
+pub fn parse(bytes: &[u8]) -> Result<Object, String> {
     let end = find(bytes, b"end_header").ok_or("no end_header line: not a PLY file, or truncated")?;
     let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "header is not text")?;
     let mut body = &bytes[end + b"end_header".len()..];
@@ -117,14 +123,13 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, String> {
     if lines.next() != Some("ply") {
         return Err("does not start with \"ply\"".into());
     }
-    let mut ascii = None;
+    let mut format = None;
     let mut elements: Vec<Element> = Vec::new();
     for line in lines {
         let w: Vec<&str> = line.split_ascii_whitespace().collect();
         match w.as_slice() {
-            ["format", "ascii", _] => ascii = Some(true),
-            ["format", "binary_little_endian", _] => ascii = Some(false),
-            ["format", f, _] => return Err(format!("unsupported format {f} (ascii and binary_little_endian are)")),
+            ["format", f @ ("ascii" | "binary_little_endian" | "binary_big_endian"), _] => format = Some(*f),
+            ["format", f, _] => return Err(format!("unsupported format {f} (ascii, binary_little_endian and binary_big_endian are)")),
             ["element", name, count] => {
                 let count = count.parse().map_err(|_| format!("bad element count {count:?}"))?;
                 elements.push(Element { name: name.to_string(), count, props: Vec::new() });
@@ -144,15 +149,16 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, String> {
             _ => return Err(format!("bad header line {line:?}")),
         }
     }
-    let ascii = ascii.ok_or("no format line")?;
     let text;
-    let mut src = if ascii {
-        text = std::str::from_utf8(body).map_err(|_| "ASCII body is not text")?;
-        Body::Ascii(text.split_ascii_whitespace())
-    } else {
-        Body::Binary(body)
+    let mut src = match format.ok_or("no format line")? {
+        "ascii" => {
+            text = std::str::from_utf8(body).map_err(|_| "ASCII body is not text")?;
+            Body::Ascii(text.split_ascii_whitespace())
+        }
+        f => Body::Binary { bytes: body, big_endian: f == "binary_big_endian" },
     };
-    let mut mesh = Mesh::default();
+    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut indices: Vec<u32> = Vec::new();
     for el in &elements {
         let xyz = ["x", "y", "z"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
         let faces = el.props.iter().position(|p| (p.name == "vertex_indices" || p.name == "vertex_index") && p.list.is_some());
@@ -161,17 +167,17 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, String> {
         }
         // Guard the reservation against a lying count.
         if el.name == "vertex" {
-            mesh.positions.reserve(el.count.min(bytes.len() / 12 + 1));
+            positions.reserve(el.count.min(bytes.len() / 12 + 1));
         }
         for i in 0..el.count {
-            let mut p = [0f32; 3];
+            let mut p = [0f64; 3];
             for (k, prop) in el.props.iter().enumerate() {
                 let at = |e: String| format!("element {} {i}, property {}: {e}", el.name, prop.name);
                 match prop.list {
                     None => {
                         let v = src.value(prop.ty).map_err(at)?;
                         if let Some(axis) = xyz.iter().position(|&a| a == Some(k)) {
-                            p[axis] = v as f32;
+                            p[axis] = v;
                         }
                     }
                     Some(count_ty) => {
@@ -185,18 +191,20 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, String> {
                                 return Err(at(format!("bad vertex index in {items:?}")));
                             }
                             for j in 1..items.len().saturating_sub(1) {
-                                mesh.indices.extend([items[0] as u32, items[j] as u32, items[j + 1] as u32]);
+                                indices.extend([items[0] as u32, items[j] as u32, items[j + 1] as u32]);
                             }
                         }
                     }
                 }
             }
             if el.name == "vertex" {
-                mesh.positions.push(p);
+                positions.push(p);
             }
         }
     }
-    Ok(mesh)
+    let anchor = crate::place::anchor(positions.iter().map(|p| glam::DVec3::from_array(*p)));
+    let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices };
+    Ok(Object { name: String::new(), mesh, placement: glam::DAffine3::from_translation(anchor) })
 }
 
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
@@ -219,25 +227,64 @@ mod tests {
         b
     }
 
+    /// The triangle at `corners` as binary big-endian PLY with double coordinates, with a
+    /// 16-bit face count and an unsigned index list as some scanners write it.
+    fn big_endian_double(corners: [[f64; 3]; 3]) -> Vec<u8> {
+        let mut b = b"ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nelement face 1\nproperty list ushort uint vertex_indices\nend_header\n".to_vec();
+        for v in corners {
+            v.iter().for_each(|c| b.extend(c.to_be_bytes()));
+            b.push(200);
+        }
+        b.extend(3u16.to_be_bytes());
+        [0u32, 1, 2].iter().for_each(|i| b.extend(i.to_be_bytes()));
+        b
+    }
+
+    /// World positions of a parsed object (its placement applied in f64).
+    fn world(o: &Object) -> Vec<[f64; 3]> {
+        o.mesh.positions.iter().map(|p| o.placement.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).to_array()).collect()
+    }
+
     #[test]
     fn ascii_quad_is_fanned_into_two_triangles() {
-        let m = parse(ASCII.as_bytes()).unwrap();
+        let m = parse(ASCII.as_bytes()).unwrap().mesh;
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![0, 1, 2, 0, 2, 3]);
     }
 
     #[test]
     fn binary_triangle() {
-        let m = parse(&binary()).unwrap();
-        assert_eq!(m.positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
-        assert_eq!(m.indices, vec![0, 1, 2]);
+        let o = parse(&binary()).unwrap();
+        assert_eq!(world(&o), vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        assert_eq!(o.mesh.indices, vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn big_endian_doubles_far_from_the_origin_keep_their_precision() {
+        // 1e9 out, corners a millimetre and a quarter apart: f32 world coordinates (spacing 64)
+        // would make this one point.
+        let c = [[1e9 + 0.001, 2e9, -3e9], [1e9 + 0.251, 2e9, -3e9], [1e9 + 0.001, 2e9 + 0.25, -3e9]];
+        let o = parse(&big_endian_double(c)).unwrap();
+        assert_eq!(o.mesh.indices, vec![0, 1, 2]);
+        for (w, c) in world(&o).iter().zip(&c) {
+            for k in 0..3 {
+                assert!((w[k] - c[k]).abs() < 1e-7, "{w:?} vs {c:?}");
+            }
+        }
+        // And the same bytes little-endian are refused as garbage or read differently, never
+        // silently equal: the byte order is honoured.
+        let mut le = big_endian_double(c);
+        let at = find(&le, b"binary_big_endian").unwrap();
+        le.splice(at..at + 17, b"binary_little_endian".iter().copied());
+        assert!(parse(&le).map(|o| world(&o) != world(&parse(&big_endian_double(c)).unwrap())).unwrap_or(true));
     }
 
     #[test]
     fn every_truncation_is_an_error_not_a_panic() {
-        let b = binary();
-        for n in 0..b.len() {
-            assert!(parse(&b[..n]).is_err(), "prefix {n} parsed");
+        for b in [binary(), big_endian_double([[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])] {
+            for n in 0..b.len() {
+                assert!(parse(&b[..n]).is_err(), "prefix {n} parsed");
+            }
         }
         for n in 0..ASCII.len() - 2 {
             assert!(parse(&ASCII.as_bytes()[..n]).is_err(), "ascii prefix {n} parsed");
@@ -246,7 +293,7 @@ mod tests {
 
     #[test]
     fn bad_headers_are_named() {
-        assert!(parse(b"ply\nformat binary_big_endian 1.0\nend_header\n").unwrap_err().contains("binary_big_endian"));
+        assert!(parse(b"ply\nformat binary_middle_endian 1.0\nend_header\n").unwrap_err().contains("binary_middle_endian"));
         assert!(parse(b"plx\nend_header\n").unwrap_err().contains("ply"));
         let bad_index = ASCII.replace("4 0 1 2 3", "3 0 1 -2");
         assert!(parse(bad_index.as_bytes()).unwrap_err().contains("bad vertex index"));
