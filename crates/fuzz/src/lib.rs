@@ -1,9 +1,11 @@
-//! Fuzz targets: one function per decoder that takes untrusted bytes. Each must never panic
+//! Fuzz targets: one function per decoder that takes untrusted bytes (protocol frames, scene
+//! tables, path CSV, config, and the model readers). Each must never panic
 //! on any input, and whatever it accepts must hold its invariants (checked with asserts, which
 //! the fuzzer reports as crashes). `libfuzzer/` runs them under cargo fuzz
 //! (`scripts/fuzz.sh`); `tests/smoke.rs` runs them on seeds and mutations in every test run.
 
 pub mod config;
+pub mod import;
 pub mod path_csv;
 pub mod scene_tables;
 pub mod wire_frame;
@@ -12,5 +14,12 @@ pub mod wire_frame;
 pub type Target = fn(&[u8]);
 
 /// Every target by name, for the smoke test.
-pub const TARGETS: [(&str, Target); 4] =
-    [("wire_frame", wire_frame::run), ("scene_tables", scene_tables::run), ("path_csv", path_csv::run), ("config", config::run)];
+pub const TARGETS: [(&str, Target); 7] = [
+    ("wire_frame", wire_frame::run),
+    ("scene_tables", scene_tables::run),
+    ("path_csv", path_csv::run),
+    ("config", config::run),
+    ("gltf_import", import::run_gltf),
+    ("obj_import", import::run_obj),
+    ("ply_import", import::run_ply),
+];

@@ -95,4 +95,14 @@ fn every_seed_is_accepted_by_its_decoder() {
     for s in nonempty("config") {
         osw_wire::config::Config::parse(std::str::from_utf8(&s).unwrap()).unwrap();
     }
+    let none = Path::new("/nonexistent");
+    for s in nonempty("gltf_import") {
+        assert!(!osw_scene::import::gltf::parse(&s, none).unwrap().objects.is_empty());
+    }
+    for s in nonempty("obj_import") {
+        assert!(!osw_scene::import::obj::parse(&mut std::io::Cursor::new(&s), none).unwrap().objects.is_empty());
+    }
+    for s in nonempty("ply_import") {
+        assert!(!osw_scene::import::ply::parse(&s).unwrap().mesh.is_empty());
+    }
 }

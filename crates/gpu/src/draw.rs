@@ -97,7 +97,7 @@ impl DrawPipelines {
         let vbuf = [Some(wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<crate::residency::ArenaVertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32, 2 => Unorm8x4],
         })];
         let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>| {
             let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend: None, write_mask: wgpu::ColorWrites::ALL })]);

@@ -14,13 +14,15 @@ use bytemuck::{Pod, Zeroable};
 use osw_scene::{NodeId, SceneError, SceneFile};
 use std::collections::HashMap;
 
-/// A vertex in the arena: 16 bytes.
+/// A vertex in the arena: 20 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ArenaVertex {
     pub position: [f32; 3],
     /// The LOD node the vertex belongs to (the shaders' per-node data).
     pub node: u32,
+    /// The model's colour, or alpha 0 for the object's hashed colour.
+    pub color: [u8; 4],
 }
 
 const VERTEX_BYTES: u64 = std::mem::size_of::<ArenaVertex>() as u64;
@@ -104,7 +106,9 @@ impl Residency {
         let g = scene.geometry(id)?;
         let n = g.positions.len() as u32;
         let base = self.allocate(gpu, n)?;
-        let vertices: Vec<ArenaVertex> = g.positions.iter().map(|&position| ArenaVertex { position, node: id }).collect();
+        let color = |i: usize| g.colors.get(i).copied().unwrap_or(osw_scene::mesh::NO_COLOR);
+        let vertices: Vec<ArenaVertex> =
+            g.positions.iter().enumerate().map(|(i, &position)| ArenaVertex { position, node: id, color: color(i) }).collect();
         if let Some(arena) = &self.arena
             && n > 0
         {

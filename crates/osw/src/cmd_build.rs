@@ -32,9 +32,19 @@ pub struct Args {
     /// the origin), in f64 like a model's own coordinates.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_offset)]
     offset: Option<[f64; 3]>,
+    /// Colours: the model's own (glTF baseColorFactor and COLOR_0, OBJ Kd, PLY red green blue;
+    /// objects without one in hashed colours), or hashed for every object.
+    #[arg(long, value_enum, default_value_t = Colors::Model)]
+    colors: Colors,
     /// Output scene file; the report goes beside it as <scene>.build.json.
     #[arg(short, long)]
     output: PathBuf,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Colors {
+    Model,
+    Hashed,
 }
 
 fn parse_offset(s: &str) -> Result<[f64; 3], String> {
@@ -76,7 +86,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let shift = glam::DAffine3::from_translation(glam::DVec3::from_array(offset));
         objects.iter_mut().for_each(|o| o.placement = shift * o.placement);
     }
-    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, loose_split: a.loose_split };
+    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, loose_split: a.loose_split, model_colors: a.colors == Colors::Model };
     let report = build_scene(objects, &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
     let report = report?;
@@ -93,6 +103,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.seconds,
         report.input_triangles_per_second / 1e6
     );
+    out!("colours: {} of {} objects have none of their own (drawn in hashed colours)", report.objects_without_color, report.objects);
     if report.loose_splits > 0 {
         out!("{} loose splits (--loose-split {}): {} chunks", report.loose_splits, a.loose_split, report.chunks);
     }

@@ -147,3 +147,284 @@ fn a_ply_with_double_coordinates_far_from_the_origin_builds_and_renders_as_at_th
     walk(&b.0, &d.path().join("far"));
     assert_eq!(differing(&d.path().join("near"), &d.path().join("far")), 0.0, "frames differ 1e7 units from the origin");
 }
+
+fn fixture(rel: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(rel)
+}
+
+/// Every vertex of every object in world coordinates (placements applied in f64), and the
+/// triangle count.
+fn world_vertices(input: &Path) -> (Vec<glam::DVec3>, usize) {
+    let imported = osw_scene::import::read(input).unwrap_or_else(|e| panic!("{e}"));
+    let tris = imported.objects.iter().map(|o| o.mesh.triangle_count()).sum();
+    let v = imported
+        .objects
+        .iter()
+        .flat_map(|o| o.mesh.positions.iter().map(|p| o.placement.transform_point3(glam::Vec3::from_array(*p).as_dvec3())))
+        .collect();
+    (v, tris)
+}
+
+/// The GLB at `path` with its JSON chunk changed by `edit`.
+fn edit_glb(path: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let b = std::fs::read(path).unwrap();
+    let n = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
+    let mut doc: serde_json::Value = serde_json::from_slice(&b[20..20 + n]).unwrap();
+    edit(&mut doc);
+    let mut text = serde_json::to_vec(&doc).unwrap();
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let rest = &b[20 + n..];
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend(((20 + text.len() + rest.len()) as u32).to_le_bytes());
+    out.extend((text.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(text);
+    out.extend(rest);
+    out
+}
+
+/// The quantization step, in world units, of each vertex of `input`: its stored coordinates'
+/// grid (integers; normalized 16-bit integers, multiples of 1/65535; floats with a 14-bit
+/// mantissa, as gltfpack -vpf writes them) scaled by the object's placement.
+fn steps(input: &Path) -> Vec<f64> {
+    let imported = osw_scene::import::read(input).unwrap();
+    let mut out = Vec::new();
+    for o in &imported.objects {
+        let c: Vec<f64> = o.mesh.positions.iter().flatten().map(|&c| c as f64).collect();
+        let on_grid = |unit: f64| c.iter().all(|&x| ((x / unit).round() * unit - x).abs() <= 1e-6 * unit.max(x.abs()));
+        let scale = [o.placement.matrix3.x_axis, o.placement.matrix3.y_axis, o.placement.matrix3.z_axis].map(|a| a.length());
+        let unit = if on_grid(1.0) {
+            1.0
+        } else if on_grid(1.0 / 65535.0) {
+            1.0 / 65535.0
+        } else {
+            c.iter().fold(0.0f64, |m, x| m.max(x.abs())) / f64::from(1 << 13)
+        };
+        out.extend(std::iter::repeat_n(unit * scale.iter().fold(0.0f64, |a, b| a.max(*b)), o.mesh.positions.len()));
+    }
+    out
+}
+
+/// gltfpack's output (scripts/make-fixtures.sh: quantized integer and normalized positions,
+/// meshopt-compressed with and without the exponential filter, instanced) reads as its float
+/// source: the same triangles, every vertex within one quantization step (of its file) of a
+/// vertex of the source.
+#[test]
+fn gltfpack_output_reads_as_its_source() {
+    let (src, src_tris) = world_vertices(&fixture("gltf/source.gltf"));
+    for f in ["packed.glb", "packed-cc.glb", "packed-mi.glb", "packed-vpn-cc.glb", "packed-vpf-cc.glb"] {
+        let path = fixture(&format!("gltf/{f}"));
+        let (v, tris) = world_vertices(&path);
+        assert_eq!(tris, src_tris, "{f}");
+        let steps = steps(&path);
+        let worst = steps.iter().fold(0.0f64, |a, b| a.max(*b));
+        assert!(worst < 0.05, "{f}: a step of {worst} is not a 14-bit quantization of this model");
+        for (p, step) in v.iter().zip(&steps) {
+            let d = src.iter().map(|q| (*p - *q).abs().max_element()).fold(f64::INFINITY, f64::min);
+            assert!(d <= *step, "{f}: vertex {p} lies {d} from the source's nearest, more than its step {step}");
+        }
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("s.osw");
+        osw_ok(&["build", s(&path), "-o", s(&out)]);
+        check_invariants(&SceneFile::open(&out).unwrap());
+    }
+    let instanced = osw_scene::import::read(&fixture("gltf/packed-mi.glb")).unwrap();
+    assert!(instanced.objects.iter().filter(|o| o.name.contains("instance")).count() >= 4, "EXT_mesh_gpu_instancing was not expanded");
+}
+
+#[test]
+fn draco_corrupt_streams_and_out_of_buffer_accessors_are_named() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("s.osw");
+    osw_err(&["build", s(&fixture("gltf/draco.glb")), "-o", s(&out)], "KHR_draco_mesh_compression");
+    let cases: [(&str, &str, Box<dyn FnOnce(&mut serde_json::Value)>, &str); 4] = [
+        (
+            "packed-cc.glb",
+            "truncated.glb",
+            Box::new(|j| {
+                let m = &mut j["bufferViews"][0]["extensions"]["EXT_meshopt_compression"];
+                m["byteLength"] = json!(m["byteLength"].as_u64().unwrap() / 2);
+            }),
+            "corrupt or truncated",
+        ),
+        (
+            "packed-cc.glb",
+            "past.glb",
+            Box::new(|j| j["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["byteOffset"] = json!(1u64 << 40)),
+            "reach past",
+        ),
+        ("packed.glb", "accessor.glb", Box::new(|j| j["accessors"][0]["count"] = json!(1_000_000)), "reaches past the end of its buffer"),
+        (
+            "packed.glb",
+            "required.glb",
+            Box::new(|j| j["extensionsRequired"] = json!(["KHR_mesh_quantization", "EXT_from_the_future"])),
+            "EXT_from_the_future",
+        ),
+    ];
+    for (from, name, edit, needle) in cases {
+        let p = d.path().join(name);
+        std::fs::write(&p, edit_glb(&fixture(&format!("gltf/{from}")), edit)).unwrap();
+        let err = osw_err(&["build", s(&p), "-o", s(&out)], needle);
+        assert!(err.contains(name), "{err}");
+        assert!(!out.exists());
+    }
+}
+
+/// A glTF of a quad as a list, a strip, a fan and a sparse accessor over a zero base: all four
+/// give the same triangles and positions.
+#[test]
+fn strips_fans_and_sparse_accessors_read_as_the_list() {
+    let d = tempfile::tempdir().unwrap();
+    let quad = [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+    let bin: Vec<u8> = quad.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+    let write = |name: &str, mode: u32, order: &[u32], sparse: bool| {
+        let mut b = bin.clone();
+        let idx_at = b.len();
+        order.iter().for_each(|i| b.extend((*i as u16).to_le_bytes()));
+        while b.len() % 4 != 0 {
+            b.push(0);
+        }
+        let sp_at = b.len();
+        [1u8, 2, 3, 0].iter().for_each(|i| b.push(*i));
+        let pos = if sparse {
+            // Base: no view (zeros); vertices 1, 2, 3 substituted from the first view.
+            json!({"componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0],
+                "sparse": {"count": 3, "indices": {"bufferView": 2, "componentType": 5121}, "values": {"bufferView": 0, "byteOffset": 12}}})
+        } else {
+            json!({"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]})
+        };
+        let uri = format!("data:application/octet-stream;base64,{}", base64::encode(&b));
+        let doc = json!({"asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "mode": mode}]}],
+            "accessors": [pos, {"bufferView": 1, "componentType": 5123, "count": order.len(), "type": "SCALAR"}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": idx_at, "byteLength": order.len() * 2},
+                {"buffer": 0, "byteOffset": sp_at, "byteLength": 3}],
+            "buffers": [{"byteLength": b.len(), "uri": uri}]});
+        let p = d.path().join(name);
+        std::fs::write(&p, serde_json::to_vec(&doc).unwrap()).unwrap();
+        world_triangles(&p)
+    };
+    let list = write("list.gltf", 4, &[0, 1, 2, 0, 2, 3], false);
+    assert_eq!(list.len(), 2);
+    // Strip 1 2 0 3: triangles (1, 2, 0) and (2, 3, 0), the list's two with their winding.
+    assert_eq!(write("strip.gltf", 5, &[1, 2, 0, 3], false), list);
+    assert_eq!(write("fan.gltf", 6, &[0, 1, 2, 3], false), list);
+    assert_eq!(write("sparse.gltf", 4, &[0, 1, 2, 0, 2, 3], true), list);
+}
+
+type Tri = [[f32; 3]; 3];
+
+/// Triangles as corner positions, each rotated to start at its least corner, sorted.
+fn canon(mut t: Vec<Tri>) -> Vec<Tri> {
+    for tri in &mut t {
+        let k = (0..3).min_by(|&a, &b| tri[a].partial_cmp(&tri[b]).unwrap()).unwrap();
+        tri.rotate_left(k);
+    }
+    t.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    t
+}
+
+fn world_triangles(input: &Path) -> Vec<Tri> {
+    let imported = osw_scene::import::read(input).unwrap_or_else(|e| panic!("{e}"));
+    let mut t = Vec::new();
+    for o in &imported.objects {
+        let w = |i: u32| o.placement.transform_point3(glam::Vec3::from_array(o.mesh.positions[i as usize]).as_dvec3()).as_vec3().to_array();
+        t.extend(o.mesh.indices.chunks_exact(3).map(|c| [w(c[0]), w(c[1]), w(c[2])]));
+    }
+    canon(t)
+}
+
+/// The OBJ fixture (objects, a group, polygons, v/vt/vn faces, negative indices, mtllib) reads
+/// as the same triangles written by hand as an ASCII PLY: another reader, another format.
+#[test]
+fn obj_reads_as_the_same_model_in_ply() {
+    let d = tempfile::tempdir().unwrap();
+    let v = [
+        [0.0, 0.0, 0.0],
+        [4.0, 0.0, 0.0],
+        [4.0, 0.0, 2.0],
+        [0.0, 0.0, 2.0],
+        [1.0, 0.5, 1.0],
+        [1.5, 0.5, 1.0],
+        [1.7, 1.0, 1.0],
+        [1.25, 1.4, 1.0],
+        [0.8, 1.0, 1.0],
+        [1.0, 0.5, 1.5],
+        [1.5, 0.5, 1.5],
+    ];
+    let faces = ["4 0 3 2 1", "5 4 5 6 7 8", "4 4 5 10 9"];
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        v.len(),
+        faces.len()
+    );
+    v.iter().for_each(|p: &[f64; 3]| ply += &format!("{} {} {}\n", p[0], p[1], p[2]));
+    faces.iter().for_each(|f| ply += &format!("{f}\n"));
+    let p = d.path().join("model.ply");
+    std::fs::write(&p, ply).unwrap();
+    let obj = fixture("obj/model.obj");
+    assert_eq!(world_triangles(&obj), world_triangles(&p));
+    let objects = osw_scene::import::read(&obj).unwrap().objects;
+    let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["slab", "tank", "tank_side"]);
+    let out = d.path().join("obj.osw");
+    osw_ok(&["build", s(&obj), "-o", s(&out)]);
+    assert_eq!(SceneFile::open(&out).unwrap().header().leaf_triangles, 2 + 3 + 2);
+}
+
+#[test]
+fn bad_obj_names_the_file_and_the_fault() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("s.osw");
+    let p = d.path().join("range.obj");
+    std::fs::write(&p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").unwrap();
+    let err = osw_err(&["build", s(&p), "-o", s(&out)], "index out of range");
+    assert!(err.contains("range.obj"), "{err}");
+    let p = d.path().join("nomtl.obj");
+    std::fs::write(&p, "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let err = osw_err(&["build", s(&p), "-o", s(&out)], "missing.mtl");
+    assert!(err.contains("nomtl.obj") && err.contains("No such file"), "{err}");
+    assert!(!out.exists());
+}
+
+/// Pixels of a frame drawn in `c` under some light (flat shading scales a colour by 0.35 to 1).
+fn shaded_pixels(rgba: &[u8], c: [u8; 3]) -> usize {
+    rgba.chunks_exact(4)
+        .filter(|p| {
+            let k = p[0] as f64 / c[0] as f64;
+            (0.3..=1.01).contains(&k) && (1..3).all(|i| (p[i] as f64 - k * c[i] as f64).abs() <= 3.0)
+        })
+        .count()
+}
+
+/// A walk around the coloured model shows its material colours (linear baseColorFactor, as
+/// sRGB bytes); built with `--colors hashed` it does not. The build reports objects without
+/// a colour.
+#[test]
+fn a_coloured_model_renders_in_its_colours() {
+    let d = tempfile::tempdir().unwrap();
+    let model = fixture("gltf/packed-cc.glb");
+    // sRGB of the source's baseColorFactor (0.8, 0.2, 0.1), (0.2, 0.5, 0.9), (0.9, 0.8, 0.2).
+    let paints = [[231u8, 124, 89], [124, 188, 243], [243, 231, 124]];
+    let mut counts = Vec::new();
+    for colors in ["model", "hashed"] {
+        let scene = d.path().join(format!("{colors}.osw"));
+        let out = osw_ok(&["build", s(&model), "--colors", colors, "-o", s(&scene)]);
+        let uncoloured = if colors == "model" { 0 } else { 8 };
+        assert!(out.contains(&format!("colours: {uncoloured} of 8 objects have none")), "{out}");
+        let path = scene.with_extension("csv");
+        osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "4", "-o", s(&path)]);
+        let run = d.path().join(colors);
+        render(&scene, &path, ("prev", "hybrid"), "0", &run);
+        let (_, _, rgba) = read_png(&frame_path(&run, 1)).unwrap();
+        counts.push(paints.map(|c| shaded_pixels(&rgba, c)));
+    }
+    let pixels = 256 * 256;
+    for (k, c) in paints.iter().enumerate() {
+        assert!(counts[0][k] > pixels / 200, "colour {c:?}: {} pixels in the model's colours", counts[0][k]);
+        assert!(counts[1][k] < counts[0][k] / 10, "colour {c:?}: {} pixels with --colors hashed", counts[1][k]);
+    }
+}

@@ -77,7 +77,12 @@ fn leaves_hold_exactly_the_generators_cleaned_triangles() {
         let scene = SceneFile::open(&path).unwrap();
         let mut want: HashMap<[u32; 9], i64> = HashMap::new();
         let generated = osw_scene::generators::generate(kind.parse().unwrap(), 300_000, 3);
-        for o in generated.objects {
+        let origin = scene.origin();
+        for mut o in generated.objects {
+            // Scene-local: the generator's coordinates less the file's origin, in f64.
+            for p in &mut o.mesh.positions {
+                *p = (glam::Vec3::from_array(*p).as_dvec3() - origin).as_vec3().to_array();
+            }
             let (m, _) = o.mesh.clean().unwrap();
             for t in m.indices.chunks_exact(3) {
                 *want.entry(key([0, 1, 2].map(|k| m.positions[t[k] as usize]))).or_default() += 1;

@@ -23,11 +23,13 @@ pub struct BuildOptions {
     /// Split chunks whose halves' boxes have less than this fraction of their box's surface
     /// area (0: never; see [`crate::limits::LOOSE_SPLIT`]).
     pub loose_split: f32,
+    /// Keep the model's colours (false: every object in its hashed colour).
+    pub model_colors: bool,
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        BuildOptions { chunk_triangles: CHUNK_TRIANGLES, loose_split: LOOSE_SPLIT }
+        BuildOptions { chunk_triangles: CHUNK_TRIANGLES, loose_split: LOOSE_SPLIT, model_colors: true }
     }
 }
 
@@ -48,6 +50,8 @@ pub struct BuildReport {
     pub input: String,
     pub input_triangles: u64,
     pub objects: u64,
+    /// Objects the model gives no colour (drawn in hashed colours), after clean-up.
+    pub objects_without_color: u64,
     pub chunks: u64,
     /// Chunks split in two because their box was loose (see [`crate::chunk`]).
     pub loose_splits: u64,
@@ -124,10 +128,16 @@ pub fn make_scene(
     progress: &dyn Progress,
 ) -> Result<SceneData, BuildError> {
     report.input_triangles = objects.iter().map(|o| o.mesh.triangle_count() as u64).sum();
-    let (objects, origin) = timed(report, "place", |_| crate::place::place(objects));
+    let (mut objects, origin) = timed(report, "place", |_| crate::place::place(objects));
+    let colored = objects.iter().filter(|o| !o.mesh.colors.is_empty()).count();
+    if !opts.model_colors && colored > 0 {
+        objects.iter_mut().for_each(|o| o.mesh.colors = Vec::new());
+        report.left_out.push(format!("the model's colours of {colored} objects (--colors hashed)"));
+    }
     progress.stage("clean", objects.len() as u64);
     let objects = timed(report, "clean", |report| clean(objects, report, progress))?;
     report.objects = objects.len() as u64;
+    report.objects_without_color = objects.iter().filter(|o| o.mesh.colors.is_empty()).count() as u64;
     let scene_box = objects.iter().fold(Aabb::EMPTY, |b, o| b.union(o.mesh.bounds()));
     let min_error = (MIN_RELATIVE_ERROR * scene_box.extent().length()).max(f32::MIN_POSITIVE);
 

@@ -6,7 +6,7 @@
 
 use crate::aabb::Aabb;
 use crate::limits::LOOSE_MIN_TRIANGLES;
-use crate::mesh::{Mesh, sub_mesh};
+use crate::mesh::Mesh;
 use glam::Vec3;
 
 /// How to split.
@@ -47,7 +47,7 @@ pub fn split(mesh: &Mesh, opts: SplitOptions) -> Chunks {
             .map(|part| {
                 let indices: Vec<u32> =
                     part.iter().flat_map(|&t| mesh.indices[t as usize * 3..t as usize * 3 + 3].iter().copied()).collect();
-                sub_mesh(&mesh.positions, &indices)
+                mesh.sub_mesh(&indices)
             })
             .collect(),
     };

@@ -39,6 +39,8 @@ pub struct SceneFile {
 #[derive(Clone, Copy, Debug)]
 pub struct Geometry<'a> {
     pub positions: &'a [[f32; 3]],
+    /// One per vertex, or empty when the block has no colours.
+    pub colors: &'a [[u8; 4]],
     pub indices: Indices<'a>,
 }
 
@@ -157,9 +159,10 @@ impl SceneFile {
 }
 
 fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
-    let (pos, idx) = bytes.split_at(rec.vertex_count as usize * 12);
+    let (pos, rest) = bytes.split_at(rec.vertex_count as usize * 12);
+    let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
     let indices = if rec.index_bytes == 2 { Indices::U16(bytemuck::cast_slice(idx)) } else { Indices::U32(bytemuck::cast_slice(idx)) };
-    Geometry { positions: bytemuck::cast_slice(pos), indices }
+    Geometry { positions: bytemuck::cast_slice(pos), colors: bytemuck::cast_slice(colors), indices }
 }
 
 fn indices_in_range(bytes: &[u8], rec: &BlockRecord) -> bool {
@@ -222,6 +225,7 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     for (i, b) in blocks.iter().enumerate() {
         let ok = b.offset.is_multiple_of(BLOCK_ALIGN)
             && (b.index_bytes == 2 || b.index_bytes == 4)
+            && (b.color_bytes == 0 || b.color_bytes == 4)
             && b.index_count.is_multiple_of(3)
             && b.vertex_count <= MAX_BLOCK_VERTICES
             && b.offset.checked_add(b.byte_len()).is_some_and(|e| e <= h.blob_bytes);

@@ -1,4 +1,4 @@
-//! The scene file format, version 1: one file that the three processes of the cluster map into
+//! The scene file format, version 2: one file that the three processes of the cluster map into
 //! memory and read in place (paper 000, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
@@ -7,7 +7,8 @@
 //! header.nodes_offset   [NodeRecord; node_count]       64 bytes each
 //! header.blocks_offset  [BlockRecord; block_count]     32 bytes each
 //! header.blob_offset    geometry blocks, each BLOCK_ALIGN-aligned:
-//!                       [[f32; 3]; vertex_count] then [u16 or u32; index_count]
+//!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
+//!                       block has colours, then [u16 or u32; index_count]
 //! ```
 //! All integers little-endian. Node ids are dense: ids `0..bvh_count` are BVH nodes in
 //! breadth-first order (root = 0), ids `bvh_count..node_count` are LOD and HLOD nodes, each its
@@ -27,7 +28,8 @@ pub type NodeId = u32;
 pub const NONE: u32 = u32::MAX;
 
 pub const MAGIC: [u8; 8] = *b"OSWSCENE";
-pub const VERSION: u32 = 1;
+/// 2: geometry blocks may carry the model's colours (version 1 had none).
+pub const VERSION: u32 = 2;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -137,16 +139,18 @@ pub struct BlockRecord {
     pub index_count: u32,
     /// 2 or 4.
     pub index_bytes: u32,
-    pub reserved: u32,
+    /// 4 when the block stores an RGBA8 colour per vertex (see [`crate::mesh::Mesh::colors`]),
+    /// else 0.
+    pub color_bytes: u32,
     /// xxh3-64 of the block's bytes.
     pub hash: u64,
 }
 
 impl BlockRecord {
-    /// Bytes of positions, then of indices (positions are 12 bytes a vertex, so indices start
-    /// 4-byte aligned).
+    /// Bytes of positions, colours and indices (positions are 12 bytes a vertex and colours
+    /// 4, so indices start 4-byte aligned).
     pub fn byte_len(&self) -> u64 {
-        self.vertex_count as u64 * 12 + self.index_count as u64 * self.index_bytes as u64
+        self.vertex_count as u64 * (12 + self.color_bytes as u64) + self.index_count as u64 * self.index_bytes as u64
     }
 }
 

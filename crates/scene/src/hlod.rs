@@ -7,7 +7,7 @@
 
 use crate::limits::{HLOD_MAX_FRACTION, HLOD_MAX_TRIANGLES, LOD_TARGET_RATIO};
 use crate::lod::Level;
-use crate::mesh::{Mesh, sub_mesh};
+use crate::mesh::Mesh;
 
 /// Why a group got no HLOD.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -51,7 +51,7 @@ pub fn build(parts: &[&Level], min_error: f32) -> Result<Level, NoHlod> {
     let (indices, rel) = result?;
     let scale = meshopt::simplify_scale(&adapter);
     let inputs_error = parts.iter().map(|p| p.error).fold(0.0, f32::max);
-    Ok(Level { mesh: sub_mesh(&merged.positions, &indices), error: inputs_error + (rel * scale).max(min_error) })
+    Ok(Level { mesh: merged.sub_mesh(&indices), error: inputs_error + (rel * scale).max(min_error) })
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 //! 1 + 1/4 + 1/16 ... of the chunk instead of one pass per level).
 
 use crate::limits::{LOD_MAX_LEVELS, LOD_MIN_REDUCTION, LOD_MIN_TRIANGLES, LOD_TARGET_RATIO};
-use crate::mesh::{Mesh, sub_mesh};
+use crate::mesh::Mesh;
 
 /// One level of a chain: geometry and its object-space error (world units).
 #[derive(Clone, Debug)]
@@ -60,7 +60,7 @@ pub fn chain(mesh: &Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
             break;
         }
         let error = prev.error + (rel * scale).max(min_error);
-        let mesh = sub_mesh(&prev.mesh.positions, &indices);
+        let mesh = prev.mesh.sub_mesh(&indices);
         let small = mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize;
         levels.push(Level { mesh, error });
         if levels.len() == LOD_MAX_LEVELS {

@@ -15,7 +15,14 @@ use glam::Vec3;
 pub struct Mesh {
     pub positions: Vec<[f32; 3]>,
     pub indices: Vec<u32>,
+    /// The model's colour per vertex, RGBA8 as displayed (sRGB), or empty when the model gives
+    /// none. Alpha is 255 for a colour and 0 for [`NO_COLOR`] (a vertex of a mesh merged with
+    /// an uncoloured one), which is drawn in the object's hashed colour.
+    pub colors: Vec<[u8; 4]>,
 }
+
+/// A vertex without a colour from the model, in a mesh whose other vertices have one.
+pub const NO_COLOR: [u8; 4] = [0; 4];
 
 /// One input object: a named mesh and where it stands in the world. Objects are what chunks are
 /// cut from; each keeps its index so that renderers can colour by object.
@@ -45,6 +52,8 @@ pub enum MeshError {
     IndexOutOfRange { at: usize, index: u32, vertices: usize },
     #[error("vertex {vertex} has a non-finite position {pos:?}")]
     NonFinite { vertex: usize, pos: [f32; 3] },
+    #[error("{colors} colours for {vertices} vertices")]
+    Colors { colors: usize, vertices: usize },
 }
 
 /// Counts of what [`Mesh::clean`] removed.
@@ -90,6 +99,9 @@ impl Mesh {
         if let Some((at, &index)) = self.indices.iter().enumerate().find(|(_, i)| **i as usize >= n) {
             return Err(MeshError::IndexOutOfRange { at, index, vertices: n });
         }
+        if !self.colors.is_empty() && self.colors.len() != n {
+            return Err(MeshError::Colors { colors: self.colors.len(), vertices: n });
+        }
         Ok(())
     }
 
@@ -116,14 +128,47 @@ impl Mesh {
 
     /// A copy holding only the vertices the indices use, in first-use order.
     pub fn compacted(&self) -> Mesh {
-        sub_mesh(&self.positions, &self.indices)
+        self.sub_mesh(&self.indices)
     }
 
-    /// Appends `o`, offsetting its indices.
+    /// The mesh made of `indices` into this mesh's vertices, with only the used vertices (and
+    /// their colours), in first-use order.
+    pub fn sub_mesh(&self, indices: &[u32]) -> Mesh {
+        let mut map = vec![u32::MAX; self.positions.len()];
+        let mut out = Mesh { indices: Vec::with_capacity(indices.len()), ..Mesh::default() };
+        for &i in indices {
+            let slot = &mut map[i as usize];
+            if *slot == u32::MAX {
+                *slot = out.positions.len() as u32;
+                out.positions.push(self.positions[i as usize]);
+                if let Some(c) = self.colors.get(i as usize) {
+                    out.colors.push(*c);
+                }
+            }
+            out.indices.push(*slot);
+        }
+        out
+    }
+
+    /// Appends `o`, offsetting its indices. When only one of the two has colours, the other's
+    /// vertices get [`NO_COLOR`].
     pub fn append(&mut self, o: &Mesh) {
         let base = self.positions.len() as u32;
+        if self.colors.is_empty() != o.colors.is_empty() {
+            self.colors.resize(self.positions.len(), NO_COLOR);
+        }
         self.positions.extend_from_slice(&o.positions);
         self.indices.extend(o.indices.iter().map(|i| i + base));
+        match o.colors.is_empty() {
+            false => self.colors.extend_from_slice(&o.colors),
+            true if !self.colors.is_empty() => self.colors.resize(self.positions.len(), NO_COLOR),
+            true => {}
+        }
+    }
+
+    /// Gives every vertex the colour `c` (alpha forced to 255: osw draws opaque surfaces).
+    pub fn paint(&mut self, c: [u8; 4]) {
+        self.colors = vec![[c[0], c[1], c[2], 255]; self.positions.len()];
     }
 
     /// Adds a triangle by its three corners (no welding).
@@ -140,29 +185,21 @@ impl Mesh {
         }
     }
 
-    /// Merges vertices with bit-identical positions (meshoptimizer's remap), so that the
-    /// simplifier sees a connected surface in inputs that repeat corners per triangle.
+    /// Merges vertices with bit-identical positions and colours (meshoptimizer's remap), so
+    /// that the simplifier sees a connected surface in inputs that repeat corners per triangle.
     pub fn welded(&self) -> Mesh {
-        let (unique, remap) = meshopt::generate_vertex_remap(&self.positions, Some(&self.indices));
+        let keys: Vec<[u32; 4]> = (0..self.positions.len())
+            .map(|i| {
+                let p = self.positions[i].map(f32::to_bits);
+                [p[0], p[1], p[2], self.colors.get(i).map_or(0, |c| u32::from_le_bytes(*c))]
+            })
+            .collect();
+        let (unique, remap) = meshopt::generate_vertex_remap(&keys, Some(&self.indices));
+        let colors = if self.colors.is_empty() { Vec::new() } else { meshopt::remap_vertex_buffer(&self.colors, unique, &remap) };
         let positions = meshopt::remap_vertex_buffer(&self.positions, unique, &remap);
         let indices = meshopt::remap_index_buffer(Some(&self.indices), self.indices.len(), &remap);
-        Mesh { positions, indices }
+        Mesh { positions, indices, colors }
     }
-}
-
-/// The mesh made of `indices` into `positions`, with only the used vertices, in first-use order.
-pub fn sub_mesh(positions: &[[f32; 3]], indices: &[u32]) -> Mesh {
-    let mut map = vec![u32::MAX; positions.len()];
-    let mut out = Mesh { positions: Vec::new(), indices: Vec::with_capacity(indices.len()) };
-    for &i in indices {
-        let slot = &mut map[i as usize];
-        if *slot == u32::MAX {
-            *slot = out.positions.len() as u32;
-            out.positions.push(positions[i as usize]);
-        }
-        out.indices.push(*slot);
-    }
-    out
 }
 
 #[cfg(test)]
@@ -170,7 +207,11 @@ mod tests {
     use super::*;
 
     fn quad() -> Mesh {
-        Mesh { positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]], indices: vec![0, 1, 2, 0, 2, 3] }
+        Mesh {
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            indices: vec![0, 1, 2, 0, 2, 3],
+            colors: Vec::new(),
+        }
     }
 
     #[test]
@@ -196,6 +237,28 @@ mod tests {
         let mut m = quad();
         m.indices.pop();
         assert_eq!(m.validate(), Err(MeshError::RaggedIndices(5)));
+    }
+
+    #[test]
+    fn colours_follow_their_vertices_through_append_clean_and_weld() {
+        let mut red = quad();
+        red.paint([255, 0, 0, 7]);
+        let mut m = quad();
+        m.append(&red);
+        assert_eq!(m.colors.len(), 8);
+        assert_eq!(&m.colors[..4], &[NO_COLOR; 4]);
+        assert_eq!(&m.colors[4..], &[[255, 0, 0, 255]; 4]);
+        m.validate().unwrap();
+        // Drop the uncoloured quad's triangles: the red vertices remain, with their colour.
+        m.indices.drain(..6);
+        let (c, _) = m.clone().clean().unwrap();
+        assert_eq!(c.colors, vec![[255, 0, 0, 255]; 4]);
+        // Same positions, different colours: not merged.
+        let mut both = quad();
+        both.append(&red);
+        assert_eq!(both.welded().positions.len(), 8);
+        m.colors.pop();
+        assert_eq!(m.validate(), Err(MeshError::Colors { colors: 7, vertices: 8 }));
     }
 
     #[test]

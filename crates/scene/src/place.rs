@@ -21,7 +21,8 @@ pub fn origin_of(min: DVec3, max: DVec3) -> DVec3 {
     if min.cmpgt(max).any() {
         return DVec3::ZERO;
     }
-    ((min + max) * 0.5).round()
+    // Halves first: the sum of two coordinates near f64::MAX would overflow.
+    (min * 0.5 + max * 0.5).round()
 }
 
 /// An anchor for positions given in f64 (PLY `double`, OBJ): [`origin_of`] their bounds.
@@ -59,8 +60,9 @@ pub fn place(mut objects: Vec<Object>) -> (Vec<Object>, DVec3) {
     (objects, origin)
 }
 
+/// Bounds of the finite points (a non-finite one is an error the clean-up reports by object).
 fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
-    points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)))
+    points.filter(|p| p.is_finite()).fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)))
 }
 
 #[cfg(test)]
@@ -69,13 +71,16 @@ mod tests {
     use crate::mesh::Mesh;
 
     fn object(points: &[[f32; 3]], placement: DAffine3) -> Object {
-        Object { name: "o".into(), mesh: Mesh { positions: points.to_vec(), indices: vec![0, 1, 2] }, placement }
+        Object { name: "o".into(), mesh: Mesh { positions: points.to_vec(), indices: vec![0, 1, 2], colors: Vec::new() }, placement }
     }
 
     #[test]
     fn origin_is_the_rounded_centre() {
         assert_eq!(origin_of(DVec3::new(-1.0, 2.0, 10.0), DVec3::new(1.0, 3.0, 13.2)), DVec3::new(0.0, 3.0, 12.0));
         assert_eq!(origin_of(DVec3::INFINITY, DVec3::NEG_INFINITY), DVec3::ZERO);
+        assert_eq!(origin_of(DVec3::splat(f64::MAX), DVec3::splat(f64::MAX)), DVec3::splat(f64::MAX));
+        let (min, max) = bounds([DVec3::ONE, DVec3::NAN, DVec3::INFINITY, DVec3::splat(3.0)].into_iter());
+        assert_eq!(origin_of(min, max), DVec3::splat(2.0));
     }
 
     #[test]

@@ -24,10 +24,12 @@ fn align(x: u64) -> u64 {
     x.div_ceil(BLOCK_ALIGN) * BLOCK_ALIGN
 }
 
-/// The bytes of one block: positions, then u16 indices when every index fits, else u32.
+/// The bytes of one block: positions, colours if any, then u16 indices when every index fits,
+/// else u32.
 fn block_bytes(mesh: &Mesh) -> (Vec<u8>, u32) {
-    let mut bytes = Vec::with_capacity(mesh.positions.len() * 12 + mesh.indices.len() * 4);
+    let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + mesh.indices.len() * 4);
     bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
+    bytes.extend_from_slice(mesh.colors.as_flattened());
     if mesh.positions.len() <= 1 << 16 {
         bytes.extend(mesh.indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
         (bytes, 2)
@@ -69,7 +71,7 @@ pub fn write_scene(path: &Path, scene: &SceneData) -> std::io::Result<(u64, [u64
             vertex_count: mesh.positions.len() as u32,
             index_count: mesh.indices.len() as u32,
             index_bytes: *index_bytes,
-            reserved: 0,
+            color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
             hash: 0,
         });
         offset = align(offset + bytes.len() as u64);

@@ -10,15 +10,18 @@ struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) rel: vec3<f32>,
     @location(1) @interpolate(flat) node: u32,
+    // The model's colour; alpha 0 where it has none.
+    @location(2) color: vec4<f32>,
 }
 
 @vertex
-fn vs_main(@location(0) position: vec3<f32>, @location(1) node: u32) -> VertexOut {
+fn vs_main(@location(0) position: vec3<f32>, @location(1) node: u32, @location(2) color: vec4<f32>) -> VertexOut {
     let rel = position + view.offset.xyz;
     var out: VertexOut;
     out.clip = view.view_proj * vec4<f32>(rel, 1.0);
     out.rel = rel;
     out.node = node;
+    out.color = color;
     return out;
 }
 
@@ -35,6 +38,9 @@ fn fs_color(in: VertexOut) -> @location(0) vec4<f32> {
     let n = normalize(cross(dpdx(in.rel), dpdy(in.rel)));
     let h = hash(objects[in.node]);
     var base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
+    if (in.color.a > 0.5) {
+        base = in.color.rgb;
+    }
     if (view.tint.x != 0u) {
         base = unpack4x8unorm(view.tint.x).rgb;
     }

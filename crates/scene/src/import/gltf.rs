@@ -21,20 +21,25 @@ use std::path::Path;
 
 /// Reads the glTF or GLB file at `path`, loading its buffers (files beside it or data URIs).
 pub fn read(path: &Path) -> Result<Imported, ImportError> {
-    let bad = |what: String| ImportError::Malformed { path: path.to_owned(), what };
     let bytes = std::fs::read(path).map_err(|error| ImportError::Io { path: path.to_owned(), error })?;
+    parse(&bytes, path.parent().unwrap_or(Path::new("."))).map_err(|what| ImportError::Malformed { path: path.to_owned(), what })
+}
+
+/// Parses glTF or GLB bytes whose external buffers lie in `base`. Errors say what is wrong.
+pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
     let (json, blob) = if bytes.starts_with(b"glTF") {
-        let glb = gltf::binary::Glb::from_slice(&bytes).map_err(|e| bad(format!("not a valid GLB: {e}")))?;
+        let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| format!("not a valid GLB: {e}"))?;
         (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
     } else {
-        (bytes, None)
+        (bytes.to_vec(), None)
     };
-    let root: gltf::json::Root = gltf::json::deserialize::from_slice(&json).map_err(|e| bad(format!("not valid glTF: {e}")))?;
-    validate(&root).map_err(bad)?;
-    let raw: Raw = serde_json::from_slice(&json).map_err(|e| bad(format!("not valid glTF: {e}")))?;
-    raw.check_extensions().map_err(bad)?;
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(&json).map_err(|e| format!("not valid glTF: {e}"))?;
+    let raw: Raw = serde_json::from_slice(&json).map_err(|e| format!("not valid glTF: {e}"))?;
+    raw.check_extensions()?;
+    raw.check_attributes()?;
+    validate(&root)?;
     let doc = gltf::Document::from_json_without_validation(root);
-    let buffers = load_buffers(&doc, &raw, path.parent().unwrap_or(Path::new(".")), blob).map_err(bad)?;
+    let buffers = load_buffers(&doc, &raw, base, blob)?;
     let buffers: Vec<&[u8]> = buffers.iter().map(Vec::as_slice).collect();
 
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
@@ -45,20 +50,20 @@ pub fn read(path: &Path) -> Result<Imported, ImportError> {
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots.into_iter().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
-            return Err(bad("node hierarchy deeper than 256 (a cycle?)".into()));
+            return Err("node hierarchy deeper than 256 (a cycle?)".into());
         }
-        let raw_node = &raw.nodes[node.index()];
+        let raw_node = raw.nodes.get(node.index()).ok_or("node table unreadable")?;
         let world = parent * raw_node.local();
         if !world.is_finite() {
-            return Err(bad(format!("node {} has a non-finite transform", node.index())));
+            return Err(format!("node {} has a non-finite transform", node.index()));
         }
         if let Some(mesh) = node.mesh() {
-            let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| bad(format!("mesh {}: {e}", mesh.index())))?;
+            let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| format!("mesh {}: {e}", mesh.index()))?;
             let name = node.name().or(mesh.name()).map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
             match &raw_node.extensions.instancing {
                 None => out.objects.push(Object { name, mesh: m, placement: DAffine3::from_mat4(world) }),
                 Some(inst) => {
-                    let at = |e: String| bad(format!("node {} EXT_mesh_gpu_instancing: {e}", node.index()));
+                    let at = |e: String| format!("node {} EXT_mesh_gpu_instancing: {e}", node.index());
                     for (k, t) in instances(inst, &doc, &buffers).map_err(at)?.into_iter().enumerate() {
                         let placement = DAffine3::from_mat4(world * t);
                         if !placement.is_finite() {
@@ -149,7 +154,48 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<Mesh, String> 
         }
         None => (0..positions.len() as u32).collect(),
     };
-    Ok(Mesh { positions, indices: triangle_list(prim.mode(), &order) })
+    let colors = colors(prim, buffers, positions.len())?;
+    Ok(Mesh { positions, indices: triangle_list(prim.mode(), &order), colors })
+}
+
+/// The primitive's colour per vertex: COLOR_0 times the material's baseColorFactor, both
+/// linear (glTF 2.0 sec. 3.9.2), encoded as sRGB bytes as osw displays them. None (empty) for a
+/// primitive with neither a material nor COLOR_0 (glTF's default material is plain white,
+/// which would hide the objects from each other).
+fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<Vec<[u8; 4]>, String> {
+    let material = prim.material();
+    let color0 = prim.get(&gltf::Semantic::Colors(0));
+    if material.index().is_none() && color0.is_none() {
+        return Ok(Vec::new());
+    }
+    let base = material.pbr_metallic_roughness().base_color_factor();
+    let per_vertex: Vec<[f32; 4]> = match color0 {
+        None => vec![[1.0; 4]; vertices],
+        Some(acc) => {
+            let rgba = match acc.dimensions() {
+                Dimensions::Vec3 => floats::<3>(&acc, buffers).map(|v| v.into_iter().map(|[r, g, b]| [r, g, b, 1.0]).collect()),
+                Dimensions::Vec4 => floats::<4>(&acc, buffers),
+                d => return Err(format!("COLOR_0 is {d:?}, expected VEC3 or VEC4")),
+            }
+            .map_err(|e| format!("COLOR_0: {e}"))?;
+            if rgba.len() != vertices {
+                return Err(format!("COLOR_0 has {} elements for {vertices} vertices", rgba.len()));
+            }
+            rgba
+        }
+    };
+    let encode = |c: [f32; 4]| {
+        let e = |k: usize| srgb8(c[k] * base[k]);
+        [e(0), e(1), e(2), 255]
+    };
+    Ok(per_vertex.into_iter().map(encode).collect())
+}
+
+/// A linear colour channel as an sRGB byte.
+fn srgb8(linear: f32) -> u8 {
+    let c = linear.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0).round() as u8
 }
 
 /// A triangle list from the vertex order of a list, strip or fan (glTF 2.0 sec. 3.7.2.1).
@@ -270,5 +316,10 @@ mod tests {
         assert_eq!(triangle_list(Mode::TriangleFan, &v), vec![11, 12, 10, 12, 13, 10, 13, 14, 10]);
         assert_eq!(triangle_list(Mode::Triangles, &v), vec![10, 11, 12]);
         assert!(triangle_list(Mode::TriangleStrip, &v[..2]).is_empty());
+    }
+
+    #[test]
+    fn linear_colours_are_encoded_as_srgb() {
+        assert_eq!([0.0, 0.5, 1.0, 2.0, -1.0].map(srgb8), [0, 188, 255, 255, 0]);
     }
 }

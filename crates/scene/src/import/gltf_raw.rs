@@ -20,6 +20,7 @@ pub struct Raw {
     pub buffers: Vec<Buffer>,
     pub buffer_views: Vec<View>,
     pub meshes: Vec<Mesh>,
+    pub accessors: Vec<serde::de::IgnoredAny>,
     pub extensions_required: Vec<String>,
 }
 
@@ -104,6 +105,7 @@ pub struct Mesh {
 #[derive(Debug, Default, Deserialize)]
 #[serde(default)]
 pub struct Primitive {
+    pub attributes: BTreeMap<String, serde_json::Value>,
     pub extensions: BTreeMap<String, serde::de::IgnoredAny>,
 }
 
@@ -124,6 +126,23 @@ impl Raw {
             Some(e) => Err(format!("requires extension {e}, which osw does not read (it reads {})", READ.join(", "))),
             None => Ok(()),
         }
+    }
+}
+
+impl Raw {
+    /// Checks what the `gltf` crate's validation reads unchecked (gltf-json 1.4.1 indexes the
+    /// accessor of a primitive's POSITION before checking that it exists, and panics).
+    pub fn check_attributes(&self) -> Result<(), String> {
+        for (m, mesh) in self.meshes.iter().enumerate() {
+            for (p, prim) in mesh.primitives.iter().enumerate() {
+                for (name, index) in &prim.attributes {
+                    if index.as_u64().is_none_or(|i| i >= self.accessors.len() as u64) {
+                        return Err(format!("meshes[{m}].primitives[{p}].attributes.{name}: accessor {index} does not exist"));
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -164,5 +183,13 @@ mod tests {
         assert!(raw.check_extensions().unwrap_err().contains("EXT_weird"));
         let raw: Raw = serde_json::from_str(r#"{"extensionsRequired":["KHR_mesh_quantization","KHR_texture_basisu"]}"#).unwrap();
         assert!(raw.check_extensions().is_ok());
+    }
+
+    #[test]
+    fn attributes_naming_missing_accessors_are_refused() {
+        let raw: Raw = serde_json::from_str(r#"{"accessors":[{}],"meshes":[{"primitives":[{"attributes":{"POSITION":1}}]}]}"#).unwrap();
+        assert!(raw.check_attributes().unwrap_err().contains("POSITION: accessor 1 does not exist"));
+        let raw: Raw = serde_json::from_str(r#"{"accessors":[{}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]}"#).unwrap();
+        assert!(raw.check_attributes().is_ok());
     }
 }

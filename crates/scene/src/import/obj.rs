@@ -1,7 +1,7 @@
 //! Wavefront OBJ reader (through `tobj`, positions in f64): every object (`o`) and group (`g`)
 //! becomes an object, polygons are fanned into triangles, negative (relative) indices are
 //! resolved; points and lines are skipped. The material libraries it names (`mtllib`, beside
-//! the file) must be readable. All objects of a file share one f32 anchor (see
+//! the file) must be readable; an object's material gives its colour (Kd). All objects of a file share one f32 anchor (see
 //! [`crate::place`]).
 
 use super::{ImportError, Imported};
@@ -12,9 +12,13 @@ use std::path::{Path, PathBuf};
 
 /// Reads the OBJ file at `path` and the material libraries it names.
 pub fn read(path: &Path) -> Result<Imported, ImportError> {
-    let bad = |what: String| ImportError::Malformed { path: path.to_owned(), what };
     let file = std::fs::File::open(path).map_err(|error| ImportError::Io { path: path.to_owned(), error })?;
-    let base = path.parent().unwrap_or(Path::new(".")).to_owned();
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse(&mut std::io::BufReader::new(file), base).map_err(|what| ImportError::Malformed { path: path.to_owned(), what })
+}
+
+/// Parses OBJ text whose material libraries lie in `base`. Errors say what is wrong.
+pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, String> {
     let failed_mtl: RefCell<Option<(PathBuf, String)>> = RefCell::new(None);
     let load_mtl = |name: &Path| {
         let full = base.join(name);
@@ -29,11 +33,11 @@ pub fn read(path: &Path) -> Result<Imported, ImportError> {
         r
     };
     let opts = tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
-    let (models, materials) = tobj::load_obj_buf(&mut std::io::BufReader::new(file), &opts, load_mtl).map_err(|e| bad(describe(e)))?;
+    let (models, materials) = tobj::load_obj_buf(obj, &opts, load_mtl).map_err(describe)?;
     if let Some((mtl, why)) = failed_mtl.into_inner() {
-        return Err(bad(format!("material library {}: {why}", mtl.display())));
+        return Err(format!("material library {}: {why}", mtl.display()));
     }
-    materials.map_err(|e| bad(format!("material library: {e}")))?;
+    let materials = materials.map_err(|e| format!("material library: {e}"))?;
 
     let points = models.iter().flat_map(|m| m.mesh.positions.chunks_exact(3)).map(|p| DVec3::new(p[0], p[1], p[2]));
     let anchor = crate::place::anchor(points);
@@ -42,7 +46,12 @@ pub fn read(path: &Path) -> Result<Imported, ImportError> {
         .enumerate()
         .map(|(i, m)| {
             let p: Vec<[f64; 3]> = m.mesh.positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-            let mesh = Mesh { positions: crate::place::relative(&p, anchor), indices: m.mesh.indices };
+            let mut mesh = Mesh { positions: crate::place::relative(&p, anchor), indices: m.mesh.indices, colors: Vec::new() };
+            // Kd, the diffuse colour, as display values (what OBJ viewers show).
+            if let Some(kd) = m.mesh.material_id.and_then(|id| materials.get(id)).and_then(|mat| mat.diffuse) {
+                let c = |k: usize| (kd[k].clamp(0.0, 1.0) * 255.0).round() as u8;
+                mesh.paint([c(0), c(1), c(2), 255]);
+            }
             let name = if m.name.is_empty() { format!("object {i}") } else { m.name };
             Object { name, mesh, placement: DAffine3::from_translation(anchor) }
         })

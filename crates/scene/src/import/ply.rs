@@ -1,7 +1,8 @@
 //! PLY reader (ASCII, binary little- and big-endian): the `vertex` element's x, y, z (float or
 //! double: survey and scan tools write large coordinates as double, which are kept in f64 up to
 //! the scene's origin, see [`crate::place`]) and the `face` element's vertex index list;
-//! polygons are fanned into triangles; every other element and property is skipped.
+//! polygons are fanned into triangles; the vertices' `red`, `green`, `blue` (bytes, or floats
+//! from 0 to 1) are their colours; every other element and property is skipped.
 
 use super::ImportError;
 use crate::mesh::{Mesh, Object};
@@ -159,8 +160,11 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
     };
     let mut positions: Vec<[f64; 3]> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
+    let mut colors: Vec<[u8; 4]> = Vec::new();
     for el in &elements {
         let xyz = ["x", "y", "z"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
+        let rgb = ["red", "green", "blue"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
+        let has_rgb = el.name == "vertex" && rgb.iter().all(Option::is_some);
         let faces = el.props.iter().position(|p| (p.name == "vertex_indices" || p.name == "vertex_index") && p.list.is_some());
         if el.name == "vertex" && xyz.iter().any(Option::is_none) {
             return Err("vertex element without x, y, z".into());
@@ -171,6 +175,7 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
         }
         for i in 0..el.count {
             let mut p = [0f64; 3];
+            let mut c = [0u8, 0, 0, 255];
             for (k, prop) in el.props.iter().enumerate() {
                 let at = |e: String| format!("element {} {i}, property {}: {e}", el.name, prop.name);
                 match prop.list {
@@ -178,6 +183,9 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
                         let v = src.value(prop.ty).map_err(at)?;
                         if let Some(axis) = xyz.iter().position(|&a| a == Some(k)) {
                             p[axis] = v;
+                        } else if let Some(ch) = rgb.iter().position(|&a| a == Some(k)) {
+                            let unit = matches!(prop.ty, Scalar::F32 | Scalar::F64);
+                            c[ch] = if unit { v * 255.0 } else { v }.round().clamp(0.0, 255.0) as u8;
                         }
                     }
                     Some(count_ty) => {
@@ -199,11 +207,14 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
             }
             if el.name == "vertex" {
                 positions.push(p);
+                if has_rgb {
+                    colors.push(c);
+                }
             }
         }
     }
     let anchor = crate::place::anchor(positions.iter().map(|p| glam::DVec3::from_array(*p)));
-    let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices };
+    let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices, colors };
     Ok(Object { name: String::new(), mesh, placement: glam::DAffine3::from_translation(anchor) })
 }
 
@@ -230,10 +241,11 @@ mod tests {
     /// The triangle at `corners` as binary big-endian PLY with double coordinates, with a
     /// 16-bit face count and an unsigned index list as some scanners write it.
     fn big_endian_double(corners: [[f64; 3]; 3]) -> Vec<u8> {
-        let mut b = b"ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nelement face 1\nproperty list ushort uint vertex_indices\nend_header\n".to_vec();
+        let mut b = b"ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty float blue\nelement face 1\nproperty list ushort uint vertex_indices\nend_header\n".to_vec();
         for v in corners {
             v.iter().for_each(|c| b.extend(c.to_be_bytes()));
-            b.push(200);
+            b.extend([200, 100]);
+            b.extend((50f32 / 255.0).to_be_bytes());
         }
         b.extend(3u16.to_be_bytes());
         [0u32, 1, 2].iter().for_each(|i| b.extend(i.to_be_bytes()));
@@ -250,6 +262,8 @@ mod tests {
         let m = parse(ASCII.as_bytes()).unwrap().mesh;
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![0, 1, 2, 0, 2, 3]);
+        // red alone (no green, blue) is no colour.
+        assert!(m.colors.is_empty());
     }
 
     #[test]
@@ -266,6 +280,7 @@ mod tests {
         let c = [[1e9 + 0.001, 2e9, -3e9], [1e9 + 0.251, 2e9, -3e9], [1e9 + 0.001, 2e9 + 0.25, -3e9]];
         let o = parse(&big_endian_double(c)).unwrap();
         assert_eq!(o.mesh.indices, vec![0, 1, 2]);
+        assert_eq!(o.mesh.colors, vec![[200, 100, 50, 255]; 3]);
         for (w, c) in world(&o).iter().zip(&c) {
             for k in 0..3 {
                 assert!((w[k] - c[k]).abs() < 1e-7, "{w:?} vs {c:?}");

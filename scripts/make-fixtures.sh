@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Makes the glTF fixtures of the import tests with the real tools, from the npm registry and run
+# under node: gltfpack (quantized by default, -cc meshopt-compressed, -mi instanced, -vpn and
+# -vpf other position encodings) and gltf-transform (Draco). The source model is written by
+# scripts/fixtures/source-model.js. Writes into crates/osw/tests/fixtures/gltf/ (committed; run
+# this again after changing the source or the tools' versions).
+# Usage: scripts/make-fixtures.sh [OUT_DIR]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out="${1:-crates/osw/tests/fixtures/gltf}"
+tools="${OSW_NPM_TOOLS:-$HOME/.cache/osw/npm-tools}"
+for tool in npm node; do
+  command -v "$tool" >/dev/null || { echo "make-fixtures: '$tool' is needed (apt-get install -y nodejs npm)" >&2; exit 1; }
+done
+if [ ! -x "$tools/node_modules/.bin/gltfpack" ] || [ ! -x "$tools/node_modules/.bin/gltf-transform" ]; then
+  mkdir -p "$tools"
+  npm install --silent --no-audit --no-fund --prefix "$tools" gltfpack@1.3.0 @gltf-transform/cli@4.5.1 >&2
+fi
+pack="$tools/node_modules/.bin/gltfpack"
+transform="$tools/node_modules/.bin/gltf-transform"
+mkdir -p "$out"
+node scripts/fixtures/source-model.js "$out/source.gltf"
+"$pack" -i "$out/source.gltf" -o "$out/packed.glb" >/dev/null
+"$pack" -i "$out/source.gltf" -o "$out/packed-cc.glb" -cc >/dev/null
+"$pack" -i "$out/source.gltf" -o "$out/packed-mi.glb" -mi >/dev/null
+"$pack" -i "$out/source.gltf" -o "$out/packed-vpn-cc.glb" -vpn -cc >/dev/null
+"$pack" -i "$out/source.gltf" -o "$out/packed-vpf-cc.glb" -vpf -cc >/dev/null
+"$transform" draco "$out/source.gltf" "$out/draco.glb" >/dev/null
+ls -l "$out"
