@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Long fuzz runs of every decoder with cargo fuzz (libFuzzer): protocol frames, scene file
-# header and tables, camera path CSV, cluster config, the glTF, OBJ and PLY readers. The targets are crates/fuzz/src; the
-# seeds crates/fuzz/libfuzzer/seeds; each run's corpus grows in out/fuzz/corpus/TARGET.
+# header and tables, camera path CSV, cluster config, and the glTF (with its meshopt decoders),
+# OBJ and PLY readers. The targets are crates/fuzz/src; the seeds crates/fuzz/libfuzzer/seeds;
+# each run's corpus grows in out/fuzz/corpus/TARGET.
 #
 #   scripts/fuzz.sh [--runs N] [TARGET...]     (default: 10000000 runs of each target)
 #
@@ -15,7 +16,7 @@ runs=10000000 targets=()
 while (($#)); do
   case "$1" in
     --runs) runs=$2; shift 2 ;;
-    -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) targets+=("$1"); shift ;;
   esac
 done
