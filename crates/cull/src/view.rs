@@ -58,6 +58,12 @@ impl View {
         (proj * view).as_mat4()
     }
 
+    /// The same view with a frustum that keeps everything: for references that must not share
+    /// the frustum test they judge.
+    pub fn without_frustum(&self) -> View {
+        View { frustum: Frustum::everything(), ..self.clone() }
+    }
+
     /// What to add to a scene-local position to make it camera-relative.
     pub fn offset(&self) -> Vec3 {
         (-self.eye).as_vec3()
@@ -73,4 +79,9 @@ impl View {
 /// nearby geometry, large enough to keep depth precision (reversed Z keeps it nearly uniform).
 pub fn near_for(diag: f64) -> f64 {
     (diag * 1e-5).clamp(1e-6, 0.05)
+}
+
+/// The near plane every renderer uses for `scene`: [`near_for`] its root box's diagonal.
+pub fn near_of(scene: &osw_scene::SceneFile) -> f64 {
+    near_for(scene.node(0).aabb().extent().length() as f64)
 }

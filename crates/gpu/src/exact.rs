@@ -1,13 +1,27 @@
-//! Exact visibility by item buffer (paper 000 sec. 5): the scene as frustum culling draws it at
-//! tau, each LOD node with its id and each triangle's index; the ids left in the image are
-//! exactly the visible nodes and triangles at this resolution. At tau 0 that is every leaf in
-//! the frustum at full detail (the paper's reference); at tau > 0 it is the image a person sees
-//! at that tau, so that culling error can be told apart from LOD error.
+//! Exact visibility by item buffer (paper 000 sec. 5): the scene drawn with each LOD node's id
+//! and each triangle's index; the ids left in the image are exactly the visible nodes and
+//! triangles at this resolution. At tau 0 that is every leaf at full detail (the paper's
+//! reference); at tau > 0 it is the image a person sees at that tau, so that culling error can
+//! be told apart from LOD error.
+//!
+//! The reference shares nothing with the culling it judges ([`Reference::Independent`]): at tau
+//! 0 it draws every leaf's level 0, found by scanning the node table, and lets the GPU clip; at
+//! tau > 0 it takes the LOD cut at tau without a frustum. [`Reference::FrustumCut`] draws the cut
+//! frustum culling makes (faster on large scenes, but a frustum bug is then shared).
 
 use crate::draw::Pass;
 use crate::renderer::{RenderError, Renderer};
 use osw_cull::{AllVisible, View, hardware_cull};
-use osw_scene::NodeId;
+use osw_scene::{NodeId, NodeKind, SceneFile};
+
+/// What the item buffer draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reference {
+    /// Everything, clipped by the GPU: no CPU frustum test, at tau 0 no traversal either.
+    Independent,
+    /// The frustum-culled LOD cut, as `vfc` draws it.
+    FrustumCut,
+}
 
 /// Exact visibility of one frame.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -17,22 +31,41 @@ pub struct ExactFrame {
     pub leaves: Vec<NodeId>,
     /// Distinct visible triangles.
     pub triangles: u64,
+    /// Triangles drawn into the item buffer (the scene's full-detail count for the independent
+    /// reference at tau 0).
+    pub drawn_triangles: u64,
+}
+
+/// The LOD nodes the item buffer draws.
+fn drawn(scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Vec<NodeId> {
+    let mut ids = Vec::new();
+    match reference {
+        Reference::Independent if tau == 0.0 => {
+            ids.extend((0..scene.bvh_count()).map(|id| scene.node(id)).filter(|n| n.kind() == NodeKind::Leaf).map(|n| n.first_lod))
+        }
+        Reference::Independent => {
+            hardware_cull(scene.nodes(), &view.without_frustum(), tau, &mut AllVisible, &mut ids);
+        }
+        Reference::FrustumCut => {
+            hardware_cull(scene.nodes(), view, tau, &mut AllVisible, &mut ids);
+        }
+    }
+    // Sorted: where two surfaces tie in depth the first drawn keeps the pixel.
+    ids.sort_unstable();
+    ids
 }
 
 impl Renderer {
-    pub fn exact(&mut self, view: &View, tau: f64) -> Result<ExactFrame, RenderError> {
+    pub fn exact(&mut self, view: &View, tau: f64, reference: Reference) -> Result<ExactFrame, RenderError> {
         let scene = std::sync::Arc::clone(&self.scene);
-        let mut front = Vec::new();
-        hardware_cull(scene.nodes(), view, tau, &mut AllVisible, &mut front);
-        // Sorted: where two surfaces tie in depth the first drawn keeps the pixel.
-        front.sort_unstable();
-        self.draw(view, &front, Pass::Item, true)?;
+        let ids = drawn(&scene, view, tau, reference);
+        let drawn = self.draw(view, &ids, Pass::Item, true)?;
         let mut items: Vec<[u32; 2]> = self.target.read_item(&self.gpu)?.into_iter().filter(|i| i[0] != 0).collect();
         items.sort_unstable();
         items.dedup();
         let mut leaves: Vec<NodeId> = items.iter().map(|i| scene.node(i[0] - 1).parent).collect();
         leaves.sort_unstable();
         leaves.dedup();
-        Ok(ExactFrame { leaves, triangles: items.len() as u64 })
+        Ok(ExactFrame { leaves, triangles: items.len() as u64, drawn_triangles: drawn.triangles })
     }
 }

@@ -150,10 +150,9 @@ impl Renderer {
         })
     }
 
-    /// Near plane for this scene (see [`osw_cull::view::near_for`]).
+    /// The view of `camera` with this scene's near plane (see [`osw_cull::view::near_of`]).
     pub fn view(&self, camera: &osw_scene::Camera) -> View {
-        let diag = self.scene.node(0).aabb().extent().length() as f64;
-        View::new(camera, self.scene.origin(), self.target.width, self.target.height, osw_cull::view::near_for(diag))
+        View::new(camera, self.scene.origin(), self.target.width, self.target.height, osw_cull::view::near_of(&self.scene))
     }
 
     /// Starts a frame: geometry used from here on is kept resident through the frame.
@@ -178,8 +177,9 @@ impl Renderer {
                 Indices::U32(ix) => self.indices.extend(ix.iter().map(|&i| base + i)),
             }
             stats.nodes += 1;
-            stats.triangles += scene.node(id).triangles as u64;
         }
+        // What is submitted, not what the node table says.
+        stats.triangles = self.indices.len() as u64 / 3;
         let bytes = self.indices.len() as u64 * 4;
         if bytes > self.index_buf.size() {
             let max = self.gpu.device.limits().max_buffer_size;

@@ -1,6 +1,7 @@
 //! `osw compare`: image error between two runs frame by frame and, given `osw exact` output,
 //! each run's culling error (false-culled leaves, PVS/exact for leaves and triangles).
 
+use crate::columns::Columns;
 use anyhow::{Context, bail};
 use osw_render::compare::{CullError, ImageError, cull_error, image_error};
 use osw_render::output::{frame_path, read_ids, read_png};
@@ -84,11 +85,7 @@ fn side(errors: &[CullError]) -> Side {
 /// `osw exact` output: the visible nodes and triangles of each of `frames` frames.
 fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<u64>)> {
     let leaves = read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
-    let tris: Vec<u64> = std::fs::read_to_string(dir.join("exact.csv"))?
-        .lines()
-        .skip(1)
-        .map(|l| l.rsplit(',').next().and_then(|t| t.parse().ok()).unwrap_or(0))
-        .collect();
+    let tris: Vec<u64> = Columns::read(&dir.join("exact.csv"))?.get("visible_triangles")?.into_iter().map(|t| t as u64).collect();
     if leaves.len() < frames || tris.len() < frames {
         bail!("{} has {} frames, the runs have {frames}", dir.display(), leaves.len());
     }

@@ -3,6 +3,7 @@
 use crate::mode::{Mode, ModeState};
 use crate::output::{frame_path, push_ids, write_png};
 use crate::stats::{FrameStats, Summary, to_csv};
+use osw_gpu::exact::Reference;
 use osw_gpu::renderer::{HcTest, RenderError, Renderer};
 use osw_scene::Camera;
 use std::path::Path;
@@ -78,16 +79,17 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     Ok(summary)
 }
 
-/// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles)
-/// and `exact_leaves.txt` (the visible leaves of each frame).
-pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
-    let mut csv = String::from("frame,visible_leaves,visible_triangles\n");
+/// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles,
+/// triangles drawn into the item buffer) and `exact_leaves.txt` (the visible leaves of each
+/// frame).
+pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, reference: Reference, out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
+    let mut csv = String::from("frame,visible_leaves,visible_triangles,drawn_triangles\n");
     let mut leaves = String::new();
     for (i, cam) in cams.iter().enumerate() {
         r.begin_frame();
         let view = r.view(cam);
-        let e = r.exact(&view, tau)?;
-        csv.push_str(&format!("{i},{},{}\n", e.leaves.len(), e.triangles));
+        let e = r.exact(&view, tau, reference)?;
+        csv.push_str(&format!("{i},{},{},{}\n", e.leaves.len(), e.triangles, e.drawn_triangles));
         push_ids(&mut leaves, &e.leaves);
         tick();
     }

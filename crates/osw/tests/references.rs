@@ -1,0 +1,86 @@
+//! The references the other tests lean on share nothing with what they check:
+//! - `osw exact` draws every leaf at full detail and lets the GPU clip (no frustum test, no
+//!   traversal), and finds the same visible leaves as the frustum-culled cut it replaced;
+//! - with the frustum deliberately broken (`OSW_BROKEN_FRUSTUM=1`, a side plane pushed in), the
+//!   render checks fail against it: the negative control the old reference could not give,
+//!   since it drew the same broken cut.
+
+mod common;
+use common::*;
+use osw_scene::SceneFile;
+use std::path::Path;
+
+fn column(csv: &Path, name: &str) -> Vec<u64> {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines();
+    let k = lines.next().unwrap().split(',').position(|c| c == name).unwrap_or_else(|| panic!("{}: no {name}", csv.display()));
+    lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
+}
+
+#[test]
+fn the_independent_reference_draws_every_leaf_and_agrees_with_the_frustum_cut() {
+    let d = tempfile::tempdir().unwrap();
+    for kind in ["plant", "city", "teapots"] {
+        let scene = build_gen(d.path(), kind, 100_000, 2);
+        let path = camera_path(&scene, "walk", 16);
+        let full = SceneFile::open(&scene).unwrap().header().leaf_triangles as u64;
+        let (ind, cut) = (d.path().join(format!("{kind}-independent")), d.path().join(format!("{kind}-cut")));
+        osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&ind)]);
+        osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--frustum-cut", "--out", s(&cut)]);
+        let drawn = column(&ind.join("exact.csv"), "drawn_triangles");
+        assert!(drawn.iter().all(|&t| t == full), "{kind}: the independent reference drew {drawn:?}, the scene has {full}");
+        assert!(column(&cut.join("exact.csv"), "drawn_triangles").iter().all(|&t| t < full), "{kind}: the walk's frusta cull nothing");
+        let leaves = |dir: &Path| std::fs::read_to_string(dir.join("exact_leaves.txt")).unwrap();
+        assert_eq!(leaves(&ind), leaves(&cut), "{kind}: the two references see different leaves");
+        assert!(column(&ind.join("exact.csv"), "visible_leaves").iter().all(|&n| n > 0), "{kind}: a frame sees nothing");
+    }
+}
+
+/// `osw` with the frustum's left plane pushed inwards.
+fn osw_broken(args: &[&str]) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
+        .args(args)
+        .env("OSW_BROKEN_FRUSTUM", "1")
+        .env("OSW_MESH_CACHE", "/nonexistent")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn a_broken_frustum_is_caught_by_the_independent_reference() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "plant", 100_000, 2);
+    let path = camera_path(&scene, "walk", 16);
+    let exact = d.path().join("exact");
+    osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);
+    let broken_cut = d.path().join("exact-broken-cut");
+    osw_broken(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--frustum-cut", "--out", s(&broken_cut)]);
+    render(&scene, &path, ("vfc", "exact"), "0", &d.path().join("vfc"));
+    for (mode, hc) in [("vfc", "exact"), ("prev", "hybrid")] {
+        let run = d.path().join(format!("broken-{mode}"));
+        osw_broken(&[
+            "render",
+            "--scene",
+            s(&scene),
+            "--path",
+            s(&path),
+            "--mode",
+            mode,
+            "--hc",
+            hc,
+            "--tau",
+            "0",
+            "--size",
+            SIZE,
+            "--out",
+            s(&run),
+        ]);
+        let c = compare(&run, &d.path().join("vfc"), &exact, &d.path().join(format!("cmp-{mode}")));
+        assert!(c["culling_a"]["false_culled_leaves_total"].as_u64().unwrap() > 0, "broken {mode}: no false culling seen: {c}");
+        assert!(c["identical_frames"].as_u64().unwrap() < 16, "broken {mode}: frames equal the intact vfc's: {c}");
+        // The old reference, made with the same broken frustum, sees nothing wrong.
+        let c = compare(&run, &d.path().join("vfc"), &broken_cut, &d.path().join(format!("cmp-cut-{mode}")));
+        assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "broken {mode} against the broken cut: {c}");
+    }
+}
