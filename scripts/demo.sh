@@ -15,8 +15,9 @@ frames="${FRAMES:-300}"
 tau="${TAU:-1}"
 size="${SIZE:-1024x1024}"
 mkdir -p "$out"
-cargo build --release --locked --bins
-osw=target/release/osw
+# OSW_BIN: a directory of built binaries to use as they are (the tests' smoke runs).
+[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
+osw="${OSW_BIN:-target/release}/osw"
 $osw build --gen plant --triangles "$triangles" --seed 1 -o "$out/plant.osw"
 $osw path --scene "$out/plant.osw" --kind walk --frames "$frames" --seed 1 -o "$out/walk.csv"
 {

@@ -7,4 +7,6 @@ scripts/setup.sh
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 # The switch tests start the node and display binaries: build every binary first.
 cargo build --release --workspace --locked --bins
+# The criterion benches at least compile (running them is for measurements, not CI).
+cargo bench --workspace --locked --no-run
 cargo test --release --workspace --locked

@@ -9,8 +9,9 @@ scene=$(abs "$scene") path=$(abs "$path") out=$(abs "$out")
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-cargo build --release --locked --bins
-osw=target/release/osw
+# OSW_BIN: a directory of built binaries to use as they are (the tests' smoke runs).
+[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
+osw="${OSW_BIN:-target/release}/osw"
 mkdir -p "$out"
 if [[ -z ${scene:-} ]]; then
   scene="$out/plant.osw"

@@ -1,7 +1,8 @@
 //! The GPU pyramid test (depth copied into level 0, two levels reduced per dispatch, boxes
 //! tested in compute) against its CPU reference, osw-cull's `HzbTester`, on the same depth
-//! buffer: the same answer for almost every box, never hidden where the reference sees it
-//! beyond rounding, and occluders that do hide boxes (a pyramid that answers "visible" to
+//! buffer: never hidden where the reference sees it (that would be a conservativeness failure,
+//! not a tolerance), the same answer for almost every box, each remaining difference (the GPU
+//! keeping a box the reference hides) named, and occluders that do hide boxes (a pyramid that answers "visible" to
 //! everything would be conservative too, and useless). The odd image size pads level 0's rows
 //! and leaves one level to reduce alone.
 
@@ -42,14 +43,29 @@ fn the_gpu_pyramid_answers_as_the_cpu_reference() {
 
     let n = boxes.len();
     let hidden = |a: &[osw_cull::Visibility]| a.iter().filter(|v| !v.visible).count();
-    let only_gpu_hides = gpu_answers.iter().zip(&cpu_answers).filter(|(g, c)| !g.visible && c.visible).count();
-    let differ = gpu_answers.iter().zip(&cpu_answers).filter(|(g, c)| g.visible != c.visible).count();
+    let only_gpu_hides: Vec<u32> =
+        boxes.iter().zip(gpu_answers.iter().zip(&cpu_answers)).filter(|(_, (g, c))| !g.visible && c.visible).map(|(b, _)| *b).collect();
+    let only_cpu_hides: Vec<u32> =
+        boxes.iter().zip(gpu_answers.iter().zip(&cpu_answers)).filter(|(_, (g, c))| g.visible && !c.visible).map(|(b, _)| *b).collect();
+    let differ = only_gpu_hides.len() + only_cpu_hides.len();
+    // What each remaining difference is: a box the GPU keeps (conservative) and the reference
+    // hides, told by its box in camera-relative coordinates (the GPU projects its corners in
+    // f32, the reference in f64: a box whose edge lands on a texel boundary may round out).
+    for id in &only_cpu_hides {
+        let b = scene.node(*id).aabb();
+        eprintln!(
+            "node {id}: kept by the GPU, hidden by the reference; camera-relative box {:?}..{:?}",
+            view.relative(b.min),
+            view.relative(b.max)
+        );
+    }
     eprintln!(
-        "{n} boxes: GPU hides {}, CPU hides {}, {differ} differ, {only_gpu_hides} hidden by the GPU alone",
+        "{n} boxes: GPU hides {}, CPU hides {}, {differ} differ, {} hidden by the GPU alone",
         hidden(&gpu_answers),
-        hidden(&cpu_answers)
+        hidden(&cpu_answers),
+        only_gpu_hides.len()
     );
     assert!(hidden(&cpu_answers) > n / 10, "the occluders hide too little for the test to mean anything");
     assert!(differ * 100 <= n, "{differ} of {n} boxes answered differently");
-    assert!(only_gpu_hides * 1000 <= n, "{only_gpu_hides} of {n} boxes hidden by the GPU pyramid but visible to the reference");
+    assert!(only_gpu_hides.is_empty(), "boxes {only_gpu_hides:?} hidden by the GPU pyramid but visible to the reference");
 }

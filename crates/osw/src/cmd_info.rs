@@ -49,6 +49,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             scene.geometry(id)?;
         }
         out!("geometry: all {} blocks pass their hash and index checks in {:.1} ms", h.block_count, t.elapsed().as_secs_f64() * 1e3);
+        let rss_read = osw_render::stats::resident_bytes();
+        out!(
+            "resident_bytes_after_geometry: {} (grew by {} since opening, {:.1}% of the file)",
+            rss_read,
+            rss_read.saturating_sub(rss_open),
+            100.0 * rss_read.saturating_sub(rss_open) as f64 / file_bytes as f64
+        );
     }
     Ok(())
 }

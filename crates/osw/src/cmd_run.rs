@@ -151,12 +151,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         _ => indicatif::ProgressBar::hidden(),
     };
     let display_out = pd.child.stdout.take().context("display stdout")?;
+    // Without a terminal (a log, a test) the bar is hidden: say every tenth of the path instead.
+    let tenth = bar.length().filter(|_| bar.is_hidden()).map(|n| n.div_ceil(10).max(1));
     let ticker = {
         let bar = bar.clone();
         std::thread::spawn(move || {
             for line in BufReader::new(display_out).lines().map_while(Result::ok) {
                 match line.starts_with("frame ") {
-                    true => bar.inc(1),
+                    true => {
+                        bar.inc(1);
+                        if tenth.is_some_and(|step| bar.position() % step == 0) {
+                            out!("run: {}/{} frames displayed", bar.position(), bar.length().unwrap_or(0));
+                        }
+                    }
                     // On stdout, as the display says it, above the bar.
                     false => bar.suspend(|| out!("osw: {line}")),
                 }

@@ -189,16 +189,28 @@ fn a_killed_node_is_survived_then_reported_by_name() {
     let out = d.path().join("run");
     let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
         .args(["run", "--scene", s(&scene), "--path", s(&path), "--size", "64x64", "--no-frames", "--out", s(&out)])
+        .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // Let it get going, then kill node b: node a runs both roles to the end of the path.
+    // Once a tenth of the path is displayed (osw run says so without a terminal), kill node b:
+    // node a runs both roles to the end of the path.
     let pattern = format!("--name b --scene {}", s(&scene));
+    let (tx, said) = std::sync::mpsc::channel();
+    let stdout = run.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for l in std::io::BufRead::lines(std::io::BufReader::new(stdout)).map_while(Result::ok) {
+            let _ = tx.send(l);
+        }
+    });
     let t = Instant::now();
-    while !out.join("node-b.log").exists() && t.elapsed() < Duration::from_secs(20) {
-        std::thread::sleep(Duration::from_millis(50));
+    loop {
+        let left = Duration::from_secs(60).saturating_sub(t.elapsed());
+        let line = said.recv_timeout(left).unwrap_or_else(|_| panic!("osw run displayed no tenth of the path in 60 s"));
+        if line.starts_with("run: 60/600 frames") {
+            break;
+        }
     }
-    std::thread::sleep(Duration::from_millis(1500));
     let killed = std::process::Command::new("pkill").args(["-9", "-f", "--", &pattern]).status().unwrap();
     assert!(killed.success(), "node b was not running");
     let t = Instant::now();

@@ -27,8 +27,13 @@ pub fn mesh_cache() -> PathBuf {
 }
 
 pub fn generate(triangles: u64, seed: u64) -> Generated {
+    generate_with(triangles, seed, &mesh_cache())
+}
+
+/// [`generate`] with the Utah teapot looked up in `cache` (tests pin it).
+pub fn generate_with(triangles: u64, seed: u64, cache: &std::path::Path) -> Generated {
     let mut notes = Vec::new();
-    let utah = mesh_cache().join("teapot.ply");
+    let utah = cache.join("teapot.ply");
     let teapot = match crate::import::ply::read(&utah).map(|o| o.mesh.welded()) {
         Ok(m) if !m.is_empty() => {
             notes.push(format!("teapots: the Utah teapot from {}", utah.display()));

@@ -1,0 +1,90 @@
+//! Smoke runs of the scripts a user runs (README), on a tiny generated plant and a few frames,
+//! with the binaries this test run built (OSW_BIN): each must finish and leave the files it
+//! promises, with numbers in them. `scripts/fuzz.sh` is checked for its help and its target
+//! list (a real run builds cargo-fuzz and a sanitizer build, minutes: not for every test run);
+//! `scripts/walk-input.sh` is sourced by bandwidth.sh and latency.sh.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn script(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts").join(name)
+}
+
+/// Runs `scripts/NAME args` with a tiny plant; returns stdout.
+fn run_script(name: &str, args: &[&str], env: &[(&str, &str)]) -> String {
+    let bin = Path::new(env!("CARGO_BIN_EXE_osw")).parent().unwrap();
+    let out = Command::new("bash")
+        .arg(script(name))
+        .args(args)
+        .env("OSW_BIN", bin)
+        .env("OSW_MESH_CACHE", "/nonexistent")
+        .env("TRIANGLES", "20000")
+        .env("FRAMES", "6")
+        .envs(env.iter().copied())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{name} {args:?} failed: {stdout}\n{stderr}");
+    stdout
+}
+
+fn json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))).unwrap()
+}
+
+#[test]
+fn demo_runs_the_switch_and_reports_its_error() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("demo");
+    run_script("demo.sh", &[], &[("OUT", s(&out)), ("SIZE", "64x64")]);
+    assert_eq!(std::fs::read_dir(out.join("switch/frames")).unwrap().count(), 6);
+    let c = json(&out.join("report/compare.json"));
+    assert_eq!(c["frames"], 6, "{c}");
+    assert_eq!(c["culling_b"]["false_culled_leaves_total"], 0, "vfc against exact visibility: {c}");
+    assert!(std::fs::read_to_string(out.join("report.txt")).unwrap().contains("compare"));
+}
+
+#[test]
+fn bandwidth_and_latency_measure_a_loopback_run() {
+    let d = tempfile::tempdir().unwrap();
+    let bw = d.path().join("bw");
+    run_script("bandwidth.sh", &["--size", "64x64", "--out", s(&bw)], &[]);
+    let b = json(&bw.join("bandwidth.json"));
+    assert!(b.as_object().is_some_and(|o| !o.is_empty()), "{b}");
+    assert!(bw.join("bandwidth_ids.png").exists() && bw.join("bandwidth.csv").exists());
+    let lat = d.path().join("lat");
+    run_script("latency.sh", &["--size", "64x64", "--out", s(&lat)], &[]);
+    assert!(lat.join("latency.json").exists() && lat.join("latency.md").exists() && lat.join("latency.png").exists());
+}
+
+#[test]
+fn soak_reports_each_processs_memory() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("soak");
+    let stdout = run_script("soak.sh", &["--out", s(&out)], &[("FRAMES", "150")]);
+    for who in ["display", "node a", "node b"] {
+        let line = stdout.lines().find(|l| l.starts_with(who)).unwrap_or_else(|| panic!("no {who} line: {stdout}"));
+        let mib: Vec<f64> = line.split_whitespace().filter_map(|w| w.parse().ok()).collect();
+        assert!(mib.len() >= 2 && mib.iter().all(|m| *m > 1.0), "{line}");
+    }
+}
+
+#[test]
+fn fuzz_names_every_target() {
+    let help = Command::new("bash").arg(script("fuzz.sh")).arg("--help").output().unwrap();
+    assert!(help.status.success() && String::from_utf8_lossy(&help.stdout).contains("--runs"));
+    let text = std::fs::read_to_string(script("fuzz.sh")).unwrap();
+    let listed = text.lines().find(|l| l.contains("|| targets=(")).unwrap();
+    let harness = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/libfuzzer/Cargo.toml")).unwrap();
+    // The targets as the fuzz crate lists them: `("name", module::run),` lines of TARGETS.
+    let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/src/lib.rs")).unwrap();
+    let names: Vec<&str> = lib.lines().filter_map(|l| l.trim().strip_prefix("(\"").and_then(|r| r.split('"').next())).collect();
+    assert!(names.len() >= 7, "{names:?}");
+    for name in names {
+        assert!(listed.contains(name), "fuzz.sh does not run {name}");
+        assert!(harness.contains(&format!("name = \"{name}\"")), "the cargo-fuzz harness has no {name}");
+    }
+}
