@@ -1,28 +1,38 @@
 //! The hardware cull (HC): paper 000 alg. 4.1, breadth first with one batch of occlusion tests
-//! per level of the hierarchy (sec. 4.7.1), LOD selection by projected error against tau
-//! (sec. 4.1) and the pixel-count stop (sec. 4.7.2).
+//! per round (sec. 4.7.1), LOD selection by projected error against tau (sec. 4.1) and the
+//! pixel-count stop (sec. 4.7.2).
 //!
-//! For each level: drop boxes outside the frustum; boxes that contain the eye or cross the near
-//! plane are visible without a test; test the rest as one batch. A visible node whose coarsest
-//! fitting LOD or HLOD meets tau goes into the PVS; otherwise its children form the next level.
-//! A visible group whose box shows fewer than tau pixels stops at its HLOD: its error cannot
-//! show in more pixels than are visible (sec. 4.7.2).
+//! Each round: drop boxes outside the frustum; boxes that contain the eye or cross the near
+//! plane are visible without a test, and so are, from the previous frame, the BVH nodes above
+//! its visible set that must still be refined (below); test the rest as one batch. A visible node whose coarsest fitting
+//! LOD or HLOD meets tau goes into the PVS; otherwise its children join the round (untested
+//! parent) or form the next one (tested parent). A visible group whose box shows fewer than tau
+//! pixels stops at its HLOD: its error cannot show in more pixels than are visible (sec. 4.7.2).
+//!
+//! Coherence (sec. 4.6, and the pull-up of paper 001's CHC): the nodes above V(i-1) were
+//! visible last frame and nearly always still are; testing them again is what made a frame's
+//! tests follow the scene's depth rather than what is visible. Taking them as visible is
+//! conservative (their children are still tested), LOD selection still starts at the root
+//! (one whose LOD meets tau is tested first), and a node whose subtree left V(i-1) is tested
+//! again, so an occluded region is culled as high as it can be. The tests are then the front: V(i-1)'s nodes, their occluded siblings
+//! and what came into view, in about one round.
 
 use crate::frustum::Containment;
-use crate::tester::{Visibility, VisibilityTester};
+use crate::tester::VisibilityTester;
 use crate::view::View;
 use osw_scene::error_metric::select_lod;
 use osw_scene::format::NodeKind;
 use osw_scene::{NodeId, NodeRecord};
+use std::collections::HashSet;
 
 /// Counts of one traversal.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct HcStats {
-    /// Levels (batches) traversed.
+    /// Rounds (batches) of tests.
     pub levels: u32,
     /// Boxes sent to the tester.
     pub tests: u32,
-    /// Boxes accepted without a test (eye inside, or crossing the near plane).
+    /// Boxes accepted without a test (eye inside, crossing the near plane, above V(i-1)).
     pub untested: u32,
     pub frustum_culled: u32,
     pub occlusion_culled: u32,
@@ -30,121 +40,126 @@ pub struct HcStats {
     pub pixel_stops: u32,
 }
 
-/// Runs HC from the root for `view` at `tau` pixels of error. Appends the PVS (LOD and HLOD
-/// node ids, in the order found) to `pvs`.
+/// Runs HC from the root for `view` at `tau` pixels of error, testing every box in the
+/// frustum above the LOD cut. Appends the PVS (LOD and HLOD node ids, in the order found) to
+/// `pvs`.
 pub fn hardware_cull(nodes: &[NodeRecord], view: &View, tau: f64, tester: &mut dyn VisibilityTester, pvs: &mut Vec<NodeId>) -> HcStats {
-    let mut stats = HcStats::default();
-    let mut level: Vec<NodeId> = vec![0];
-    let (mut batch, mut accepted, mut answers, mut next) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    while !level.is_empty() {
-        stats.levels += 1;
-        batch.clear();
-        accepted.clear();
-        for &id in &level {
-            let b = nodes[id as usize].aabb();
-            match view.frustum.classify(&b) {
-                Containment::Outside => stats.frustum_culled += 1,
-                _ if view.frustum.needs_no_test(&b) => accepted.push(id),
-                _ => batch.push(id),
-            }
-        }
-        answers.clear();
-        if !batch.is_empty() {
-            tester.test(view, &batch, &mut answers);
-            assert_eq!(answers.len(), batch.len(), "tester must answer every box");
-            if tester.tests() {
-                stats.tests += batch.len() as u32;
-            }
-        }
-        stats.untested += accepted.len() as u32;
-        next.clear();
-        let untested = accepted.iter().map(|&id| (id, Visibility { visible: true, pixels: None }));
-        for (id, vis) in batch.iter().copied().zip(answers.iter().copied()).chain(untested) {
-            if !vis.visible {
-                stats.occlusion_culled += 1;
-                continue;
-            }
-            let n = &nodes[id as usize];
-            if let Some(lod) = select_lod(nodes, id, view.eye, view.focal_px, tau) {
-                pvs.push(lod);
-            } else if let (Some(px), NodeKind::Group, true) = (vis.pixels, n.kind(), n.lod_count > 0) {
-                if (px as f64) < tau {
-                    stats.pixel_stops += 1;
-                    pvs.push(n.first_lod + n.lod_count - 1);
-                } else {
-                    next.extend(n.children());
-                }
-            } else {
-                next.extend(n.children());
-            }
-        }
-        std::mem::swap(&mut level, &mut next);
-    }
-    stats
+    traverse(nodes, view, tau, &HashSet::new(), tester, pvs)
 }
 
-/// HC with every test in one batch: first collects every BVH node the level-by-level
-/// traversal could visit (in the frustum, under ancestors that do not meet tau), tests them all
-/// at once, then runs [`hardware_cull`] on the answers. Same answers per node, so the same PVS
-/// as level by level; it tests more boxes (also those under occluded nodes) in one round trip
-/// instead of one per level. Pays when a test is cheap and a round trip is not (the pyramid
-/// test: sec. 4.7.1 batches per level because 2003 queries were the other way round).
-pub fn hardware_cull_one_batch(
+/// HC as [`hardware_cull`], taking the BVH nodes above `previous` (V(i-1): LOD and HLOD ids)
+/// as visible without a test. Same PVS for a tester whose answers are consistent (a box is
+/// visible when one inside it is), fewer tests the more coherent the frames.
+pub fn hardware_cull_from(
     nodes: &[NodeRecord],
     view: &View,
     tau: f64,
+    previous: &[NodeId],
     tester: &mut dyn VisibilityTester,
     pvs: &mut Vec<NodeId>,
 ) -> HcStats {
-    let mut candidates = Vec::new();
-    let mut stack = vec![0u32];
-    while let Some(id) = stack.pop() {
-        let n = &nodes[id as usize];
-        let b = n.aabb();
-        if view.frustum.classify(&b) == Containment::Outside {
-            continue;
-        }
-        if !view.frustum.needs_no_test(&b) {
-            candidates.push(id);
-        }
-        if select_lod(nodes, id, view.eye, view.focal_px, tau).is_none() {
-            stack.extend(n.children());
+    traverse(nodes, view, tau, &above(nodes, previous), tester, pvs)
+}
+
+/// The proper BVH ancestors of the nodes owning the LODs `ids`: O(nodes visited), each chain
+/// stops where it meets one already walked.
+fn above(nodes: &[NodeRecord], ids: &[NodeId]) -> HashSet<NodeId> {
+    let mut set = HashSet::new();
+    for &id in ids {
+        let Some(n) = nodes.get(id as usize) else { continue };
+        let owner = if n.kind() == NodeKind::Lod { n.parent } else { id };
+        let mut up = nodes.get(owner as usize).map_or(u32::MAX, |o| o.parent);
+        while let Some(p) = nodes.get(up as usize) {
+            if !set.insert(up) {
+                break;
+            }
+            up = p.parent;
         }
     }
-    candidates.sort_unstable();
-    let mut answers = Vec::with_capacity(candidates.len());
-    if !candidates.is_empty() {
-        tester.test(view, &candidates, &mut answers);
-        assert_eq!(answers.len(), candidates.len(), "tester must answer every box");
+    set
+}
+
+fn traverse(
+    nodes: &[NodeRecord],
+    view: &View,
+    tau: f64,
+    above: &HashSet<NodeId>,
+    tester: &mut dyn VisibilityTester,
+    pvs: &mut Vec<NodeId>,
+) -> HcStats {
+    let mut stats = HcStats::default();
+    let (mut open, mut batch, mut answers) = (vec![0u32], Vec::new(), Vec::new());
+    while !open.is_empty() {
+        batch.clear();
+        while let Some(id) = open.pop() {
+            let b = nodes[id as usize].aabb();
+            match view.frustum.classify(&b) {
+                Containment::Outside => stats.frustum_culled += 1,
+                _ if view.frustum.needs_no_test(&b) => {
+                    stats.untested += 1;
+                    refine(nodes, view, tau, id, None, &mut stats, pvs, &mut open);
+                }
+                // Above V(i-1) and still to be refined; one whose LOD now meets tau is tested,
+                // as it would be from the root, before its LOD joins the PVS.
+                _ if above.contains(&id) && select_lod(nodes, id, view.eye, view.focal_px, tau).is_none() => {
+                    stats.untested += 1;
+                    open.extend(nodes[id as usize].children());
+                }
+                _ => batch.push(id),
+            }
+        }
+        if batch.is_empty() {
+            break;
+        }
+        batch.sort_unstable();
+        stats.levels += 1;
+        answers.clear();
+        tester.test(view, &batch, &mut answers);
+        assert_eq!(answers.len(), batch.len(), "tester must answer every box");
+        if tester.tests() {
+            stats.tests += batch.len() as u32;
+        }
+        for (&id, vis) in batch.iter().zip(&answers) {
+            if vis.visible {
+                refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
+            } else {
+                stats.occlusion_culled += 1;
+            }
+        }
     }
-    let mut answered = Answered { ids: &candidates, answers: &answers };
-    let mut stats = hardware_cull(nodes, view, tau, &mut answered, pvs);
-    (stats.tests, stats.levels) = (if tester.tests() { candidates.len() as u32 } else { 0 }, 1);
     stats
 }
 
-/// Answers looked up from a batch tested beforehand.
-struct Answered<'a> {
-    /// Sorted.
-    ids: &'a [NodeId],
-    answers: &'a [Visibility],
-}
-
-impl VisibilityTester for Answered<'_> {
-    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
-        // Every node the traversal tests was collected: same frustum and tau rules.
-        out.extend(ids.iter().map(|id| self.ids.binary_search(id).map_or(Visibility { visible: true, pixels: None }, |k| self.answers[k])));
-    }
-
-    fn tests(&self) -> bool {
-        false
+/// A visible BVH node: its LOD into the PVS, its HLOD when few of its `pixels` show, or its
+/// children into `open`.
+#[allow(clippy::too_many_arguments)]
+fn refine(
+    nodes: &[NodeRecord],
+    view: &View,
+    tau: f64,
+    id: NodeId,
+    pixels: Option<u32>,
+    stats: &mut HcStats,
+    pvs: &mut Vec<NodeId>,
+    open: &mut Vec<NodeId>,
+) {
+    let n = &nodes[id as usize];
+    if let Some(lod) = select_lod(nodes, id, view.eye, view.focal_px, tau) {
+        pvs.push(lod);
+    } else if let (Some(px), NodeKind::Group, true) = (pixels, n.kind(), n.lod_count > 0)
+        && (px as f64) < tau
+    {
+        stats.pixel_stops += 1;
+        pvs.push(n.first_lod + n.lod_count - 1);
+    } else {
+        open.extend(n.children());
     }
 }
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::tester::AllVisible;
+    use crate::tester::{AllVisible, Visibility};
     use glam::DVec3;
     use osw_scene::Camera;
 
@@ -245,23 +260,23 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn one_batch_gives_the_same_pvs_as_level_batches() {
+    fn nodes_above_the_previous_visible_set_are_not_tested() {
+        // V(i-1) = {6} (leaf 2's level 0): the root is above it and taken as visible; both
+        // leaves are tested in the first round, leaf 1 is found occluded.
         let n = scene();
-        for (eye, visible) in
-            [(DVec3::new(5.5, 0.5, 30.0), vec![0, 2]), (DVec3::new(5.5, 0.5, 30.0), vec![0, 1, 2]), (DVec3::new(5.5, 0.5, 1e4), vec![0])]
-        {
-            let v = view_from(eye, DVec3::new(5.5, 0.5, 0.0));
-            let (mut a, mut b) = (Vec::new(), Vec::new());
-            let mut t = Fixed { visible: visible.clone(), pixels: None, batches: Vec::new() };
-            hardware_cull(&n, &v, 0.0, &mut t, &mut a);
-            let mut t = Fixed { visible, pixels: None, batches: Vec::new() };
-            let s = hardware_cull_one_batch(&n, &v, 0.0, &mut t, &mut b);
-            a.sort();
-            b.sort();
-            assert_eq!(a, b);
-            assert_eq!(t.batches.len(), 1, "one round trip");
-            assert_eq!(s.tests, 3, "root and both leaves tested at once");
-        }
+        let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
+        let mut t = Fixed { visible: vec![2], pixels: None, batches: Vec::new() };
+        let mut pvs = Vec::new();
+        let s = hardware_cull_from(&n, &v, 0.0, &[6], &mut t, &mut pvs);
+        assert_eq!(pvs, vec![6]);
+        assert_eq!(t.batches, vec![vec![1, 2]]);
+        assert_eq!((s.tests, s.untested, s.occlusion_culled), (2, 1, 1));
+        // Nothing of V(i-1) under the root (its HLOD 3): the root is tested again, and culled.
+        let mut t = Fixed { visible: vec![], pixels: None, batches: Vec::new() };
+        pvs.clear();
+        hardware_cull_from(&n, &v, 0.0, &[3], &mut t, &mut pvs);
+        assert!(pvs.is_empty());
+        assert_eq!(t.batches, vec![vec![0]]);
     }
 
     #[test]
@@ -275,5 +290,74 @@ pub(crate) mod tests {
         let s = hardware_cull(&n, &v, 1.0, &mut t, &mut pvs);
         assert_eq!(pvs, vec![3]);
         assert_eq!(s.pixel_stops, 1);
+    }
+
+    /// Visible where a chosen set of leaves is: a box is visible when a leaf inside it is, the
+    /// consistency a conservative tester has on nested boxes. `marked`: those leaves and every
+    /// BVH node above them.
+    struct Leaves {
+        marked: HashSet<NodeId>,
+    }
+
+    impl VisibilityTester for Leaves {
+        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+            out.extend(ids.iter().map(|id| Visibility { visible: self.marked.contains(id), pixels: None }));
+        }
+    }
+
+    fn plant() -> &'static [NodeRecord] {
+        use osw_scene::build::{BuildOptions, BuildReport, make_scene};
+        use osw_scene::generators::{GenKind, generate};
+        static NODES: std::sync::OnceLock<Vec<NodeRecord>> = std::sync::OnceLock::new();
+        NODES.get_or_init(|| {
+            let objects = generate(GenKind::Plant, 40_000, 3).objects;
+            make_scene(objects, &BuildOptions::default(), &mut BuildReport::default(), &()).expect("plant").nodes
+        })
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+        /// Starting from any V(i-1), even one of another camera, HC finds the PVS the traversal
+        /// from the root finds, at any tau; from its own V(i-1) it tests no more boxes.
+        #[test]
+        fn the_previous_visible_set_changes_the_tests_not_the_pvs(
+            eyes in proptest::array::uniform2(proptest::array::uniform3(0.0f64..1.0)),
+            dirs in proptest::array::uniform2(proptest::array::uniform3(-1.0f64..1.0)),
+            tau in proptest::sample::select(vec![0.0, 1.0, 5.0, 50.0]),
+            seed in 0u64..1_000,
+            share in 1u64..8,
+        ) {
+            let nodes = plant();
+            let root = nodes[0].aabb();
+            let view_of = |k: usize| {
+                let eye = root.min.as_dvec3() + DVec3::from(eyes[k]) * root.extent().as_dvec3();
+                let dir = DVec3::from(dirs[k]).try_normalize().unwrap_or(DVec3::X);
+                View::new(&Camera::look_along(eye, dir, 60.0), DVec3::ZERO, 256, 256, 0.01)
+            };
+            // About one leaf in `share` visible, chosen by a hash of its id.
+            let mut marked = HashSet::new();
+            for (id, n) in nodes.iter().enumerate() {
+                if n.kind() == NodeKind::Leaf && (id as u64 ^ seed).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 61 < 8 / share {
+                    let mut up = id as u32;
+                    while (up as usize) < nodes.len() && marked.insert(up) {
+                        up = nodes[up as usize].parent;
+                    }
+                }
+            }
+            let mut t = Leaves { marked };
+            let (other, this) = (view_of(0), view_of(1));
+            let mut previous = Vec::new();
+            hardware_cull(nodes, &other, tau, &mut t, &mut previous);
+            let (mut want, mut got, mut again) = (Vec::new(), Vec::new(), Vec::new());
+            let root_stats = hardware_cull(nodes, &this, tau, &mut t, &mut want);
+            hardware_cull_from(nodes, &this, tau, &previous, &mut t, &mut got);
+            let coherent = hardware_cull_from(nodes, &this, tau, &want, &mut t, &mut again);
+            for v in [&mut want, &mut got, &mut again] {
+                v.sort_unstable();
+            }
+            proptest::prop_assert_eq!(&got, &want);
+            proptest::prop_assert_eq!(&again, &want);
+            proptest::prop_assert!(coherent.tests <= root_stats.tests, "{coherent:?} vs {root_stats:?}");
+        }
     }
 }

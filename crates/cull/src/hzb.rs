@@ -4,6 +4,10 @@
 //! rectangle spans at most two texels. Reversed Z: farther is smaller, so each texel keeps the
 //! minimum of the four below it, and a box is hidden when its nearest depth (its maximum) is
 //! below the farthest occluder depth over its rectangle.
+//!
+//! The same pyramid and test, read a few levels finer, are the first test of `prev`'s and the
+//! switch's default HC (`--hc hybrid`): every round of its traversal then costs no GPU round
+//! trip.
 
 use crate::frustum::Containment;
 use crate::tester::{Visibility, VisibilityTester};
@@ -103,10 +107,24 @@ impl VisibilityTester for HzbTester<'_> {
     }
 }
 
-impl HzbTester<'_> {
-    fn visible(&self, vp: &DMat4, view: &View, id: NodeId) -> bool {
-        let b = self.nodes[id as usize].aabb();
-        let (lo, hi) = (b.min.as_dvec3() - view.eye, b.max.as_dvec3() - view.eye);
+/// Where a box lands on screen: its pixel rectangle (unclipped) and nearest reversed-Z depth.
+pub enum Footprint {
+    /// A corner is behind the eye: the traversal sends such boxes only when they straddle it.
+    Behind,
+    Rect {
+        x0: f64,
+        y0: f64,
+        x1: f64,
+        y1: f64,
+        nearest: f64,
+    },
+}
+
+impl Footprint {
+    /// The box of BVH node `id` as [`View::test_box`] grows it, through `vp` (the view's
+    /// camera-relative view-projection in f64).
+    pub fn of(nodes: &[NodeRecord], vp: &DMat4, view: &View, id: NodeId) -> Footprint {
+        let (lo, hi) = view.test_box(&nodes[id as usize].aabb());
         let (w, h) = (view.width as f64, view.height as f64);
         let (mut x0, mut y0, mut x1, mut y1, mut nearest) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY, 0.0f64);
         for c in 0..8 {
@@ -117,8 +135,7 @@ impl HzbTester<'_> {
             );
             let clip = *vp * DVec4::new(p.x, p.y, p.z, 1.0);
             if clip.w <= 0.0 {
-                // Behind the eye: the traversal sends such boxes only when they straddle it.
-                return true;
+                return Footprint::Behind;
             }
             let (nx, ny, nz) = (clip.x / clip.w, clip.y / clip.w, clip.z / clip.w);
             x0 = x0.min((nx + 1.0) * 0.5 * w);
@@ -127,6 +144,22 @@ impl HzbTester<'_> {
             y1 = y1.max((1.0 - ny) * 0.5 * h);
             nearest = nearest.max(nz);
         }
+        Footprint::Rect { x0, y0, x1, y1, nearest }
+    }
+
+    /// Pixels across the larger side (infinite behind the eye).
+    pub fn span_px(&self) -> f64 {
+        match *self {
+            Footprint::Behind => f64::INFINITY,
+            Footprint::Rect { x0, y0, x1, y1, .. } => (x1 - x0).max(y1 - y0),
+        }
+    }
+}
+
+impl HzbTester<'_> {
+    fn visible(&self, vp: &DMat4, view: &View, id: NodeId) -> bool {
+        let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of(self.nodes, vp, view, id) else { return true };
+        let (w, h) = (view.width as f64, view.height as f64);
         if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
             return false;
         }

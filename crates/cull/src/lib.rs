@@ -25,6 +25,6 @@ pub mod sw;
 pub mod tester;
 pub mod view;
 
-pub use hc::{HcStats, hardware_cull, hardware_cull_one_batch};
+pub use hc::{HcStats, hardware_cull, hardware_cull_from};
 pub use tester::{AllVisible, Occluders, Visibility, VisibilityTester};
 pub use view::View;

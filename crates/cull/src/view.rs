@@ -6,7 +6,7 @@
 
 use crate::frustum::Frustum;
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3};
-use osw_scene::Camera;
+use osw_scene::{Aabb, Camera};
 
 #[derive(Clone, Debug)]
 pub struct View {
@@ -72,6 +72,17 @@ impl View {
     /// A scene-local point made camera-relative in f64, then f32.
     pub fn relative(&self, p: Vec3) -> Vec3 {
         (p.as_dvec3() - self.eye).as_vec3()
+    }
+
+    /// Box `b` made camera-relative for an occlusion test (GPU or CPU), grown by a relative
+    /// epsilon so that f32 rounding of its corners never shrinks it (conservative) and a flat
+    /// box keeps an area. The geometry drawn into the depth buffer is made camera-relative in
+    /// f32 with the eye rounded to f32 (draw.wgsl): it may sit up to two ulps of the eye's
+    /// coordinates nearer than in f64, and a box must not hide behind its own contents.
+    pub fn test_box(&self, b: &Aabb) -> (DVec3, DVec3) {
+        let (lo, hi) = (b.min.as_dvec3() - self.eye, b.max.as_dvec3() - self.eye);
+        let eps = (hi - lo).max_element() * 1e-6 + lo.abs().max(hi.abs()).max_element() * 1e-6 + self.eye.abs().max_element() * 2.4e-7;
+        (lo - eps, hi + eps)
     }
 }
 

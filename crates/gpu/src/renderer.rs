@@ -39,18 +39,12 @@ pub enum HcTest {
     /// One occlusion query per box (paper 000 sec. 4.7.1: GL_NV_occlusion_query), the
     /// paper-faithful reference. wgpu documents only zero / non-zero results.
     Queries,
-    /// The pyramid first; boxes it finds visible and that are small on screen (read at pyramid
-    /// level <= HYBRID_LEVEL) are tested again exactly. Large boxes stay visible untested:
-    /// they are nearly always visible, cost the most fill, and their children are tested.
+    /// The pyramid on the CPU first (the depth read back once, every traversal round tested
+    /// without a round trip), then the exact test again for the PVS's boxes that are small on
+    /// screen (osw_render's `hc_pass`). Large boxes stay visible: they are nearly always
+    /// visible, cost the most fill, and their children are tested.
     Hybrid,
 }
-
-/// Largest pyramid level (box about 2^(level + 1 + finer) pixels wide, finer = 3 in
-/// boxcull.comp.wgsl) whose boxes the hybrid test re-tests exactly: 5 is about 512 pixels.
-/// Measured in prev (with HC's second pass) on the 5M plant (loose splits), 300-frame walk,
-/// tau 5, one run each: level 3 / 4 / 5 / 6 give PVS/exact leaves 1.335 / 1.318 / 1.299 / 1.273
-/// for HC 24.3 / 27.5 / 33.2 / 45.6 ms a frame.
-const HYBRID_LEVEL: u32 = 5;
 
 /// Background of colour frames: a pale sky, so that what is open to the outside reads as such.
 const SKY: wgpu::Color = wgpu::Color { r: 0.62, g: 0.74, b: 0.86, a: 1.0 };
@@ -253,20 +247,9 @@ impl Renderer {
     /// Tests the boxes of BVH nodes `ids` against the occluders: the depth buffer as it is now
     /// (exact tests) or the pyramid last built from it. Appends one answer per id.
     pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: HcTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
+        debug_assert_ne!(test, HcTest::Hybrid, "the hybrid is osw_render's hc_pass: the CPU pyramid, then Exact");
         let mut words = Vec::with_capacity(ids.len());
-        match test {
-            HcTest::Hybrid => {
-                self.test_raw(view, ids, HcTest::Pyramid, &mut words)?;
-                let small: Vec<usize> = (0..ids.len()).filter(|&k| words[k] != 0 && words[k] - 1 <= HYBRID_LEVEL).collect();
-                let retest: Vec<NodeId> = small.iter().map(|&k| ids[k]).collect();
-                let mut exact = Vec::with_capacity(retest.len());
-                self.test_raw(view, &retest, HcTest::Exact, &mut exact)?;
-                for (&k, e) in small.iter().zip(exact) {
-                    words[k] = e;
-                }
-            }
-            _ => self.test_raw(view, ids, test, &mut words)?,
-        }
+        self.test_raw(view, ids, test, &mut words)?;
         let counts = test == HcTest::ExactCount;
         out.extend(words.iter().map(|&w| Visibility { visible: w > 0, pixels: counts.then_some(w) }));
         Ok(())
@@ -280,16 +263,8 @@ impl Renderer {
         for chunk in ids.chunks(chunk_len as usize) {
             self.gpu_boxes.clear();
             for &id in chunk {
-                let b = self.scene.node(id).aabb();
-                let (lo, hi) = (b.min.as_dvec3() - view.eye, b.max.as_dvec3() - view.eye);
-                // Grow by a relative epsilon so that f32 rounding of the camera-relative
-                // corners never shrinks a box (conservative), and flat boxes keep an area.
-                // The geometry drawn into the depth buffer is made camera-relative in f32 with
-                // the eye rounded to f32 (draw.wgsl): it may sit up to two ulps of the eye's
-                // coordinates nearer than in f64, and a box must not hide behind its own contents.
-                let eps =
-                    (hi - lo).max_element() * 1e-6 + lo.abs().max(hi.abs()).max_element() * 1e-6 + view.eye.abs().max_element() * 2.4e-7;
-                let (lo, hi) = ((lo - eps).as_vec3(), (hi + eps).as_vec3());
+                let (lo, hi) = view.test_box(&self.scene.node(id).aabb());
+                let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
                 self.gpu_boxes.push(GpuBox { lo: lo.extend(0.0).to_array(), hi: hi.extend(0.0).to_array() });
             }
             let n = chunk.len() as u64;

@@ -89,11 +89,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let opts = BuildOptions { chunk_triangles: a.chunk_triangles, loose_split: a.loose_split, model_colors: a.colors == Colors::Model };
     let report = build_scene(objects, &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
-    let report = report?;
+    let mut report = report?;
+    report.peak_rss_kb = osw_render::stats::peak_resident_kb();
     let json = a.output.with_extension("build.json");
     std::fs::write(&json, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", json.display()))?;
     out!(
-        "build: {} input triangles → {} nodes ({} leaves, {} HLODs, up to {} LOD levels), {:.1} MB in {:.2} s ({:.2} M triangles/s)",
+        "build: {} input triangles → {} nodes ({} leaves, {} HLODs, up to {} LOD levels), {:.1} MB in {:.2} s ({:.2} M triangles/s, peak memory {:.2} GB)",
         report.input_triangles,
         report.nodes,
         report.leaves,
@@ -101,7 +102,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.lod_levels_max,
         report.output_bytes as f64 / 1e6,
         report.seconds,
-        report.input_triangles_per_second / 1e6
+        report.input_triangles_per_second / 1e6,
+        report.peak_rss_kb as f64 / 1e6 * 1.024
     );
     out!("colours: {} of {} objects have none of their own (drawn in hashed colours)", report.objects_without_color, report.objects);
     if report.loose_splits > 0 {

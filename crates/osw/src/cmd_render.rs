@@ -18,8 +18,9 @@ pub struct Args {
     /// Pixels of error allowed by LOD selection (0 = full detail).
     #[arg(long, default_value_t = 0.0)]
     tau: f64,
-    /// How prev's HC tests boxes: hybrid (pyramid, then exact for boxes it finds visible that
-    /// are small on screen), pyramid (a farthest-depth pyramid in compute, conservative),
+    /// How prev's HC tests boxes: hybrid (the depth read back once, a farthest-depth pyramid
+    /// on the CPU, then exact again for the PVS's boxes that are small on screen), pyramid (a
+    /// farthest-depth pyramid in compute, conservative, a GPU round trip per round),
     /// exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
     /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0) or queries (one occlusion query
     /// per box, as the paper; the slow reference).

@@ -22,6 +22,7 @@ mod cmd_path;
 mod cmd_render;
 mod cmd_report;
 mod cmd_run;
+mod cmd_scale;
 mod columns;
 mod plot;
 mod progress;
@@ -58,6 +59,9 @@ enum Cmd {
     /// Error against run time: every mode at every tau, compared with exact visibility and
     /// full-detail images; report.md, report.json and a plot.
     Report(cmd_report::Args),
+    /// A frame's cost against the model's size: the generated plant at each size, every mode
+    /// at every tau; scale.md, scale.json and a log-log plot.
+    Scale(cmd_scale::Args),
     /// Bytes and ids per frame on each link of a switch run, against paper 000's model.
     Bandwidth(cmd_bandwidth::Args),
     /// One-way latency per link and camera-to-display latency of a switch run.
@@ -83,6 +87,7 @@ fn main() -> std::process::ExitCode {
         Cmd::Run(a) => cmd_run::run(a),
         Cmd::Play(a) => cmd_run::play(a),
         Cmd::Report(a) => cmd_report::run(a),
+        Cmd::Scale(a) => cmd_scale::run(a),
         Cmd::Bandwidth(a) => cmd_bandwidth::run(a),
         Cmd::Latency(a) => cmd_latency::run(a),
         Cmd::Link(a) => cmd_link::run(a),

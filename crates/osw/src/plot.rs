@@ -1,9 +1,10 @@
 //! Line charts as PNG and SVG (plotters): one function for every plot osw writes — error
 //! against frame time (`osw report`), bytes per frame (`osw bandwidth`), latency per frame
-//! (`osw latency`).
+//! (`osw latency`), and log-log panels side by side (`osw scale`).
 
 use anyhow::{Context, bail};
 use plotters::coord::Shift;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
@@ -41,10 +42,42 @@ fn register_font() -> anyhow::Result<()> {
 
 /// Writes the chart to `stem.png` and `stem.svg`.
 pub fn write(chart: &Chart, stem: &Path) -> anyhow::Result<()> {
+    write_panels(std::slice::from_ref(chart), false, stem)
+}
+
+/// Writes the charts side by side, both axes logarithmic, to `stem.png` and `stem.svg`.
+pub fn write_log_log(charts: &[Chart], stem: &Path) -> anyhow::Result<()> {
+    write_panels(charts, true, stem)
+}
+
+fn write_panels(charts: &[Chart], log: bool, stem: &Path) -> anyhow::Result<()> {
     register_font()?;
     let (png, svg) = (stem.with_extension("png"), stem.with_extension("svg"));
-    draw(BitMapBackend::new(&png, (1000, 650)).into_drawing_area(), chart).with_context(|| format!("drawing {}", png.display()))?;
-    draw(SVGBackend::new(&svg, (1000, 650)).into_drawing_area(), chart).with_context(|| format!("drawing {}", svg.display()))?;
+    let size = (1000 * charts.len() as u32, 650);
+    draw_all(BitMapBackend::new(&png, size).into_drawing_area(), charts, log).with_context(|| format!("drawing {}", png.display()))?;
+    draw_all(SVGBackend::new(&svg, size).into_drawing_area(), charts, log).with_context(|| format!("drawing {}", svg.display()))?;
+    Ok(())
+}
+
+fn draw_all<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, charts: &[Chart], log: bool) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("{e:?}");
+    root.fill(&WHITE).map_err(err)?;
+    for (area, c) in root.split_evenly((1, charts.len())).iter().zip(charts) {
+        if c.series.iter().all(|s| s.points.is_empty()) {
+            bail!("{}: nothing to plot", c.title);
+        }
+        let xs = c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+        let ys = c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+        if log {
+            draw(area, c, log_range(xs).log_scale(), log_range(ys).log_scale())?;
+        } else {
+            draw(area, c, range(xs), range(ys))?;
+        }
+    }
+    root.present().map_err(err)?;
     Ok(())
 }
 
@@ -58,18 +91,25 @@ fn range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     (lo.min(0.0).max(lo - pad))..(hi + pad)
 }
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, c: &Chart) -> anyhow::Result<()>
+/// Positive data bounds with a margin of a fifth of a decade each side.
+fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = v.filter(|x| x.is_finite() && *x > 0.0).fold((f64::MAX, f64::MIN), |(l, h), x| (l.min(x), h.max(x)));
+    if lo > hi { 1.0..10.0 } else { lo / 1.6..hi * 1.6 }
+}
+
+fn draw<DB: DrawingBackend, X: AsRangedCoord<Value = f64>, Y: AsRangedCoord<Value = f64>>(
+    root: &DrawingArea<DB, Shift>,
+    c: &Chart,
+    xs: X,
+    ys: Y,
+) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("{e:?}");
-    if c.series.iter().all(|s| s.points.is_empty()) {
-        bail!("{}: nothing to plot", c.title);
-    }
-    root.fill(&WHITE).map_err(err)?;
-    let xs = range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
-    let ys = range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(root)
         .caption(c.title, ("sans-serif", 24))
         .margin(20)
         .x_label_area_size(50)
@@ -100,6 +140,5 @@ where
         .position(SeriesLabelPosition::UpperRight)
         .draw()
         .map_err(err)?;
-    root.present().map_err(err)?;
     Ok(())
 }

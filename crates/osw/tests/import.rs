@@ -38,7 +38,7 @@ fn write_glb(path: &Path, objects: &[Object], root: [f64; 3]) {
     let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": nodes, "meshes": meshes,
         "accessors": accessors, "bufferViews": views, "buffers": [{"byteLength": bin.len()}]});
     let mut text = serde_json::to_vec(&doc).unwrap();
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
     let mut glb = Vec::new();
@@ -172,7 +172,7 @@ fn edit_glb(path: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
     let mut doc: serde_json::Value = serde_json::from_slice(&b[20..20 + n]).unwrap();
     edit(&mut doc);
     let mut text = serde_json::to_vec(&doc).unwrap();
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
     let rest = &b[20 + n..];
@@ -284,7 +284,7 @@ fn strips_fans_and_sparse_accessors_read_as_the_list() {
         let mut b = bin.clone();
         let idx_at = b.len();
         order.iter().for_each(|i| b.extend((*i as u16).to_le_bytes()));
-        while b.len() % 4 != 0 {
+        while !b.len().is_multiple_of(4) {
             b.push(0);
         }
         let sp_at = b.len();

@@ -73,6 +73,30 @@ fn soak_reports_each_processs_memory() {
 }
 
 #[test]
+fn scale_sweeps_sizes_and_resumes() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("scale");
+    let args = ["--sizes", "20K,40K", "--taus", "1", "--modes", "vfc,prev,switch", "--frames", "4", "--size", "64x64", "--out", s(&out)];
+    run_script("scale.sh", &args, &[]);
+    let v = json(&out.join("scale.json"));
+    let runs = v["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 6, "{v}");
+    for r in runs {
+        assert!(r["error"].is_null() && r["frame_ms_median"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["peak_rss_kb"].as_object().unwrap().values().all(|kb| kb.as_u64().unwrap() > 0), "{r}");
+    }
+    assert_eq!(runs.iter().filter(|r| r["mode"] == "switch").map(|r| r["peak_rss_kb"].as_object().unwrap().len()).sum::<usize>(), 6);
+    for sc in v["scenes"].as_array().unwrap() {
+        assert!(sc["build_peak_rss_kb"].as_u64().unwrap() > 0 && sc["file_bytes"].as_u64().unwrap() > 0, "{sc}");
+    }
+    assert!(out.join("scale.png").exists() && out.join("scale.md").exists());
+    // A second sweep finds every run there and repeats none of them.
+    let stamp = std::fs::metadata(out.join("runs/20K/prev-tau1/summary.json")).unwrap().modified().unwrap();
+    run_script("scale.sh", &args, &[]);
+    assert_eq!(std::fs::metadata(out.join("runs/20K/prev-tau1/summary.json")).unwrap().modified().unwrap(), stamp);
+}
+
+#[test]
 fn fuzz_names_every_target() {
     let help = Command::new("bash").arg(script("fuzz.sh")).arg("--help").output().unwrap();
     assert!(help.status.success() && String::from_utf8_lossy(&help.stdout).contains("--runs"));

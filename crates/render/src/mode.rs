@@ -16,9 +16,9 @@ use crate::stats::FrameStats;
 use osw_cull::chc::ChcState;
 use osw_cull::delta::diff;
 use osw_cull::front::update_front;
-use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
+use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occluders};
 use osw_cull::sw::stop_and_wait;
-use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_one_batch};
+use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{DrawStats, GpuTester, HcTest, InterleavedTester, RenderError, Renderer};
 use osw_scene::NodeId;
@@ -95,18 +95,33 @@ pub fn draw_occluders(
     r.draw(view, front, Pass::Depth, clear)
 }
 
+/// `--hc hybrid`'s first test reads the CPU pyramid this many levels finer than GigaWalk's
+/// 2x2 texels (a box spans at most 16 texels a side), as the GPU pyramid test does.
+const HYBRID_FINER: u32 = 3;
+
+/// `--hc hybrid` tests the PVS's boxes at most this many pixels across again, exactly. Larger
+/// boxes are nearly always visible and cost the most fill.
+const HYBRID_EXACT_PX: f64 = 512.0;
+
 /// The HC pass of the switch (paper 000 alg. 4.1) against the depth buffer as the OR pass left
 /// it, shared by `prev` and the switch node: appends the PVS, sorted and without duplicates.
-/// `previous` is V(i-1) (sorted), which OR drew as occluders.
+/// `previous` is V(i-1) (sorted), which OR drew as occluders; the nodes above it are taken as
+/// visible, so the tests are its front, in about one round (see osw_cull::hc).
+///
+/// With `hybrid` (the default) the depth buffer is read back once and every round is tested
+/// on the CPU against its farthest-depth pyramid: sec. 4.7.1 batches a level per round trip
+/// because a 2003 query cost more than the trip; here a trip (a few ms on lavapipe, with the
+/// GPU pyramid's dispatches) costs more than a thousand CPU box tests.
 ///
 /// Then a second pass, as in two-phase occlusion culling (zeux's niagara): nodes found visible
 /// that are not in V(i-1) had nothing drawn for them. Where a region comes into view (a turn,
 /// a disocclusion) there are no occluders at all, so everything behind it is found visible for
 /// one frame and gone the next, sent to RVG and the peer twice. Those additions are drawn into
 /// the depth buffer and tested again, exactly; the ones hidden behind others are dropped.
-/// Conservative: only geometry of this frame's PVS is added as occluder. The second pass uses
-/// the exact per-pixel test whichever test the first used: additions are few, and a pyramid
-/// built again for them would cost more than the test.
+/// Conservative: only geometry of this frame's PVS is added as occluder. The hybrid first
+/// tests every small box of the PVS exactly against OR's depth (the pyramid's rectangles are
+/// coarser than a box's silhouette, and what it lets through would otherwise be drawn as an
+/// addition, dropped, and found again the next frame).
 pub fn hc_pass(
     r: &mut Renderer,
     view: &View,
@@ -116,41 +131,66 @@ pub fn hc_pass(
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, RenderError> {
     let scene = std::sync::Arc::clone(&r.scene);
-    let test = match hc {
-        HcTest::Pyramid | HcTest::Hybrid => {
-            r.build_pyramid();
-            hc
+    let nodes = scene.nodes();
+    // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing): every
+    // test would pass, so none is made.
+    let occluders = !previous.is_empty();
+    let stats = if !occluders {
+        hardware_cull(nodes, view, tau, &mut AllVisible, pvs)
+    } else if hc == HcTest::Hybrid {
+        let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
+        hardware_cull_from(nodes, view, tau, previous, &mut HzbTester { nodes, pyramid: &pyramid, finer: HYBRID_FINER }, pvs)
+    } else {
+        let test = match hc {
+            HcTest::Pyramid => {
+                r.build_pyramid();
+                HcTest::Pyramid
+            }
+            HcTest::Queries => HcTest::Queries,
+            // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
+            _ if tau > 0.0 => HcTest::ExactCount,
+            _ => HcTest::Exact,
+        };
+        let mut tester = GpuTester { renderer: r, test, error: None };
+        let stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
+        if let Some(e) = tester.error {
+            return Err(e);
         }
-        HcTest::Queries => HcTest::Queries,
-        // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
-        _ if tau > 0.0 => HcTest::ExactCount,
-        _ => HcTest::Exact,
+        stats
     };
-    let mut tester = GpuTester { renderer: r, test, error: None };
-    // The pyramid test is cheap per box and a round trip is not: one batch (the hybrid's
-    // exact re-test only sees the small boxes). The rasterised tests pay per pixel: level by
-    // level (paper 000 sec. 4.7.1).
-    let stats = match test {
-        HcTest::Pyramid | HcTest::Hybrid => hardware_cull_one_batch(scene.nodes(), view, tau, &mut tester, pvs),
-        _ => hardware_cull(scene.nodes(), view, tau, &mut tester, pvs),
-    };
-    if let Some(e) = tester.error {
-        return Err(e);
-    }
     pvs.sort_unstable();
     pvs.dedup();
-    let added: Vec<NodeId> = pvs.iter().copied().filter(|id| previous.binary_search(id).is_err()).collect();
-    if added.is_empty() {
-        return Ok(stats);
+    let mut tests = stats.tests;
+    let mut hidden = 0;
+    // The hybrid's exact test: every small box of the PVS against OR's depth, before any is
+    // drawn (what the pyramid's rectangles let through, coarser than a box's silhouette).
+    if hc == HcTest::Hybrid && occluders {
+        let vp = view.view_proj().as_dmat4();
+        let small: Vec<NodeId> =
+            pvs.iter().copied().filter(|&id| Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_EXACT_PX).collect();
+        (tests, hidden) = (tests + small.len() as u32, hidden + drop_hidden(r, view, &small, pvs)?);
     }
-    r.draw(view, &added, Pass::Depth, false)?;
-    // As in the first pass, boxes around the eye or across the near plane are not tested.
-    let retest: Vec<NodeId> = added.into_iter().filter(|&id| !view.frustum.needs_no_test(&scene.node(id).aabb())).collect();
-    let mut seen = Vec::with_capacity(retest.len());
-    r.test_boxes(view, &retest, HcTest::Exact, &mut seen)?;
-    let hidden: Vec<NodeId> = retest.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
+    let added: Vec<NodeId> = pvs.iter().copied().filter(|id| previous.binary_search(id).is_err()).collect();
+    if !added.is_empty() {
+        r.draw(view, &added, Pass::Depth, false)?;
+        (tests, hidden) = (tests + added.len() as u32, hidden + drop_hidden(r, view, &added, pvs)?);
+    }
+    Ok(HcStats { tests, occlusion_culled: stats.occlusion_culled + hidden, ..stats })
+}
+
+/// Tests the boxes of `ids` (sorted, in `pvs`) exactly against the depth buffer as it is and
+/// removes the hidden ones from `pvs`; returns how many. As in HC, boxes around the eye or
+/// across the near plane are not tested.
+fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], pvs: &mut Vec<NodeId>) -> Result<u32, RenderError> {
+    let ids: Vec<NodeId> = ids.iter().copied().filter(|&id| !view.frustum.needs_no_test(&r.scene.node(id).aabb())).collect();
+    if ids.is_empty() {
+        return Ok(0);
+    }
+    let mut seen = Vec::with_capacity(ids.len());
+    r.test_boxes(view, &ids, HcTest::Exact, &mut seen)?;
+    let hidden: Vec<NodeId> = ids.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
     pvs.retain(|id| hidden.binary_search(id).is_err());
-    Ok(HcStats { tests: stats.tests + retest.len() as u32, occlusion_culled: stats.occlusion_culled + hidden.len() as u32, ..stats })
+    Ok(hidden.len() as u32)
 }
 
 impl ModeState {

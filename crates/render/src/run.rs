@@ -73,6 +73,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
         blocks_never_loaded: r.scene.header().block_count as u64 - r.residency.stats.distinct,
         blocks_total: r.scene.header().block_count as u64,
         geometry_never_loaded_fraction: 1.0 - r.residency.stats.distinct_bytes as f64 / r.scene.header().blob_bytes.max(1) as f64,
+        peak_rss_kb: crate::stats::peak_resident_kb(),
         ..Summary::of(&frames)
     };
     write(&out.join("summary.json"), &serde_json::to_string_pretty(&summary).expect("plain data"))?;

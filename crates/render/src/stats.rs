@@ -58,6 +58,8 @@ pub struct Summary {
     pub blocks_never_loaded: u64,
     pub blocks_total: u64,
     pub geometry_never_loaded_fraction: f64,
+    /// Peak resident memory of the process at the end of the run.
+    pub peak_rss_kb: u64,
 }
 
 /// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
@@ -66,6 +68,14 @@ pub fn resident_bytes() -> u64 {
         .ok()
         .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
         .map_or(0, |pages| pages * 4096)
+}
+
+/// Peak resident memory of this process so far in KiB (Linux /proc VmHWM; 0 elsewhere).
+pub fn peak_resident_kb() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find_map(|l| l.strip_prefix("VmHWM:")?.trim().strip_suffix("kB")?.trim().parse().ok()))
+        .unwrap_or(0)
 }
 
 /// The `q` quantile (0..=1) of `v` by nearest rank; 0 for no values.

@@ -68,6 +68,8 @@ pub struct BuildReport {
     pub content_hash: String,
     pub seconds: f64,
     pub input_triangles_per_second: f64,
+    /// Peak resident memory of the building process (KiB; set by the caller, 0 if unknown).
+    pub peak_rss_kb: u64,
     pub stage_seconds: BTreeMap<String, f64>,
     /// What the build left out and why.
     pub left_out: Vec<String>,

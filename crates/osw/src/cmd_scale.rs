@@ -1,0 +1,379 @@
+//! `osw scale`: a frame's cost against the model's size. Builds the generated plant at each
+//! size, makes the same kind of walk through each, runs every mode at every tau (child `osw
+//! render`, the switch a child `osw run`) and writes scale.json, scale.md and scale.png (frame
+//! time and HC tests against scene triangles, log-log, one curve per mode).
+//!
+//! Scenes, walks and runs already in DIR for the same input are used again, so an interrupted
+//! sweep resumes where it stopped.
+
+use crate::columns::Columns;
+use crate::plot::{Chart, Series};
+use anyhow::{Context, bail};
+use serde::Serialize;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+const MODES: [&str; 6] = ["vfc", "sw", "chc", "hzb", "prev", "switch"];
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Plant sizes in triangles (K, M and B suffixes: 2M = 2,000,000).
+    #[arg(long, value_delimiter = ',', default_value = "2M,20M,100M", value_parser = parse_size)]
+    sizes: Vec<u64>,
+    /// Add the billion-triangle plant (1B) to the sizes.
+    #[arg(long)]
+    huge: bool,
+    /// Pixels-of-error thresholds to run each mode at.
+    #[arg(long, value_delimiter = ',', default_value = "1,5")]
+    taus: Vec<f64>,
+    /// Modes: vfc, sw, chc, hzb, prev (single process) and switch (`osw run`).
+    #[arg(long, value_delimiter = ',', default_value = "vfc,chc,hzb,prev,switch")]
+    modes: Vec<String>,
+    /// Frames of each walk.
+    #[arg(long, default_value_t = 100)]
+    frames: u32,
+    /// Image size of every run.
+    #[arg(long, default_value = "1024x1024")]
+    size: String,
+    /// Output directory: scale.json, scale.md, scale.png/.svg; plant-SIZE.osw and its walk;
+    /// runs/SIZE/MODE-tauT/ (each run's summary and statistics).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn parse_size(s: &str) -> Result<u64, String> {
+    let (digits, unit) = match s.trim().char_indices().last() {
+        Some((k, c)) if c.is_ascii_alphabetic() => (&s.trim()[..k], c.to_ascii_uppercase()),
+        _ => (s.trim(), ' '),
+    };
+    let scale = match unit {
+        ' ' => 1,
+        'K' => 1_000,
+        'M' => 1_000_000,
+        'B' | 'G' => 1_000_000_000,
+        _ => return Err(format!("{s:?}: a triangle count such as 2000000, 2M or 1B")),
+    };
+    let n: f64 = digits.parse().map_err(|_| format!("{s:?}: a triangle count such as 2000000, 2M or 1B"))?;
+    match n * scale as f64 {
+        t if (1.0..=1e10).contains(&t) => Ok(t as u64),
+        _ => Err(format!("{s:?}: between 1 and 10B triangles")),
+    }
+}
+
+/// The size as the sweep names it: 2M, 100M, 1B, 500K.
+fn label(n: u64) -> String {
+    match n {
+        n if n >= 1_000_000_000 && n % 1_000_000_000 == 0 => format!("{}B", n / 1_000_000_000),
+        n if n >= 1_000_000 && n % 1_000_000 == 0 => format!("{}M", n / 1_000_000),
+        n if n >= 1_000 && n % 1_000 == 0 => format!("{}K", n / 1_000),
+        n => n.to_string(),
+    }
+}
+
+/// One scene of the sweep: what its build cost.
+#[derive(Serialize, Clone)]
+struct Scene {
+    triangles: u64,
+    label: String,
+    build_seconds: f64,
+    build_peak_rss_kb: u64,
+    file_bytes: u64,
+}
+
+/// One run: a mode at a tau on one scene.
+#[derive(Serialize, Clone, Default)]
+struct Row {
+    triangles: u64,
+    mode: String,
+    tau: f64,
+    frame_ms_median: f64,
+    frame_ms_p95: f64,
+    hc_tests_mean: f64,
+    hc_ms_median: f64,
+    or_ms_median: f64,
+    rvg_ms_median: f64,
+    triangles_drawn_mean: f64,
+    pvs_nodes_mean: f64,
+    /// Peak resident memory per process: `render`, or `display`, `node_a`, `node_b`.
+    peak_rss_kb: BTreeMap<String, u64>,
+    error: Option<String>,
+}
+
+#[derive(Serialize)]
+struct Sweep {
+    frames: u32,
+    size: String,
+    scenes: Vec<Scene>,
+    runs: Vec<Row>,
+}
+
+fn read_json(p: &Path) -> anyhow::Result<Value> {
+    serde_json::from_str(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
+        .with_context(|| format!("parsing {}", p.display()))
+}
+
+/// Runs `osw ARGS` with its output in `log` (and `log`.err); on failure the error quotes the
+/// last line it printed.
+fn osw(args: &[String], log: &Path) -> anyhow::Result<()> {
+    let exe = std::env::current_exe()?;
+    let status = Command::new(&exe)
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(log)?)
+        .stderr(std::fs::File::create(log.with_extension("err"))?)
+        .status()
+        .with_context(|| format!("starting {}", exe.display()))?;
+    if !status.success() {
+        let err = std::fs::read_to_string(log.with_extension("err")).unwrap_or_default();
+        let last = err.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("");
+        bail!("osw {} failed ({status}): {last}", args[0]);
+    }
+    Ok(())
+}
+
+fn strings(v: &[&str]) -> Vec<String> {
+    v.iter().map(|s| s.to_string()).collect()
+}
+
+/// The plant of `triangles` and its walk in `out`, built unless there from an earlier sweep.
+fn scene(out: &Path, triangles: u64, frames: u32) -> anyhow::Result<(Scene, PathBuf, PathBuf)> {
+    let name = label(triangles);
+    let file = out.join(format!("plant-{name}.osw"));
+    let report = file.with_extension("build.json");
+    let timing = file.with_extension("seconds");
+    if !(file.exists() && report.exists() && timing.exists()) {
+        let t = Instant::now();
+        let args = ["build", "--gen", "plant", "--triangles", &triangles.to_string(), "--seed", "1", "-o", &file.display().to_string()];
+        osw(&strings(&args), &file.with_extension("build.log"))?;
+        std::fs::write(&timing, t.elapsed().as_secs_f64().to_string())?;
+    }
+    let r = read_json(&report)?;
+    let build_seconds = std::fs::read_to_string(&timing)?.trim().parse().with_context(|| format!("{}: not seconds", timing.display()))?;
+    let walk = out.join(format!("plant-{name}-walk-{frames}.csv"));
+    if !walk.exists() {
+        let args = ["path", "--scene", &file.display().to_string(), "--kind", "walk", "--frames", &frames.to_string(), "--seed", "1"];
+        let mut args = strings(&args);
+        args.extend(["-o".into(), walk.display().to_string()]);
+        osw(&args, &walk.with_extension("log"))?;
+    }
+    let s = Scene {
+        triangles,
+        label: name,
+        build_seconds,
+        build_peak_rss_kb: r["peak_rss_kb"].as_u64().unwrap_or(0),
+        file_bytes: std::fs::metadata(&file)?.len(),
+    };
+    Ok((s, file, walk))
+}
+
+/// The largest value of column `rss_kb` in a statistics file (the per-frame samples).
+fn max_rss(csv: &Path) -> anyhow::Result<u64> {
+    Ok(Columns::read(csv)?.get("rss_kb")?.into_iter().filter(|x| x.is_finite()).fold(0.0, f64::max) as u64)
+}
+
+/// One mode at one tau into `dir`, unless a run of the same scene and walk is there.
+fn run_one(scene: &Path, walk: &Path, size: &str, mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Value> {
+    let summary = dir.join("summary.json");
+    let hash = osw_scene::SceneFile::open(scene)?.content_hash();
+    let hash = format!("{:016x}{:016x}", hash[1], hash[0]);
+    if let Ok(s) = read_json(&summary)
+        && s["scene_hash"] == hash.as_str()
+        && s["path"] == walk.display().to_string().as_str()
+        && s["tau"].as_f64() == Some(tau)
+    {
+        return Ok(s);
+    }
+    std::fs::create_dir_all(dir)?;
+    let _ = std::fs::remove_file(&summary);
+    let mut args = match mode {
+        "switch" => strings(&["run"]),
+        m => strings(&["render", "--mode", m]),
+    };
+    args.extend(strings(&["--scene", &scene.display().to_string(), "--path", &walk.display().to_string(), "--size", size]));
+    args.extend(strings(&["--tau", &tau.to_string(), "--no-frames", "--out", &dir.display().to_string()]));
+    osw(&args, &dir.join("run.log"))?;
+    read_json(&summary)
+}
+
+fn row(triangles: u64, mode: &str, tau: f64, dir: &Path, s: &Value) -> anyhow::Result<Row> {
+    let f = |k: &str| s[k].as_f64().unwrap_or(0.0);
+    let mut peak = BTreeMap::new();
+    // The switch's OR runs on the nodes: the mean of the two nodes' medians.
+    let or_ms = if mode == "switch" {
+        peak.insert("display".into(), max_rss(&dir.join("stats.csv"))?);
+        for (k, file) in [("node_a", "node-a.csv"), ("node_b", "node-b.csv")] {
+            peak.insert(k.into(), max_rss(&dir.join(file))?);
+        }
+        (f("node_a_or_ms_median") + f("node_b_or_ms_median")) / 2.0
+    } else {
+        peak.insert("render".into(), s["peak_rss_kb"].as_u64().unwrap_or(0));
+        f("or_ms_median")
+    };
+    Ok(Row {
+        triangles,
+        mode: mode.into(),
+        tau,
+        frame_ms_median: f("frame_ms_median"),
+        frame_ms_p95: f("frame_ms_p95"),
+        hc_tests_mean: f("tests_mean"),
+        hc_ms_median: f("hc_ms_median"),
+        or_ms_median: or_ms,
+        rvg_ms_median: f("rvg_ms_median"),
+        triangles_drawn_mean: f("triangles_drawn_mean"),
+        pvs_nodes_mean: f("pvs_nodes_mean"),
+        peak_rss_kb: peak,
+        error: None,
+    })
+}
+
+pub fn run(mut a: Args) -> anyhow::Result<()> {
+    if let Some(m) = a.modes.iter().find(|m| !MODES.contains(&m.as_str())) {
+        bail!("--modes: unknown mode {m:?} (modes: {})", MODES.join(", "));
+    }
+    if let Some(t) = a.taus.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+        bail!("--taus: {t} is not a pixel error (a finite number ≥ 0)");
+    }
+    if a.huge && !a.sizes.contains(&1_000_000_000) {
+        a.sizes.push(1_000_000_000);
+    }
+    a.sizes.sort_unstable();
+    a.sizes.dedup();
+    std::fs::create_dir_all(&a.out)?;
+    let steps = a.sizes.len() * (1 + a.modes.len() * a.taus.len());
+    let bar = crate::progress::steps(steps as u64, "scale");
+    let (mut scenes, mut rows) = (Vec::new(), Vec::new());
+    for &n in &a.sizes {
+        bar.set_message(format!("plant {}", label(n)));
+        let (s, file, walk) = scene(&a.out, n, a.frames).with_context(|| format!("the {}-triangle plant", label(n)))?;
+        bar.inc(1);
+        for &tau in &a.taus {
+            for mode in &a.modes {
+                bar.set_message(format!("{} {mode} tau {tau}", s.label));
+                let dir = a.out.join("runs").join(&s.label).join(format!("{mode}-tau{tau}"));
+                let r = run_one(&file, &walk, &a.size, mode, tau, &dir).and_then(|v| row(n, mode, tau, &dir, &v)).unwrap_or_else(|e| {
+                    bar.println(format!("osw: {} {mode} at tau {tau} failed: {e:#}", s.label));
+                    Row { triangles: n, mode: mode.clone(), tau, error: Some(format!("{e:#}")), ..Default::default() }
+                });
+                rows.push(r);
+                bar.inc(1);
+            }
+        }
+        scenes.push(s);
+    }
+    bar.finish_and_clear();
+    let sweep = Sweep { frames: a.frames, size: a.size.clone(), scenes, runs: rows };
+    std::fs::write(a.out.join("scale.json"), serde_json::to_string_pretty(&sweep)?)?;
+    std::fs::write(a.out.join("scale.md"), markdown(&sweep, &a))?;
+    crate::plot::write_log_log(&charts(&sweep, &a), &a.out.join("scale"))?;
+    let failed = sweep.runs.iter().filter(|r| r.error.is_some()).count();
+    if failed > 0 {
+        bail!("{failed} of {} runs failed; scale.md shows the others → {}", sweep.runs.len(), a.out.display());
+    }
+    out!("scale: {} sizes × {} modes × {} taus → {}", a.sizes.len(), a.modes.len(), a.taus.len(), a.out.join("scale.md").display());
+    Ok(())
+}
+
+/// Frame time and HC tests against scene triangles, at the first tau.
+fn charts<'a>(s: &Sweep, a: &Args) -> Vec<Chart<'a>> {
+    let tau = a.taus[0];
+    let series = |y: fn(&Row) -> f64| -> Vec<Series> {
+        a.modes
+            .iter()
+            .map(|m| {
+                let runs: Vec<&Row> = s.runs.iter().filter(|r| &r.mode == m && r.tau == tau && r.error.is_none() && y(r) > 0.0).collect();
+                Series {
+                    name: m.clone(),
+                    points: runs.iter().map(|r| (r.triangles as f64, y(r))).collect(),
+                    point_labels: runs.iter().map(|r| label(r.triangles)).collect(),
+                }
+            })
+            .filter(|s| !s.points.is_empty())
+            .collect()
+    };
+    vec![
+        Chart {
+            title: "Frame time against scene size",
+            x: "scene triangles",
+            y: "frame ms, median",
+            series: series(|r| r.frame_ms_median),
+        },
+        Chart {
+            title: "HC tests a frame against scene size",
+            x: "scene triangles",
+            y: "box tests a frame, mean",
+            series: series(|r| r.hc_tests_mean),
+        },
+    ]
+}
+
+/// A table column: its header and how a run fills it.
+type Column = (&'static str, fn(&Row) -> String);
+
+fn markdown(s: &Sweep, a: &Args) -> String {
+    let mut out = format!("# Scale: the generated plant, {}-frame walks at {}\n\n", s.frames, s.size);
+    out.push_str("| plant | triangles | build s | build peak GB | file GB |\n| --- | --- | --- | --- | --- |\n");
+    for sc in &s.scenes {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.1} | {:.2} | {:.2} |",
+            sc.label,
+            sc.triangles,
+            sc.build_seconds,
+            sc.build_peak_rss_kb as f64 * 1.024e-6,
+            sc.file_bytes as f64 / 1e9
+        );
+    }
+    let columns: [Column; 8] = [
+        ("frame ms", |r| format!("{:.1}", r.frame_ms_median)),
+        ("p95 ms", |r| format!("{:.1}", r.frame_ms_p95)),
+        ("OR ms", |r| format!("{:.1}", r.or_ms_median)),
+        ("HC ms", |r| format!("{:.1}", r.hc_ms_median)),
+        ("RVG ms", |r| format!("{:.1}", r.rvg_ms_median)),
+        ("HC tests", |r| format!("{:.0}", r.hc_tests_mean)),
+        ("triangles drawn", |r| format!("{:.0}", r.triangles_drawn_mean)),
+        ("peak MB", |r| r.peak_rss_kb.values().map(|kb| format!("{:.0}", *kb as f64 * 1.024e-3)).collect::<Vec<_>>().join(" / ")),
+    ];
+    for &tau in &a.taus {
+        let _ = write!(out, "\n## tau {tau}\n\n| plant | mode | {} | vfc / mode |\n|", columns.map(|c| c.0).join(" | "));
+        out.push_str(&" --- |".repeat(columns.len() + 3));
+        out.push('\n');
+        for sc in &s.scenes {
+            let vfc = s.runs.iter().find(|r| r.triangles == sc.triangles && r.tau == tau && r.mode == "vfc" && r.error.is_none());
+            for r in s.runs.iter().filter(|r| r.triangles == sc.triangles && r.tau == tau) {
+                let cells: Vec<String> = match &r.error {
+                    Some(_) => vec!["failed".into(); columns.len()],
+                    None => columns.iter().map(|c| c.1(r)).collect(),
+                };
+                let ratio = match vfc {
+                    Some(v) if r.error.is_none() && r.frame_ms_median > 0.0 => format!("{:.2}", v.frame_ms_median / r.frame_ms_median),
+                    _ => "–".into(),
+                };
+                let _ = writeln!(out, "| {} | {} | {} | {ratio} |", sc.label, r.mode, cells.join(" | "));
+            }
+        }
+    }
+    out.push_str("\npeak MB: one figure per process (render; display / node a / node b for the switch).\n");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_read_with_suffixes_and_print_back() {
+        for (s, n) in
+            [("2M", 2_000_000), ("100m", 100_000_000), ("1B", 1_000_000_000), ("500K", 500_000), ("1234", 1234), ("1.5M", 1_500_000)]
+        {
+            assert_eq!(parse_size(s), Ok(n), "{s}");
+        }
+        for s in ["", "M", "2X", "-1M", "0", "1e20"] {
+            assert!(parse_size(s).is_err(), "{s}");
+        }
+        assert_eq!([2_000_000, 1_000_000_000, 500_000, 1234].map(label), ["2M", "1B", "500K", "1234"]);
+    }
+}

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# A frame's cost against the model's size (osw scale): builds the generated plant at each size
+# (seed 1), a 100-frame walk through each, runs every mode at every tau at 1024x1024 without
+# frames, and writes DIR/scale.json, DIR/scale.md and DIR/scale.png/.svg (frame time and HC
+# tests against scene triangles, log-log, one curve per mode). Scenes and runs already in DIR
+# are used again: an interrupted sweep resumes.
+#
+#   scripts/scale.sh [--sizes 2M,20M,100M] [--huge] [--taus 1,5] [--modes vfc,chc,hzb,prev,switch]
+#                    [--frames N] [--size WxH] --out DIR
+#
+# --huge adds the billion-triangle plant. The 100M plant takes about 2 GB of disk and 6 GB of
+# memory to build; keep DIR under out/ (ignored by git).
+set -euo pipefail
+args=() out=""
+while (($#)); do
+  case "$1" in
+    --huge) args+=("$1"); shift ;;
+    --sizes|--taus|--modes|--frames|--size) args+=("$1" "$2"); shift 2 ;;
+    --out) out=$(realpath -m "$2"); shift 2 ;;
+    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "scale: unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+[[ -n $out ]] || { echo "scale: --out DIR is required" >&2; exit 2; }
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+# OSW_BIN: a directory of built binaries to use as they are (the tests' smoke runs).
+[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
+"${OSW_BIN:-target/release}/osw" scale "${args[@]}" --out "$out"
