@@ -243,6 +243,8 @@ pub fn run(mut a: Args) -> anyhow::Result<()> {
     a.sizes.sort_unstable();
     a.sizes.dedup();
     std::fs::create_dir_all(&a.out)?;
+    // Runs are matched by their walk's path: one spelling of DIR, however it was given.
+    a.out = std::fs::canonicalize(&a.out).with_context(|| format!("--out {}", a.out.display()))?;
     let steps = a.sizes.len() * (1 + a.modes.len() * a.taus.len());
     let bar = crate::progress::steps(steps as u64, "scale");
     let (mut scenes, mut rows) = (Vec::new(), Vec::new());
@@ -291,7 +293,6 @@ fn charts<'a>(s: &Sweep, a: &Args) -> Vec<Chart<'a>> {
                     point_labels: runs.iter().map(|r| label(r.triangles)).collect(),
                 }
             })
-            .filter(|s| !s.points.is_empty())
             .collect()
     };
     vec![

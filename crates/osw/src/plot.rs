@@ -91,6 +91,24 @@ fn range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     (lo.min(0.0).max(lo - pad))..(hi + pad)
 }
 
+/// An axis label: 1.5K, 20M, 1B for large values, else up to three significant digits.
+fn compact(v: f64) -> String {
+    let (scaled, unit) = match v.abs() {
+        a if a >= 1e9 => (v / 1e9, "B"),
+        a if a >= 1e6 => (v / 1e6, "M"),
+        a if a >= 1e4 => (v / 1e3, "K"),
+        _ => (v, ""),
+    };
+    let digits = if scaled.abs() >= 100.0 || scaled == scaled.round() {
+        0
+    } else if scaled.abs() >= 10.0 {
+        1
+    } else {
+        2
+    };
+    format!("{scaled:.digits$}{unit}")
+}
+
 /// Positive data bounds with a margin of a fifth of a decade each side.
 fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = v.filter(|x| x.is_finite() && *x > 0.0).fold((f64::MAX, f64::MIN), |(l, h), x| (l.min(x), h.max(x)));
@@ -116,8 +134,18 @@ where
         .y_label_area_size(80)
         .build_cartesian_2d(xs, ys)
         .map_err(err)?;
-    chart.configure_mesh().x_desc(c.x).y_desc(c.y).label_style(("sans-serif", 15)).draw().map_err(err)?;
-    for (i, s) in c.series.iter().enumerate() {
+    chart
+        .configure_mesh()
+        .x_desc(c.x)
+        .y_desc(c.y)
+        .x_label_formatter(&|v| compact(*v))
+        .y_label_formatter(&|v| compact(*v))
+        .label_style(("sans-serif", 15))
+        .draw()
+        .map_err(err)?;
+    // A series keeps its colour by its place in the list, also when another panel of the
+    // same figure has nothing to show for it.
+    for (i, s) in c.series.iter().enumerate().filter(|(_, s)| !s.points.is_empty()) {
         let color = Palette99::pick(i).to_rgba();
         chart
             .draw_series(LineSeries::new(s.points.iter().copied(), color.stroke_width(2)))

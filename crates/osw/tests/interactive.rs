@@ -100,7 +100,13 @@ fn a_walk_records_a_path_that_replays_to_the_same_frames() {
         if out.status.success() {
             break String::from_utf8(out.stdout).unwrap().trim().to_string();
         }
-        assert!(start_time.elapsed() < Duration::from_secs(60), "no window after 60 s");
+        // The run failing (a display that cannot open, a loaded host's X server gone) says why.
+        if let Some(status) = run.0.try_wait().unwrap() {
+            let mut err = String::new();
+            let _ = std::io::Read::read_to_string(&mut run.0.stderr.take().unwrap(), &mut err);
+            panic!("osw run --interactive exited ({status}) before its window showed: {err}");
+        }
+        assert!(start_time.elapsed() < Duration::from_secs(120), "no window after 120 s");
         std::thread::sleep(Duration::from_millis(200));
     };
     x(&display, "xdotool", &["windowfocus", "--sync", &window]);
