@@ -100,7 +100,7 @@ struct Report {
     runs: Vec<Entry>,
 }
 
-fn read_json(p: &Path) -> anyhow::Result<Value> {
+pub(crate) fn read_json(p: &Path) -> anyhow::Result<Value> {
     serde_json::from_str(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
         .with_context(|| format!("parsing {}", p.display()))
 }
@@ -110,7 +110,7 @@ fn run_name(mode: &str, tau: f64) -> String {
 }
 
 /// Runs `osw ARGS` with its output in `log`; on failure the error quotes the log's last line.
-fn osw(args: &[String], log: &Path) -> anyhow::Result<()> {
+pub(crate) fn osw(args: &[String], log: &Path) -> anyhow::Result<()> {
     let exe = std::env::current_exe()?;
     let status = Command::new(&exe)
         .args(args)

@@ -6,6 +6,7 @@
 //! Scenes, walks and runs already in DIR for the same input are used again, so an interrupted
 //! sweep resumes where it stopped.
 
+use crate::cmd_report::{osw, read_json};
 use crate::columns::Columns;
 use crate::plot::{Chart, Series};
 use anyhow::{Context, bail};
@@ -14,7 +15,6 @@ use serde_json::Value;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::time::Instant;
 
 const MODES: [&str; 6] = ["vfc", "sw", "chc", "hzb", "prev", "switch"];
@@ -109,30 +109,6 @@ struct Sweep {
     size: String,
     scenes: Vec<Scene>,
     runs: Vec<Row>,
-}
-
-fn read_json(p: &Path) -> anyhow::Result<Value> {
-    serde_json::from_str(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
-        .with_context(|| format!("parsing {}", p.display()))
-}
-
-/// Runs `osw ARGS` with its output in `log` (and `log`.err); on failure the error quotes the
-/// last line it printed.
-fn osw(args: &[String], log: &Path) -> anyhow::Result<()> {
-    let exe = std::env::current_exe()?;
-    let status = Command::new(&exe)
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(std::fs::File::create(log)?)
-        .stderr(std::fs::File::create(log.with_extension("err"))?)
-        .status()
-        .with_context(|| format!("starting {}", exe.display()))?;
-    if !status.success() {
-        let err = std::fs::read_to_string(log.with_extension("err")).unwrap_or_default();
-        let last = err.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("");
-        bail!("osw {} failed ({status}): {last}", args[0]);
-    }
-    Ok(())
 }
 
 fn strings(v: &[&str]) -> Vec<String> {
