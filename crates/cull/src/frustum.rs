@@ -85,6 +85,11 @@ impl Frustum {
         if inside { Containment::Inside } else { Containment::Intersects }
     }
 
+    /// True when a sphere lies wholly outside one of the planes.
+    pub fn sphere_outside(&self, center: DVec3, radius: f64) -> bool {
+        self.planes.iter().any(|(n, d)| n.dot(center) + d < -radius)
+    }
+
     /// True when the box contains the eye, reaches in front of the near plane, or is so large
     /// for its depth that its faces reach beyond the rasteriser's guard band: such a box
     /// cannot be tested by rasterising it (paper 004 sec. 4: clamp or accept) and counts as

@@ -8,12 +8,14 @@
 //!   and the pixel-count LOD stop (sec. 4.7.2).
 //! - [`sw`], [`chc`], [`hzb`]: the baselines of papers 001 and 002 (stop-and-wait, coherent
 //!   hierarchical culling, a software Z pyramid).
+//! - [`cluster`]: frustum and back-face cone tests of the clusters inside a node drawn.
 //! - [`delta`]: visible-set deltas, V(i) = (V(i-1) - removed) ∪ added (paper 000 sec. 3.4).
 //! - [`states`]: nodes classified visible / frustum-culled / occlusion-culled, for display.
 //! - [`front`]: the front update that re-selects last frame's visible set for a new camera
 //!   (paper 000 sec. 4.6), used to draw occluders.
 
 pub mod chc;
+pub mod cluster;
 pub mod delta;
 pub mod distance_queue;
 pub mod front;

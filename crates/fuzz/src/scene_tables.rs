@@ -9,7 +9,7 @@ use osw_cull::hc::hardware_cull;
 use osw_cull::tester::AllVisible;
 use osw_cull::view::View;
 use osw_scene::Camera;
-use osw_scene::format::{BlockRecord, Header, NodeKind, NodeRecord};
+use osw_scene::format::{BLOCK_BYTES, BlockRecord, Header, NodeKind, NodeRecord};
 use osw_scene::writer::{content_hash, header_hash};
 use std::path::Path;
 
@@ -22,7 +22,7 @@ fn rehash(bytes: &mut [u8]) {
         let end = off.checked_add(count as u64 * size)?;
         bytes.get(off as usize..usize::try_from(end).ok()?)
     };
-    if let (Some(n), Some(b)) = (table(h.nodes_offset, h.node_count, 64), table(h.blocks_offset, h.block_count, 32)) {
+    if let (Some(n), Some(b)) = (table(h.nodes_offset, h.node_count, 64), table(h.blocks_offset, h.block_count, BLOCK_BYTES)) {
         let nodes: Vec<NodeRecord> = bytemuck::pod_collect_to_vec(n);
         let blocks: Vec<BlockRecord> = bytemuck::pod_collect_to_vec(b);
         h.content_hash = content_hash(&h, &nodes, &blocks);

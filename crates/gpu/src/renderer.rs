@@ -8,6 +8,7 @@ use crate::draw::{DrawPipelines, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
+use osw_cull::cluster::{ClusterStats, ClusterTests, visible_clusters};
 use osw_cull::{Occluders, View, Visibility, VisibilityTester};
 use osw_scene::file::Indices;
 use osw_scene::{NodeId, SceneError, SceneFile};
@@ -57,6 +58,7 @@ const QUERIES: u32 = 4096;
 pub struct DrawStats {
     pub nodes: u32,
     pub triangles: u64,
+    pub clusters: ClusterStats,
 }
 
 pub struct Renderer {
@@ -64,6 +66,9 @@ pub struct Renderer {
     pub scene: Arc<SceneFile>,
     pub target: Target,
     pub residency: Residency,
+    /// The cluster tests of colour and depth passes (the item pass, exact visibility's
+    /// reference, draws every triangle).
+    pub cluster_tests: ClusterTests,
     draw: DrawPipelines,
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
@@ -128,6 +133,7 @@ impl Renderer {
             pyramid,
             target,
             residency: Residency::new(residency_bytes),
+            cluster_tests: ClusterTests::ALL,
             draw,
             boxtest,
             view_buf,
@@ -164,12 +170,18 @@ impl Renderer {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
         self.indices.clear();
+        let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.cluster_tests };
         for &id in ids {
             let base = self.residency.ensure(&self.gpu, &scene, id)?;
-            match scene.geometry(id)?.indices {
-                Indices::U16(ix) => self.indices.extend(ix.iter().map(|&i| base + i as u32)),
-                Indices::U32(ix) => self.indices.extend(ix.iter().map(|&i| base + i)),
-            }
+            let g = scene.geometry(id)?;
+            let out = &mut self.indices;
+            visible_clusters(view, g.clusters, tests, &mut stats.clusters, |r| {
+                let r = r.start as usize..r.end as usize;
+                match g.indices {
+                    Indices::U16(ix) => out.extend(ix[r].iter().map(|&i| base + i as u32)),
+                    Indices::U32(ix) => out.extend(ix[r].iter().map(|&i| base + i)),
+                }
+            });
             stats.nodes += 1;
         }
         // What is submitted, not what the node table says.

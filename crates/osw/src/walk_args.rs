@@ -22,6 +22,23 @@ pub struct WalkArgs {
     /// Geometry residency budget in MiB (least recently used geometry is dropped above it).
     #[arg(long, default_value_t = 1024, value_name = "MIB")]
     pub residency_mib: u64,
+    /// Cluster tests of the passes that draw: a list of `frustum` and `cone`, or `none`
+    /// (exact visibility's item pass always draws every triangle).
+    #[arg(long, default_value = "frustum,cone", value_parser = parse_cluster_tests, value_name = "LIST")]
+    pub cluster_tests: osw_cull::cluster::ClusterTests,
+}
+
+pub fn parse_cluster_tests(s: &str) -> Result<osw_cull::cluster::ClusterTests, String> {
+    let mut t = osw_cull::cluster::ClusterTests::NONE;
+    for name in s.split(',').map(str::trim) {
+        match name {
+            "frustum" => t.frustum = true,
+            "cone" => t.cone = true,
+            "none" if s.trim() == "none" => {}
+            _ => return Err(format!("{s:?}: expected a list of frustum and cone, or none")),
+        }
+    }
+    Ok(t)
 }
 
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -42,6 +59,8 @@ impl WalkArgs {
         let scene = Arc::new(osw_scene::SceneFile::open(&self.scene)?);
         let gpu = osw_gpu::Gpu::new(self.adapter.as_deref())?;
         tracing::info!("adapter: {} ({:?})", gpu.info.name, gpu.info.device_type);
-        Ok((cams, osw_gpu::Renderer::new(gpu, scene, self.size.0, self.size.1, self.residency_mib << 20)?))
+        let mut r = osw_gpu::Renderer::new(gpu, scene, self.size.0, self.size.1, self.residency_mib << 20)?;
+        r.cluster_tests = self.cluster_tests;
+        Ok((cams, r))
     }
 }

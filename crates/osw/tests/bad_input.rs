@@ -191,8 +191,8 @@ fn corrupted_or_truncated_scene_files_are_refused_by_name() {
     let mut v = bytes.clone();
     v[8] = 99; // version
     info(&v, "version");
-    v[8] = 1; // a file of version 1 (no colours): refused with how to rebuild it
-    info(&v, "scene format version 1, this build reads version 2; rebuild the scene with `osw build`");
+    v[8] = 2; // a file of version 2 (no clusters): refused with how to rebuild it
+    info(&v, "scene format version 2, this build reads version 3; rebuild the scene with `osw build`");
     let mut v = bytes.clone();
     v[300] ^= 0x40; // inside the node table
     info(&v, "content hash");

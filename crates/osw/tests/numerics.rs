@@ -119,8 +119,16 @@ fn write_chain_scene(path: &Path, tris: &[[DVec3; 3]]) {
         .iter()
         .map(|t| osw_scene::Mesh { positions: t.iter().map(|p| p.as_vec3().into()).collect(), indices: vec![0, 1, 2], colors: Vec::new() })
         .collect();
-    let data =
-        osw_scene::writer::SceneData { origin: [0.0; 3], nodes, bvh_count, blocks, object_count: n, leaf_count: n, leaf_triangles: n };
+    let data = osw_scene::writer::SceneData {
+        origin: [0.0; 3],
+        nodes,
+        bvh_count,
+        blocks,
+        object_count: n,
+        leaf_count: n,
+        leaf_triangles: n,
+        closed_objects: Vec::new(),
+    };
     osw_scene::writer::write_scene(path, &data).unwrap();
 }
 

@@ -273,6 +273,8 @@ impl ModeState {
         s.rvg_ms = ms(t);
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
+        (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled) =
+            (drawn.clusters.clusters, drawn.clusters.frustum_culled, drawn.clusters.cone_culled);
         (s.tests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
             (hc.tests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
         self.older = std::mem::replace(&mut self.visible, pvs);

@@ -24,6 +24,11 @@ pub struct FrameStats {
     pub frustum_culled: u32,
     pub occlusion_culled: u32,
     pub pixel_stops: u32,
+    /// RVG's cluster tests: clusters of the PVS's nodes, and those culled by the frustum and
+    /// by the back-face cone (osw_cull::cluster).
+    pub clusters: u64,
+    pub clusters_frustum_culled: u64,
+    pub clusters_cone_culled: u64,
 }
 
 /// The summary of a run: the keys first.
@@ -37,6 +42,10 @@ pub struct Summary {
     pub triangles_drawn_mean: f64,
     pub pvs_nodes_mean: f64,
     pub tests_mean: f64,
+    /// RVG's clusters a frame, and the share culled by the frustum and by the cone.
+    pub clusters_mean: f64,
+    pub clusters_frustum_culled_fraction: f64,
+    pub clusters_cone_culled_fraction: f64,
     /// The HC box test `prev` used: exact or pyramid.
     pub hc_test: String,
     pub or_ms_median: f64,
@@ -93,6 +102,12 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { 0.0 } else { sum / n as f64 }
 }
 
+/// Culled clusters over all clusters tested, over every frame.
+fn share(frames: &[FrameStats], culled: fn(&FrameStats) -> u64) -> f64 {
+    let all: u64 = frames.iter().map(|f| f.clusters).sum();
+    frames.iter().map(culled).sum::<u64>() as f64 / all.max(1) as f64
+}
+
 impl Summary {
     /// Fills the statistics from `frames`; the caller fills the run's identity.
     pub fn of(frames: &[FrameStats]) -> Summary {
@@ -106,6 +121,9 @@ impl Summary {
             triangles_drawn_mean: mean(frames.iter().map(|f| f.triangles_drawn as f64)),
             pvs_nodes_mean: mean(frames.iter().map(|f| f.pvs_nodes as f64)),
             tests_mean: mean(frames.iter().map(|f| f.tests as f64)),
+            clusters_mean: mean(frames.iter().map(|f| f.clusters as f64)),
+            clusters_frustum_culled_fraction: share(frames, |f| f.clusters_frustum_culled),
+            clusters_cone_culled_fraction: share(frames, |f| f.clusters_cone_culled),
             or_ms_median: quantile(&col(|f| f.or_ms), 0.5),
             hc_ms_median: quantile(&col(|f| f.hc_ms), 0.5),
             rvg_ms_median: quantile(&col(|f| f.rvg_ms), 0.5),

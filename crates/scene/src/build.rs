@@ -55,6 +55,8 @@ pub struct BuildReport {
     pub chunks: u64,
     /// Chunks split in two because their box was loose (see [`crate::chunk`]).
     pub loose_splits: u64,
+    /// Objects closed and wound outwards: back faces of their chunks may be culled.
+    pub closed_objects: u64,
     pub nodes: u64,
     pub leaves: u64,
     pub groups: u64,
@@ -145,16 +147,20 @@ pub fn make_scene(
 
     progress.stage("chunk", objects.len() as u64);
     let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
-    let per_object: Vec<Chunks> = timed(report, "chunk", |_| {
+    // Whether each object is closed and wound outwards is decided on the whole object, before
+    // chunks cut it open (see crate::cluster).
+    let (per_object, closed_objects): (Vec<Chunks>, Vec<Option<Aabb>>) = timed(report, "chunk", |_| {
         objects
             .par_iter()
             .map(|o| {
                 progress.advance(1);
-                crate::chunk::split(&o.mesh, split)
+                let closed = crate::cluster::Parts::of(&o.mesh).all_closed().then(|| o.mesh.bounds());
+                (crate::chunk::split(&o.mesh, split), closed)
             })
-            .collect()
+            .unzip()
     });
     drop(objects);
+    report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
     report.loose_splits = per_object.iter().map(|c| c.loose_splits as u64).sum();
     let chunks: Vec<(u32, Mesh)> =
         per_object.into_iter().enumerate().flat_map(|(i, c)| c.meshes.into_iter().map(move |m| (i as u32, m))).collect();
@@ -186,7 +192,7 @@ pub fn make_scene(
     progress.stage("hlod", groups);
     let (hlods, hlod_stats) = timed(report, "hlod", |_| hlods(&tree, &chains, min_error, progress));
 
-    let scene = assemble(&tree, &chunks, chains, hlods, origin.to_array(), report);
+    let scene = SceneData { closed_objects, ..assemble(&tree, &chunks, chains, hlods, origin.to_array(), report) };
     report_left_out(report, &lod_stats, &hlod_stats, groups);
     Ok(scene)
 }
@@ -376,7 +382,16 @@ fn assemble(
     let leaf_triangles = nodes[0].triangles;
     nodes.extend(lods);
     report.nodes = nodes.len() as u64;
-    SceneData { origin, bvh_count, leaf_count: report.leaves as u32, object_count: report.objects as u32, leaf_triangles, nodes, blocks }
+    SceneData {
+        origin,
+        bvh_count,
+        leaf_count: report.leaves as u32,
+        object_count: report.objects as u32,
+        leaf_triangles,
+        nodes,
+        blocks,
+        closed_objects: Vec::new(),
+    }
 }
 
 fn report_left_out(report: &mut BuildReport, lod: &LodStats, hlod: &HlodStats, groups: u64) {

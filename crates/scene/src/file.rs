@@ -5,7 +5,7 @@
 //! reads a page of geometry. A geometry block is checked (hash, index range) the first time it
 //! is read, so a corrupted block gives an error naming the block instead of a wrong picture.
 
-use crate::format::{BlockRecord, Header, MAGIC, NONE, NodeId, NodeKind, NodeRecord, VERSION};
+use crate::format::{BLOCK_BYTES, BlockRecord, ClusterRecord, Header, MAGIC, NONE, NodeId, NodeKind, NodeRecord, VERSION};
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
 use crate::writer::{content_hash, header_hash};
 use std::path::{Path, PathBuf};
@@ -41,7 +41,9 @@ pub struct Geometry<'a> {
     pub positions: &'a [[f32; 3]],
     /// One per vertex, or empty when the block has no colours.
     pub colors: &'a [[u8; 4]],
+    /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
     pub indices: Indices<'a>,
+    pub clusters: &'a [ClusterRecord],
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -145,7 +147,7 @@ impl SceneFile {
         let bytes = &self.map[start..start + rec.byte_len() as usize];
         let state = &self.checked[b];
         if state.load(Ordering::Acquire) == 0 {
-            let ok = xxhash_rust::xxh3::xxh3_64(bytes) == rec.hash && indices_in_range(bytes, &rec);
+            let ok = xxhash_rust::xxh3::xxh3_64(bytes) == rec.hash && ranges_ok(bytes, &rec);
             state.store(if ok { 1 } else { 2 }, Ordering::Release);
         }
         if state.load(Ordering::Acquire) == 2 {
@@ -159,15 +161,29 @@ impl SceneFile {
 }
 
 fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
-    let (pos, rest) = bytes.split_at(rec.vertex_count as usize * 12);
+    let (front, clusters) = bytes.split_at(rec.clusters_at() as usize);
+    let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
     let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
+    let idx = &idx[..rec.index_count as usize * rec.index_bytes as usize];
     let indices = if rec.index_bytes == 2 { Indices::U16(bytemuck::cast_slice(idx)) } else { Indices::U32(bytemuck::cast_slice(idx)) };
-    Geometry { positions: bytemuck::cast_slice(pos), colors: bytemuck::cast_slice(colors), indices }
+    Geometry {
+        positions: bytemuck::cast_slice(pos),
+        colors: bytemuck::cast_slice(colors),
+        indices,
+        clusters: bytemuck::cast_slice(clusters),
+    }
 }
 
-fn indices_in_range(bytes: &[u8], rec: &BlockRecord) -> bool {
+/// Every index names a vertex of the block, and the clusters cover the indices in turn.
+fn ranges_ok(bytes: &[u8], rec: &BlockRecord) -> bool {
     let g = geometry_of(bytes, rec);
-    g.indices.iter().all(|i| i < rec.vertex_count)
+    let mut next = 0u32;
+    let clusters_ok = g.clusters.iter().all(|c| {
+        let ok = c.first_index == next && c.index_count.is_multiple_of(3) && c.radius.is_finite() && c.center.iter().all(|x| x.is_finite());
+        next = next.saturating_add(c.index_count);
+        ok
+    });
+    clusters_ok && next == rec.index_count && g.indices.iter().all(|i| i < rec.vertex_count)
 }
 
 fn nodes_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [NodeRecord] {
@@ -177,7 +193,7 @@ fn nodes_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [NodeRecord] {
 
 fn blocks_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [BlockRecord] {
     let s = h.blocks_offset as usize;
-    bytemuck::cast_slice(&bytes[s..s + h.block_count as usize * 32])
+    bytemuck::cast_slice(&bytes[s..s + h.block_count as usize * BLOCK_BYTES as usize])
 }
 
 /// Checks everything but the geometry bytes; returns the header.
@@ -201,7 +217,7 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
         return Err(SceneError::Truncated { path: path.to_owned(), expected: h.file_bytes, found: bytes.len() as u64 });
     }
     let nodes_end = h.nodes_offset.checked_add(h.node_count as u64 * 64);
-    let blocks_end = h.blocks_offset.checked_add(h.block_count as u64 * 32);
+    let blocks_end = h.blocks_offset.checked_add(h.block_count as u64 * BLOCK_BYTES);
     let layout_ok = h.header_bytes as usize == hsize
         && h.nodes_offset == hsize as u64
         && nodes_end == Some(h.blocks_offset)

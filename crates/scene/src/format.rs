@@ -5,10 +5,11 @@
 //! ```text
 //! offset 0              Header (256 bytes)
 //! header.nodes_offset   [NodeRecord; node_count]       64 bytes each
-//! header.blocks_offset  [BlockRecord; block_count]     32 bytes each
+//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each
 //! header.blob_offset    geometry blocks, each BLOCK_ALIGN-aligned:
 //!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
-//!                       block has colours, then [u16 or u32; index_count]
+//!                       block has colours, [u16 or u32; index_count] in cluster order,
+//!                       padding to 4 bytes, then [ClusterRecord; cluster_count]
 //! ```
 //! All integers little-endian. Node ids are dense: ids `0..bvh_count` are BVH nodes in
 //! breadth-first order (root = 0), ids `bvh_count..node_count` are LOD and HLOD nodes, each its
@@ -28,8 +29,9 @@ pub type NodeId = u32;
 pub const NONE: u32 = u32::MAX;
 
 pub const MAGIC: [u8; 8] = *b"OSWSCENE";
-/// 2: geometry blocks may carry the model's colours (version 1 had none).
-pub const VERSION: u32 = 2;
+/// 2: geometry blocks may carry the model's colours (version 1 had none). 3: each block's
+/// triangles are grouped into clusters with bounds and normal cones (see [`ClusterRecord`]).
+pub const VERSION: u32 = 3;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -129,12 +131,14 @@ impl NodeRecord {
     }
 }
 
-/// Where one geometry block lies in the blob: 32 bytes.
+/// Where one geometry block lies in the blob: 40 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct BlockRecord {
     /// Offset from the start of the blob; a multiple of BLOCK_ALIGN.
     pub offset: u64,
+    /// xxh3-64 of the block's bytes.
+    pub hash: u64,
     pub vertex_count: u32,
     pub index_count: u32,
     /// 2 or 4.
@@ -142,17 +146,51 @@ pub struct BlockRecord {
     /// 4 when the block stores an RGBA8 colour per vertex (see [`crate::mesh::Mesh::colors`]),
     /// else 0.
     pub color_bytes: u32,
-    /// xxh3-64 of the block's bytes.
-    pub hash: u64,
+    /// Clusters after the indices; together they hold every triangle once.
+    pub cluster_count: u32,
+    pub reserved: u32,
 }
 
 impl BlockRecord {
     /// Bytes of positions, colours and indices (positions are 12 bytes a vertex and colours
-    /// 4, so indices start 4-byte aligned).
+    /// 4, so indices start 4-byte aligned), rounded up to 4.
+    pub fn clusters_at(&self) -> u64 {
+        (self.vertex_count as u64 * (12 + self.color_bytes as u64) + self.index_count as u64 * self.index_bytes as u64).next_multiple_of(4)
+    }
+
+    /// Bytes of the whole block.
     pub fn byte_len(&self) -> u64 {
-        self.vertex_count as u64 * (12 + self.color_bytes as u64) + self.index_count as u64 * self.index_bytes as u64
+        self.clusters_at() + self.cluster_count as u64 * CLUSTER_BYTES
     }
 }
+
+/// A run of at most [`crate::cluster::MAX_TRIANGLES`] triangles of one block, close together
+/// and facing alike, that a pass culls as a unit: 56 bytes.
+///
+/// The cone is meshopt's, quantised conservatively: every triangle of the cluster faces away
+/// from an eye at `e` when `dot(c - e, a) >= cutoff * |c - e| + radius`, with `c` the centre,
+/// `a = cone_axis / 127` and `cutoff = cone_cutoff / 127`. A back face is hidden only while the
+/// eye is outside the closed part it belongs to: `closed_min..closed_max` bounds the closed
+/// parts of the cluster's triangles (see [`crate::cluster`]). A cluster with a triangle of an
+/// open part stores `cone_cutoff = 127`, which no eye passes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct ClusterRecord {
+    /// Bounding sphere, block-local (the scene's local frame).
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub cone_axis: [i8; 3],
+    pub cone_cutoff: i8,
+    /// Indices `first_index..first_index + index_count` of the block.
+    pub first_index: u32,
+    pub index_count: u32,
+    pub closed_min: [f32; 3],
+    pub closed_max: [f32; 3],
+    pub reserved: u32,
+}
+
+pub const BLOCK_BYTES: u64 = std::mem::size_of::<BlockRecord>() as u64;
+pub const CLUSTER_BYTES: u64 = std::mem::size_of::<ClusterRecord>() as u64;
 
 #[cfg(test)]
 mod tests {
@@ -162,6 +200,7 @@ mod tests {
     fn record_sizes_are_stable() {
         assert_eq!(std::mem::size_of::<Header>(), 256);
         assert_eq!(std::mem::size_of::<NodeRecord>(), 64);
-        assert_eq!(std::mem::size_of::<BlockRecord>(), 32);
+        assert_eq!(std::mem::size_of::<BlockRecord>(), 40);
+        assert_eq!(std::mem::size_of::<ClusterRecord>(), 56);
     }
 }

@@ -19,6 +19,7 @@ pub mod build;
 pub mod bvh;
 pub mod camera;
 pub mod chunk;
+pub mod cluster;
 pub mod error_metric;
 pub mod file;
 pub mod format;

@@ -1,0 +1,179 @@
+//! Cluster culling inside the nodes a pass draws (see `osw_scene::cluster`): a node of the PVS
+//! is visible somewhere, not everywhere. Its clusters wholly outside the frustum, or whose
+//! every triangle faces away from the eye (meshopt's normal cone, kept only for closed meshes
+//! wound outwards), cover no pixel that another triangle of the frame does not cover nearer, so
+//! they are skipped. Both tests are conservative; occlusion per cluster is not done here.
+
+use crate::view::View;
+use glam::DVec3;
+use osw_scene::format::ClusterRecord;
+
+/// Which cluster tests a pass runs (all on by default; each can be turned off alone to show
+/// what it culls and that the frame does not change).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ClusterTests {
+    pub frustum: bool,
+    pub cone: bool,
+}
+
+impl ClusterTests {
+    pub const ALL: ClusterTests = ClusterTests { frustum: true, cone: true };
+    pub const NONE: ClusterTests = ClusterTests { frustum: false, cone: false };
+}
+
+impl Default for ClusterTests {
+    fn default() -> ClusterTests {
+        ClusterTests::ALL
+    }
+}
+
+/// Counts of one pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ClusterStats {
+    /// Clusters of the nodes drawn.
+    pub clusters: u64,
+    pub frustum_culled: u64,
+    pub cone_culled: u64,
+}
+
+impl ClusterStats {
+    pub fn add(&mut self, o: &ClusterStats) {
+        self.clusters += o.clusters;
+        self.frustum_culled += o.frustum_culled;
+        self.cone_culled += o.cone_culled;
+    }
+}
+
+/// Calls `keep` with the index range of each cluster of a node that may cover a pixel, merging
+/// neighbours into one range.
+pub fn visible_clusters(
+    view: &View,
+    clusters: &[ClusterRecord],
+    tests: ClusterTests,
+    stats: &mut ClusterStats,
+    mut keep: impl FnMut(std::ops::Range<u32>),
+) {
+    stats.clusters += clusters.len() as u64;
+    let mut run: Option<std::ops::Range<u32>> = None;
+    for c in clusters {
+        let center = DVec3::from(c.center.map(f64::from));
+        // The sphere grown by its centre's f32 rounding, and the eye's (the GPU makes vertices
+        // camera-relative in f32; see View::test_box).
+        let radius = c.radius as f64 * (1.0 + 1e-5) + center.abs().max_element() * 2.4e-7 + view.eye.abs().max_element() * 2.4e-7;
+        if tests.frustum && view.frustum.sphere_outside(center, radius) {
+            stats.frustum_culled += 1;
+            continue;
+        }
+        if tests.cone && faces_away(c, center, radius, view) {
+            stats.cone_culled += 1;
+            continue;
+        }
+        let r = c.first_index..c.first_index + c.index_count;
+        match &mut run {
+            Some(open) if open.end == r.start => open.end = r.end,
+            _ => {
+                if let Some(done) = run.replace(r) {
+                    keep(done);
+                }
+            }
+        }
+    }
+    if let Some(done) = run {
+        keep(done);
+    }
+}
+
+/// meshopt's cone test on the bounding sphere: every triangle of the cluster faces away from
+/// the eye when dot(c - eye, axis) >= cutoff * |c - eye| + radius. The quantised axis and
+/// cutoff are conservative together; a cutoff of 127 (1.0) passes no eye. A back face is hidden
+/// only while the eye is outside its closed parts' box, grown by the near plane (which would
+/// otherwise cut the front faces away).
+fn faces_away(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> bool {
+    if c.cone_cutoff == osw_scene::cluster::NO_CONE {
+        return false;
+    }
+    let grow = view.near * 2.0 + view.eye.abs().max_element() * 2.4e-7;
+    let lo = DVec3::from(c.closed_min.map(f64::from)) - grow;
+    let hi = DVec3::from(c.closed_max.map(f64::from)) + grow;
+    if view.eye.cmpge(lo).all() && view.eye.cmple(hi).all() {
+        return false;
+    }
+    let axis = DVec3::from(c.cone_axis.map(|a| a as f64 / 127.0));
+    let cutoff = c.cone_cutoff as f64 / 127.0;
+    let d = center - view.eye;
+    d.dot(axis) >= cutoff * d.length() + radius
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use osw_scene::Camera;
+    use osw_scene::generators::shapes::add_box;
+    use osw_scene::mesh::Mesh;
+
+    /// Triangles of `m` whose front faces `eye` (counter-clockwise from outside).
+    fn front_facing(m: &Mesh, t: &[u32], eye: DVec3) -> bool {
+        let p = |i: u32| DVec3::from(m.positions[i as usize].map(f64::from));
+        let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+        (b - a).cross(c - a).dot(eye - a) > 0.0
+    }
+
+    #[test]
+    fn no_front_facing_triangle_is_culled_and_back_faces_are() {
+        // 400 boxes of many sizes and orientations of faces; cameras all around.
+        let mut m = Mesh::default();
+        for i in 0..400 {
+            let o = glam::Vec3::new((i % 20) as f32 * 3.0, (i / 20) as f32 * 3.0, (i % 7) as f32);
+            add_box(&mut m, o, o + glam::Vec3::new(1.0 + (i % 3) as f32, 1.0, 0.5 + (i % 5) as f32));
+        }
+        let (indices, clusters) = osw_scene::cluster::clusterize(&m, None);
+        m.indices = indices;
+        let mut culled_total = 0;
+        for k in 0..50 {
+            let a = k as f64 * 0.7;
+            let eye = DVec3::new(30.0 + 90.0 * a.cos(), 30.0 + 40.0 * (a * 0.3).sin(), 90.0 * a.sin());
+            let view = View::new(&Camera::look_at(eye, DVec3::new(30.0, 30.0, 2.0), 60.0), DVec3::ZERO, 256, 256, 0.01);
+            let mut kept = vec![false; m.indices.len() / 3];
+            let mut s = ClusterStats::default();
+            let tests = ClusterTests { frustum: false, cone: true };
+            visible_clusters(&view, &clusters, tests, &mut s, |r| {
+                for t in r.start / 3..r.end / 3 {
+                    kept[t as usize] = true;
+                }
+            });
+            for (t, tri) in m.indices.chunks_exact(3).enumerate() {
+                assert!(kept[t] || !front_facing(&m, tri, eye), "front-facing triangle {t} culled from {eye}");
+            }
+            culled_total += s.cone_culled;
+        }
+        assert!(culled_total > 0, "boxes seen from outside have back-facing clusters");
+    }
+
+    #[test]
+    fn the_eye_inside_a_closed_part_turns_the_cone_test_off_and_ranges_merge() {
+        let mut m = Mesh::default();
+        add_box(&mut m, glam::Vec3::ZERO, glam::Vec3::splat(10.0));
+        let (indices, clusters) = osw_scene::cluster::clusterize(&m, None);
+        m.indices = indices;
+        let view = View::new(&Camera::look_at(DVec3::splat(5.0), DVec3::new(5.0, 5.0, 0.0), 60.0), DVec3::ZERO, 64, 64, 0.01);
+        let mut ranges = Vec::new();
+        let mut s = ClusterStats::default();
+        visible_clusters(&view, &clusters, ClusterTests { frustum: false, cone: true }, &mut s, |r| ranges.push(r));
+        assert_eq!(s.cone_culled, 0);
+        assert_eq!(ranges, vec![0..m.indices.len() as u32], "one range for the whole block");
+    }
+
+    #[test]
+    fn spheres_behind_the_eye_are_frustum_culled() {
+        let c =
+            |x: f32| ClusterRecord { center: [x, 0.0, 0.0], radius: 1.0, cone_cutoff: 127, index_count: 3, ..bytemuck::Zeroable::zeroed() };
+        let clusters = [c(-10.0), c(10.0)];
+        let clusters = [ClusterRecord { first_index: 3, ..clusters[1] }, clusters[0]];
+        let view = View::new(&Camera::look_at(DVec3::ZERO, DVec3::X, 60.0), DVec3::ZERO, 64, 64, 0.01);
+        let mut ranges = Vec::new();
+        let mut s = ClusterStats::default();
+        visible_clusters(&view, &clusters, ClusterTests::ALL, &mut s, |r| ranges.push(r));
+        assert_eq!((s.clusters, s.frustum_culled), (2, 1));
+        assert_eq!(ranges, vec![3..6]);
+    }
+}
