@@ -13,7 +13,7 @@ use crate::frustum::Containment;
 use crate::tester::{Visibility, VisibilityTester};
 use crate::view::View;
 use glam::{DMat4, DVec3, DVec4};
-use osw_scene::{NodeId, NodeRecord};
+use osw_scene::{Aabb, NodeId, NodeRecord};
 
 /// Size of the active occluder set: paper 002 fixes it so that the cost per frame does not
 /// change at run time; 128 full-detail leaves of at most 4096 triangles cost at most ~0.5M
@@ -121,10 +121,15 @@ pub enum Footprint {
 }
 
 impl Footprint {
-    /// The box of BVH node `id` as [`View::test_box`] grows it, through `vp` (the view's
+    /// The box of node `id` as [`View::test_box`] grows it, through `vp` (the view's
     /// camera-relative view-projection in f64).
     pub fn of(nodes: &[NodeRecord], vp: &DMat4, view: &View, id: NodeId) -> Footprint {
-        let (lo, hi) = view.test_box(&nodes[id as usize].aabb());
+        Footprint::of_box(vp, view, &nodes[id as usize].aabb())
+    }
+
+    /// As [`Footprint::of`], for any scene-local box.
+    pub fn of_box(vp: &DMat4, view: &View, b: &Aabb) -> Footprint {
+        let (lo, hi) = view.test_box(b);
         let (w, h) = (view.width as f64, view.height as f64);
         let (mut x0, mut y0, mut x1, mut y1, mut nearest) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY, 0.0f64);
         for c in 0..8 {
@@ -158,16 +163,23 @@ impl Footprint {
 
 impl HzbTester<'_> {
     fn visible(&self, vp: &DMat4, view: &View, id: NodeId) -> bool {
-        let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of(self.nodes, vp, view, id) else { return true };
-        let (w, h) = (view.width as f64, view.height as f64);
-        if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
-            return false;
-        }
-        let clamp = |v: f64, m: f64| v.clamp(0.0, m - 1.0) as u32;
-        let far = self.pyramid.farthest(clamp(x0.floor(), w), clamp(y0.floor(), h), clamp(x1.floor(), w), clamp(y1.floor(), h), self.finer);
-        // Rounding margin: f32 depth against an f64 corner depth.
-        nearest as f32 >= far - 1e-7
+        visible_box(self.pyramid, vp, view, &self.nodes[id as usize].aabb(), self.finer)
     }
+}
+
+/// Whether any of box `b` may be nearer than the farthest depth under its screen rectangle
+/// (read `finer` levels below GigaWalk's 2x2 texels): false only when all of it is hidden.
+/// `vp`: the view's camera-relative view-projection in f64.
+pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, finer: u32) -> bool {
+    let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of_box(vp, view, b) else { return true };
+    let (w, h) = (view.width as f64, view.height as f64);
+    if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
+        return false;
+    }
+    let clamp = |v: f64, m: f64| v.clamp(0.0, m - 1.0) as u32;
+    let far = pyramid.farthest(clamp(x0.floor(), w), clamp(y0.floor(), h), clamp(x1.floor(), w), clamp(y1.floor(), h), finer);
+    // Rounding margin: f32 depth against an f64 corner depth.
+    nearest as f32 >= far - 1e-7
 }
 
 #[cfg(test)]

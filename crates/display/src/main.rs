@@ -161,6 +161,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     }
     let mut rows: Vec<FrameRow> = Vec::with_capacity(path.len());
     let mut pvs_txt = String::new();
+    let mut clusters = osw_cull::cluster::ClusterHistory::default();
     let mut last = Instant::now();
     let mut i = 0;
     while i < requested {
@@ -171,7 +172,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
         r.begin_frame();
         let camera = Camera { position: cam.position.into(), orientation: glam_quat(cam.orientation), fovy_deg: cam.fovy_deg };
         let view = r.view(&camera);
-        let drawn = r.draw(&view, &frames.visible, Pass::Color, true)?;
+        // RVG as prev's: hidden clusters culled in two passes (osw_gpu::Renderer::draw_visible).
+        let drawn = r.draw_visible(&view, &frames.visible, Pass::Color, &mut clusters)?;
         row.rvg_ms = t.elapsed().as_secs_f64() * 1e3;
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
         // Read back once for the PNG and the window both (unless the window draws another view).

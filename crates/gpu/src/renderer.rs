@@ -8,9 +8,10 @@ use crate::draw::{DrawPipelines, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
-use osw_cull::cluster::{ClusterStats, ClusterTests, visible_clusters};
+use osw_cull::cluster::{ClusterHistory, ClusterStats, ClusterTests, visible_clusters};
 use osw_cull::{Occluders, View, Visibility, VisibilityTester};
 use osw_scene::file::Indices;
+use osw_scene::format::ClusterRecord;
 use osw_scene::{NodeId, SceneError, SceneFile};
 use std::sync::Arc;
 
@@ -133,7 +134,7 @@ impl Renderer {
             pyramid,
             target,
             residency: Residency::new(residency_bytes),
-            cluster_tests: ClusterTests::ALL,
+            cluster_tests: ClusterTests::default(),
             draw,
             boxtest,
             view_buf,
@@ -165,25 +166,105 @@ impl Renderer {
     ///
     /// One draw call: the nodes' indices, read from the mapped file and offset to their
     /// vertices in the arena, are gathered in the given order (so triangles rasterise in the
-    /// same order as one draw per node would, and depth ties resolve alike).
+    /// same order as one draw per node would, and depth ties resolve alike), less the clusters
+    /// that the frustum and cone tests skip (none in the item pass).
     pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+        let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.cluster_tests };
+        let mut stats = self.gather(view, ids, tests, |_, _, _| true)?;
+        self.submit(view, pass, clear, &mut stats)?;
+        Ok(stats)
+    }
+
+    /// RVG's draw of the visible set with occlusion culling of clusters, in two passes as in
+    /// niagara: first the clusters of `ids` that `history` says were visible in the last frame,
+    /// then every cluster's box is tested exactly against the depth that drew, and those
+    /// visible and not yet drawn are drawn. Conservative: a cluster is skipped only when
+    /// geometry drawn this frame hides all of its box. `history` then holds this frame's
+    /// visible clusters. Without the occlusion test, [`Renderer::draw`].
+    pub fn draw_visible(
+        &mut self,
+        view: &View,
+        ids: &[NodeId],
+        pass: Pass,
+        history: &mut ClusterHistory,
+    ) -> Result<DrawStats, RenderError> {
+        let tests = self.cluster_tests;
+        if !tests.occlusion {
+            return self.draw(view, ids, pass, true);
+        }
+        let mut first = self.gather(view, ids, tests, |id, k, _| history.was_visible(id, k))?;
+        self.submit(view, pass, true, &mut first)?;
+        // Every cluster that passes the frustum and cone tests, its box tested exactly against
+        // the depth of what the first pass drew (boxes around the eye or across the near plane
+        // count as visible, as in HC).
+        let (mut candidates, mut boxes) = (Vec::new(), Vec::new());
+        let mut stats = self.gather(view, ids, tests, |id, k, c| {
+            let b = c.aabb();
+            if view.frustum.needs_no_test(&b) {
+                history.mark(id, k);
+            } else {
+                candidates.push((id, k));
+                boxes.push(b);
+            }
+            false
+        })?;
+        let mut answers = Vec::with_capacity(boxes.len());
+        self.test_raw(view, &boxes, HcTest::Exact, &mut answers)?;
+        let mut occluded = 0;
+        for (&(id, k), &visible) in candidates.iter().zip(&answers) {
+            if visible > 0 {
+                history.mark(id, k);
+            } else if !history.was_visible(id, k) {
+                occluded += 1;
+            }
+        }
+        // The second pass: visible now and not drawn in the first.
+        let second = self.gather(view, ids, tests, |id, k, _| history.is_marked(id, k) && !history.was_visible(id, k))?;
+        stats.nodes = second.nodes;
+        self.submit(view, pass, false, &mut stats)?;
+        history.end_frame();
+        stats.triangles += first.triangles;
+        stats.clusters.occlusion_culled = occluded;
+        Ok(stats)
+    }
+
+    /// Gathers into `self.indices` the index ranges of the clusters of `ids` that pass `tests`
+    /// and `select(node, cluster index, cluster)`, making the nodes resident.
+    fn gather(
+        &mut self,
+        view: &View,
+        ids: &[NodeId],
+        tests: ClusterTests,
+        mut select: impl FnMut(NodeId, usize, &ClusterRecord) -> bool,
+    ) -> Result<DrawStats, RenderError> {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
         self.indices.clear();
-        let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.cluster_tests };
         for &id in ids {
             let base = self.residency.ensure(&self.gpu, &scene, id)?;
             let g = scene.geometry(id)?;
             let out = &mut self.indices;
-            visible_clusters(view, g.clusters, tests, &mut stats.clusters, |r| {
-                let r = r.start as usize..r.end as usize;
-                match g.indices {
-                    Indices::U16(ix) => out.extend(ix[r].iter().map(|&i| base + i as u32)),
-                    Indices::U32(ix) => out.extend(ix[r].iter().map(|&i| base + i)),
-                }
-            });
+            visible_clusters(
+                view,
+                g.clusters,
+                tests,
+                &mut stats.clusters,
+                |k, c| select(id, k, c),
+                |r| {
+                    let r = r.start as usize..r.end as usize;
+                    match g.indices {
+                        Indices::U16(ix) => out.extend(ix[r].iter().map(|&i| base + i as u32)),
+                        Indices::U32(ix) => out.extend(ix[r].iter().map(|&i| base + i)),
+                    }
+                },
+            );
             stats.nodes += 1;
         }
+        Ok(stats)
+    }
+
+    /// Draws the gathered indices in one call; counts them into `stats.triangles`.
+    fn submit(&mut self, view: &View, pass: Pass, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
         let bytes = self.indices.len() as u64 * 4;
@@ -245,7 +326,7 @@ impl Renderer {
         self.gpu.queue.submit([enc.finish()]);
         self.gpu.wait()?;
         self.residency.trim();
-        Ok(stats)
+        Ok(())
     }
 
     /// Records the farthest-depth pyramid of the depth buffer as it is now, for
@@ -261,7 +342,8 @@ impl Renderer {
     pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: HcTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
         debug_assert_ne!(test, HcTest::Hybrid, "the hybrid is osw_render's hc_pass: the CPU pyramid, then Exact");
         let mut words = Vec::with_capacity(ids.len());
-        self.test_raw(view, ids, test, &mut words)?;
+        let boxes: Vec<osw_scene::Aabb> = ids.iter().map(|&id| self.scene.node(id).aabb()).collect();
+        self.test_raw(view, &boxes, test, &mut words)?;
         let counts = test == HcTest::ExactCount;
         out.extend(words.iter().map(|&w| Visibility { visible: w > 0, pixels: counts.then_some(w) }));
         Ok(())
@@ -269,13 +351,13 @@ impl Renderer {
 
     /// The raw answer per box: exact flag or pixel count, query non-zero, or for the pyramid
     /// 0 (hidden) or 1 + the level read (u32::MAX: a corner behind the eye).
-    fn test_raw(&mut self, view: &View, ids: &[NodeId], test: HcTest, out: &mut Vec<u32>) -> Result<(), RenderError> {
+    fn test_raw(&mut self, view: &View, boxes: &[osw_scene::Aabb], test: HcTest, out: &mut Vec<u32>) -> Result<(), RenderError> {
         self.gpu.queue.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
         let chunk_len = if test == HcTest::Queries { QUERIES } else { crate::limits::MAX_BOXES };
-        for chunk in ids.chunks(chunk_len as usize) {
+        for chunk in boxes.chunks(chunk_len as usize) {
             self.gpu_boxes.clear();
-            for &id in chunk {
-                let (lo, hi) = view.test_box(&self.scene.node(id).aabb());
+            for b in chunk {
+                let (lo, hi) = view.test_box(b);
                 let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
                 self.gpu_boxes.push(GpuBox { lo: lo.extend(0.0).to_array(), hi: hi.extend(0.0).to_array() });
             }

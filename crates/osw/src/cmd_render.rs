@@ -63,10 +63,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         s.geometry_never_loaded_fraction * 100.0
     );
     out!(
-        "left out: {:.0}% of the PVS's {:.0} clusters a frame outside the frustum, {:.0}% facing away",
-        s.clusters_frustum_culled_fraction * 100.0,
+        "left out: of the PVS's {:.0} clusters a frame, {:.0}% outside the frustum, {:.0}% facing away, {:.0}% hidden",
         s.clusters_mean,
-        s.clusters_cone_culled_fraction * 100.0
+        s.clusters_frustum_culled_fraction * 100.0,
+        s.clusters_cone_culled_fraction * 100.0,
+        s.clusters_occlusion_culled_fraction * 100.0
     );
     out!(
         "render: {} tau {} over {} frames: frame {:.1} ms median ({:.1} p95), {:.0} triangles, {:.0} nodes, {:.0} tests a frame → {}",

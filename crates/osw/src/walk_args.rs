@@ -22,7 +22,8 @@ pub struct WalkArgs {
     /// Geometry residency budget in MiB (least recently used geometry is dropped above it).
     #[arg(long, default_value_t = 1024, value_name = "MIB")]
     pub residency_mib: u64,
-    /// Cluster tests of the passes that draw: a list of `frustum` and `cone`, or `none`
+    /// Cluster tests of the passes that draw: a list of `frustum`, `cone` and `occlusion` (RVG's
+    /// two passes, in prev; off by default: it costs lavapipe more than it saves), or `none`
     /// (exact visibility's item pass always draws every triangle).
     #[arg(long, default_value = "frustum,cone", value_parser = parse_cluster_tests, value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,
@@ -34,8 +35,9 @@ pub fn parse_cluster_tests(s: &str) -> Result<osw_cull::cluster::ClusterTests, S
         match name {
             "frustum" => t.frustum = true,
             "cone" => t.cone = true,
+            "occlusion" => t.occlusion = true,
             "none" if s.trim() == "none" => {}
-            _ => return Err(format!("{s:?}: expected a list of frustum and cone, or none")),
+            _ => return Err(format!("{s:?}: expected a list of frustum, cone and occlusion, or none")),
         }
     }
     Ok(t)

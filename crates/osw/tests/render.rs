@@ -93,9 +93,9 @@ fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
 
 /// Cluster culling inside the PVS's nodes (osw_cull::cluster): each test turned off alone stops
 /// its count and draws more triangles; the visible sets never change, and neither do the frames
-/// without the frustum test. Without the cone test the back faces it skips are drawn again:
-/// hidden behind their front faces, they can win only a silhouette pixel where the two tie in
-/// depth, so the frames differ by at most a few such pixels.
+/// without the frustum or the occlusion test. Without the cone test the back faces it skips are
+/// drawn again: hidden behind their front faces, they can win only a silhouette pixel where the
+/// two tie in depth, so the frames differ by at most a few such pixels.
 #[test]
 fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
     let d = tempfile::tempdir().unwrap();
@@ -107,30 +107,35 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
         osw_ok(&[&args[..], &["--cluster-tests", tests, "--out", s(&out)]].concat());
         let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
         let f = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{tests}: no {k} in {v}"));
-        (out, f("clusters_frustum_culled_fraction"), f("clusters_cone_culled_fraction"), f("triangles_drawn_mean"))
+        let culled = ["frustum", "cone", "occlusion"].map(|t| f(&format!("clusters_{t}_culled_fraction")));
+        (out, culled, f("triangles_drawn_mean"))
     };
-    let (all, all_f, all_c, all_t) = run("frustum,cone");
-    let (no_frustum, nf_f, nf_c, nf_t) = run("cone");
-    let (no_cone, nc_f, nc_c, nc_t) = run("frustum");
-    let (none, _, _, none_t) = run("none");
-    assert!(all_f > 0.0 && all_c > 0.0, "a walk through a plant has clusters outside the view and facing away: {all_f} {all_c}");
-    assert_eq!((nf_f, nc_c), (0.0, 0.0), "a test turned off culls nothing");
-    // The frustum test runs first: without it the cone meets more clusters.
-    assert!((nc_f - all_f).abs() < 1e-12 && nf_c >= all_c, "the other test culls as before: {nc_f} {all_f} {nf_c} {all_c}");
-    assert!(all_t < nf_t && all_t < nc_t && nf_t < none_t && nc_t < none_t, "{all_t} {nf_t} {nc_t} {none_t}");
+    let (all, all_culled, all_t) = run("frustum,cone,occlusion");
+    assert!(
+        all_culled.iter().all(|&c| c > 0.0),
+        "a walk through a plant has clusters outside the view, facing away and hidden: {all_culled:?}"
+    );
     let read = |p: &Path| std::fs::read(p).unwrap();
-    for other in [&no_frustum, &no_cone, &none] {
-        assert_eq!(read(&all.join("pvs.txt")), read(&other.join("pvs.txt")), "{}: visible sets", other.display());
+    for (k, without) in ["cone,occlusion", "frustum,occlusion", "frustum,cone"].into_iter().enumerate() {
+        let (out, culled, t) = run(without);
+        assert_eq!(culled[k], 0.0, "{without}: a test turned off culls nothing");
+        assert!(t > all_t, "{without}: {t} triangles, all tests {all_t}");
+        assert_eq!(read(&all.join("pvs.txt")), read(&out.join("pvs.txt")), "{without}: visible sets");
+        if k == 1 {
+            let cmp = d.path().join("cmp-cone");
+            osw_ok(&["compare", "--a", s(&out), "--b", s(&all), "--out", s(&cmp)]);
+            let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp.join("compare.json")).unwrap()).unwrap();
+            assert!(c["differing_fraction_max"].as_f64().unwrap() <= 1e-3, "more than silhouette ties: {c}");
+        } else {
+            for i in 0..24 {
+                let f = format!("frames/{i:05}.png");
+                assert!(read(&all.join(&f)) == read(&out.join(&f)), "frame {i} changes with {without} alone");
+            }
+        }
     }
-    for i in 0..24 {
-        let f = format!("frames/{i:05}.png");
-        assert!(read(&all.join(&f)) == read(&no_frustum.join(&f)), "frame {i} changes without the frustum test");
-    }
-    let exact = d.path().join("exact");
-    osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);
-    let c = compare(&no_cone, &all, &exact, &d.path().join("cmp"));
-    assert!(c["differing_fraction_max"].as_f64().unwrap() <= 1e-3, "more than silhouette ties: {c}");
-    assert_eq!(c["culling_b"]["false_culled_leaves_total"], 0, "{c}");
+    let (none, _, none_t) = run("none");
+    assert!(none_t > all_t);
+    assert_eq!(read(&all.join("pvs.txt")), read(&none.join("pvs.txt")));
 }
 
 #[test]

@@ -14,6 +14,7 @@
 
 use crate::stats::FrameStats;
 use osw_cull::chc::ChcState;
+use osw_cull::cluster::ClusterHistory;
 use osw_cull::delta::diff;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occluders};
@@ -71,6 +72,8 @@ pub struct ModeState {
     removed: Vec<NodeId>,
     occluders: Vec<NodeId>,
     chc: Option<ChcState>,
+    /// RVG's visible clusters of the last frame (prev).
+    clusters: ClusterHistory,
 }
 
 fn ms(t: Instant) -> f64 {
@@ -205,6 +208,7 @@ impl ModeState {
             removed: Vec::new(),
             occluders: Vec::new(),
             chc: None,
+            clusters: ClusterHistory::default(),
         }
     }
 
@@ -268,13 +272,18 @@ impl ModeState {
         // where surfaces tie in depth.
         pvs.sort_unstable();
         pvs.dedup();
+        // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
-        let drawn = r.draw(view, &pvs, Pass::Color, true)?;
+        let drawn = match self.mode {
+            Mode::Prev => r.draw_visible(view, &pvs, Pass::Color, &mut self.clusters)?,
+            _ => r.draw(view, &pvs, Pass::Color, true)?,
+        };
         s.rvg_ms = ms(t);
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
-        (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled) =
-            (drawn.clusters.clusters, drawn.clusters.frustum_culled, drawn.clusters.cone_culled);
+        let c = drawn.clusters;
+        (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled, s.clusters_occlusion_culled) =
+            (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
         (s.tests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
             (hc.tests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
         self.older = std::mem::replace(&mut self.visible, pvs);

@@ -24,11 +24,12 @@ pub struct FrameStats {
     pub frustum_culled: u32,
     pub occlusion_culled: u32,
     pub pixel_stops: u32,
-    /// RVG's cluster tests: clusters of the PVS's nodes, and those culled by the frustum and
-    /// by the back-face cone (osw_cull::cluster).
+    /// RVG's cluster tests: clusters of the PVS's nodes, and those culled by the frustum, by
+    /// the back-face cone and as hidden (osw_cull::cluster).
     pub clusters: u64,
     pub clusters_frustum_culled: u64,
     pub clusters_cone_culled: u64,
+    pub clusters_occlusion_culled: u64,
 }
 
 /// The summary of a run: the keys first.
@@ -42,10 +43,11 @@ pub struct Summary {
     pub triangles_drawn_mean: f64,
     pub pvs_nodes_mean: f64,
     pub tests_mean: f64,
-    /// RVG's clusters a frame, and the share culled by the frustum and by the cone.
+    /// RVG's clusters a frame, and the share culled by the frustum, the cone and as hidden.
     pub clusters_mean: f64,
     pub clusters_frustum_culled_fraction: f64,
     pub clusters_cone_culled_fraction: f64,
+    pub clusters_occlusion_culled_fraction: f64,
     /// The HC box test `prev` used: exact or pyramid.
     pub hc_test: String,
     pub or_ms_median: f64,
@@ -124,6 +126,7 @@ impl Summary {
             clusters_mean: mean(frames.iter().map(|f| f.clusters as f64)),
             clusters_frustum_culled_fraction: share(frames, |f| f.clusters_frustum_culled),
             clusters_cone_culled_fraction: share(frames, |f| f.clusters_cone_culled),
+            clusters_occlusion_culled_fraction: share(frames, |f| f.clusters_occlusion_culled),
             or_ms_median: quantile(&col(|f| f.or_ms), 0.5),
             hc_ms_median: quantile(&col(|f| f.hc_ms), 0.5),
             rvg_ms_median: quantile(&col(|f| f.rvg_ms), 0.5),

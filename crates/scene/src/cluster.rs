@@ -22,7 +22,7 @@ use crate::aabb::Aabb;
 use crate::format::ClusterRecord;
 use crate::mesh::Mesh;
 use glam::{DVec3, Vec3};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// Most triangles in a cluster: 128, as Nanite's and Bevy's clusters.
 pub const MAX_TRIANGLES: usize = 128;
@@ -56,6 +56,7 @@ pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRe
             let first_index = indices.len() as u32;
             indices.extend(m.triangles.iter().map(|&t| m.vertices[t as usize]));
             let closed = parts.closed_box(&indices[first_index as usize..]).or(object);
+            let bbox = Aabb::from_points(m.vertices.iter().map(|&v| &mesh.positions[v as usize]));
             clusters.push(ClusterRecord {
                 center: b.center,
                 radius: b.radius,
@@ -63,6 +64,8 @@ pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRe
                 cone_cutoff: if closed.is_some() { b.cone_cutoff_s8 } else { NO_CONE },
                 first_index,
                 index_count: indices.len() as u32 - first_index,
+                bbox_min: bbox.min.into(),
+                bbox_max: bbox.max.into(),
                 closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
                 closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
                 reserved: 0,
@@ -117,7 +120,8 @@ impl Parts {
     pub fn of(mesh: &Mesh) -> Parts {
         // Weld equal positions: a generated or exported mesh repeats a position where normals
         // or colours differ.
-        let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
+        let mut weld: FxHashMap<[u32; 3], u32> = FxHashMap::default();
+        weld.reserve(mesh.positions.len());
         let welded: Vec<u32> = mesh
             .positions
             .iter()
@@ -131,7 +135,7 @@ impl Parts {
             uf.join(welded[t[0] as usize], welded[t[1] as usize]);
             uf.join(welded[t[0] as usize], welded[t[2] as usize]);
         }
-        let mut number: HashMap<u32, u32> = HashMap::new();
+        let mut number: FxHashMap<u32, u32> = FxHashMap::default();
         let part_of: Vec<u32> = welded
             .iter()
             .map(|&w| {
@@ -143,7 +147,8 @@ impl Parts {
         let parts = number.len();
         // +1 for a -> b and -1 for b -> a on the edge's sorted key; a part is closed when all
         // its edges sum to 0 (and it has a triangle), outward when its signed volume is > 0.
-        let mut edges: HashMap<(u32, u32), i32> = HashMap::with_capacity(mesh.indices.len());
+        let mut edges: FxHashMap<(u32, u32), i32> = FxHashMap::default();
+        edges.reserve(mesh.indices.len());
         let mut volume = vec![0.0f64; parts];
         let mut has_triangle = vec![false; parts];
         let mut boxes = vec![Aabb::EMPTY; parts];
@@ -278,6 +283,7 @@ mod tests {
             for &i in &m.indices[c.first_index as usize..(c.first_index + c.index_count) as usize] {
                 let p = Vec3::from(m.positions[i as usize]);
                 assert!(p.distance(center) <= c.radius * 1.0001 + 1e-6);
+                assert!(p.cmpge(c.aabb().min).all() && p.cmple(c.aabb().max).all());
                 assert!(p.cmpge(closed.min).all() && p.cmple(closed.max).all());
             }
             assert!(c.cone_cutoff < NO_CONE, "boxes are closed and one-facing clusters have a cone");

@@ -165,7 +165,7 @@ impl BlockRecord {
 }
 
 /// A run of at most [`crate::cluster::MAX_TRIANGLES`] triangles of one block, close together
-/// and facing alike, that a pass culls as a unit: 56 bytes.
+/// and facing alike, that a pass culls as a unit: 80 bytes.
 ///
 /// The cone is meshopt's, quantised conservatively: every triangle of the cluster faces away
 /// from an eye at `e` when `dot(c - e, a) >= cutoff * |c - e| + radius`, with `c` the centre,
@@ -184,9 +184,18 @@ pub struct ClusterRecord {
     /// Indices `first_index..first_index + index_count` of the block.
     pub first_index: u32,
     pub index_count: u32,
+    /// Bounding box, for occlusion tests (tighter than the sphere on flat clusters).
+    pub bbox_min: [f32; 3],
+    pub bbox_max: [f32; 3],
     pub closed_min: [f32; 3],
     pub closed_max: [f32; 3],
     pub reserved: u32,
+}
+
+impl ClusterRecord {
+    pub fn aabb(&self) -> crate::Aabb {
+        crate::Aabb::new(self.bbox_min.into(), self.bbox_max.into())
+    }
 }
 
 pub const BLOCK_BYTES: u64 = std::mem::size_of::<BlockRecord>() as u64;
@@ -201,6 +210,6 @@ mod tests {
         assert_eq!(std::mem::size_of::<Header>(), 256);
         assert_eq!(std::mem::size_of::<NodeRecord>(), 64);
         assert_eq!(std::mem::size_of::<BlockRecord>(), 40);
-        assert_eq!(std::mem::size_of::<ClusterRecord>(), 56);
+        assert_eq!(std::mem::size_of::<ClusterRecord>(), 80);
     }
 }
