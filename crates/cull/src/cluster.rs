@@ -32,7 +32,7 @@ impl ClusterTests {
 
 impl Default for ClusterTests {
     fn default() -> ClusterTests {
-        ClusterTests { occlusion: false, ..ClusterTests::ALL }
+        ClusterTests { frustum: true, cone: true, occlusion: false }
     }
 }
 

@@ -61,6 +61,10 @@ struct Report {
     differing_fraction_mean: f64,
     differing_fraction_max: f64,
     max_channel_diff: u8,
+    /// Run time next to the error: each run's median frame time, and b's over a's.
+    frame_ms_median_a: f64,
+    frame_ms_median_b: f64,
+    speedup_a_over_b: f64,
     culling_a: Option<Side>,
     culling_b: Option<Side>,
 }
@@ -110,7 +114,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             row.image = Some(image_error(&pa, &pb));
         }
     }
-    let mut report = Report { a: a.a.display().to_string(), b: a.b.display().to_string(), frames, ..Default::default() };
+    let ms = |s: &serde_json::Value, dir: &Path| s["frame_ms_median"].as_f64().with_context(|| format!("{}: summary.json has no frame_ms_median", dir.display()));
+    let (ms_a, ms_b) = (ms(&sa, &a.a)?, ms(&sb, &a.b)?);
+    let mut report = Report {
+        a: a.a.display().to_string(),
+        b: a.b.display().to_string(),
+        frames,
+        frame_ms_median_a: ms_a,
+        frame_ms_median_b: ms_b,
+        speedup_a_over_b: ms_b / ms_a.max(1e-9),
+        ..Default::default()
+    };
     if let Some(exact) = &a.exact {
         let scene_path = sa["scene"].as_str().context("summary.json of --a names no scene")?;
         let scene = osw_scene::SceneFile::open(Path::new(scene_path))?;
@@ -179,7 +193,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         )
     };
     out!(
-        "compare: {frames} frames, {image}{} → {}",
+        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{} → {}",
+        report.frame_ms_median_a,
+        report.frame_ms_median_b,
+        report.speedup_a_over_b,
         report.culling_a.as_ref().map_or(String::new(), |s| format!(
             ", a: {} false-culled leaves{}, PVS/exact leaves {:.2}",
             s.false_culled_leaves_total,
