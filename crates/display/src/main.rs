@@ -176,6 +176,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let drawn = r.draw_visible(&view, &frames.visible, Pass::Color, &mut clusters)?;
         row.rvg_ms = t.elapsed().as_secs_f64() * 1e3;
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
+        let c = drawn.clusters;
+        (row.clusters, row.clusters_frustum_culled, row.clusters_cone_culled, row.clusters_occlusion_culled) =
+            (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
         // Read back once for the PNG and the window both (unless the window draws another view).
         let rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
         if let (false, Some(rgba)) = (a.no_frames, &rgba) {

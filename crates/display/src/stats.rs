@@ -35,6 +35,11 @@ pub struct FrameRow {
     pub pvs_nodes: u32,
     pub triangles_drawn: u64,
     pub tests: u32,
+    /// RVG's cluster tests (as `osw render`'s stats.csv).
+    pub clusters: u64,
+    pub clusters_frustum_culled: u64,
+    pub clusters_cone_culled: u64,
+    pub clusters_occlusion_culled: u64,
 }
 
 #[derive(Serialize, Default)]
@@ -47,6 +52,10 @@ struct Summary {
     triangles_drawn_mean: f64,
     pvs_nodes_mean: f64,
     tests_mean: f64,
+    clusters_mean: f64,
+    clusters_frustum_culled_fraction: f64,
+    clusters_cone_culled_fraction: f64,
+    clusters_occlusion_culled_fraction: f64,
     bytes_per_frame_mean: f64,
     ids_sent_mean: f64,
     ids_full_mean: f64,
@@ -103,6 +112,8 @@ pub fn write_outputs(
     let ids_full: f64 = rows.iter().map(|r| r.ids_full as f64).sum();
     let bytes: f64 = rows.iter().map(|r| r.bytes as f64).sum();
     let id_bytes: f64 = rows.iter().map(|r| r.id_bytes as f64).sum();
+    let clusters = rows.iter().map(|r| r.clusters).sum::<u64>().max(1) as f64;
+    let share = |f: fn(&FrameRow) -> u64| rows.iter().map(f).sum::<u64>() as f64 / clusters;
     let [lo, hi] = scene.content_hash();
     let s = Summary {
         mode: "switch".into(),
@@ -113,6 +124,10 @@ pub fn write_outputs(
         triangles_drawn_mean: mean(|r| r.triangles_drawn as f64),
         pvs_nodes_mean: mean(|r| r.pvs_nodes as f64),
         tests_mean: mean(|r| r.tests as f64),
+        clusters_mean: mean(|r| r.clusters as f64),
+        clusters_frustum_culled_fraction: share(|r| r.clusters_frustum_culled),
+        clusters_cone_culled_fraction: share(|r| r.clusters_cone_culled),
+        clusters_occlusion_culled_fraction: share(|r| r.clusters_occlusion_culled),
         bytes_per_frame_mean: mean(|r| r.bytes as f64),
         ids_sent_mean: mean(|r| r.ids_sent as f64),
         ids_full_mean: mean(|r| r.ids_full as f64),
@@ -147,11 +162,11 @@ pub fn write_outputs(
     std::fs::write(a.out.join("summary.json"), serde_json::to_string_pretty(&s)?)?;
     std::fs::write(a.out.join("pvs.txt"), pvs)?;
     let mut csv = String::from(
-        "frame,frame_ms,rvg_ms,hc_ms,latency_ms,camera_link_ms,eof_link_ms,peer_link_ms,hc_node,degraded,rss_kb,bytes,id_bytes,ids_sent,ids_full,pvs_nodes,triangles_drawn,tests\n",
+        "frame,frame_ms,rvg_ms,hc_ms,latency_ms,camera_link_ms,eof_link_ms,peer_link_ms,hc_node,degraded,rss_kb,bytes,id_bytes,ids_sent,ids_full,pvs_nodes,triangles_drawn,tests,clusters,clusters_frustum_culled,clusters_cone_culled,clusters_occlusion_culled\n",
     );
     for r in rows {
         csv.push_str(&format!(
-            "{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.frame,
             r.frame_ms,
             r.rvg_ms,
@@ -169,7 +184,11 @@ pub fn write_outputs(
             r.ids_full,
             r.pvs_nodes,
             r.triangles_drawn,
-            r.tests
+            r.tests,
+            r.clusters,
+            r.clusters_frustum_culled,
+            r.clusters_cone_culled,
+            r.clusters_occlusion_culled
         ));
     }
     std::fs::write(a.out.join("stats.csv"), csv)?;

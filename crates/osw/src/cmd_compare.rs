@@ -114,7 +114,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             row.image = Some(image_error(&pa, &pb));
         }
     }
-    let ms = |s: &serde_json::Value, dir: &Path| s["frame_ms_median"].as_f64().with_context(|| format!("{}: summary.json has no frame_ms_median", dir.display()));
+    let ms = |s: &serde_json::Value, dir: &Path| {
+        s["frame_ms_median"].as_f64().with_context(|| format!("{}: summary.json has no frame_ms_median", dir.display()))
+    };
     let (ms_a, ms_b) = (ms(&sa, &a.a)?, ms(&sb, &a.b)?);
     let mut report = Report {
         a: a.a.display().to_string(),

@@ -54,6 +54,11 @@ struct Entry {
     triangles_drawn_mean: f64,
     pvs_nodes_mean: f64,
     tests_mean: f64,
+    /// RVG's clusters a frame and the shares culled inside the PVS's nodes (osw_cull::cluster).
+    clusters_mean: f64,
+    clusters_frustum_culled_fraction: f64,
+    clusters_cone_culled_fraction: f64,
+    clusters_occlusion_culled_fraction: f64,
     pvs_exact_leaves: f64,
     pvs_exact_triangles: f64,
     /// Leaves visible at full detail that the method does not draw (at tau > 0 also those
@@ -249,6 +254,10 @@ fn entry(mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Entry> {
         triangles_drawn_mean: f(&s["triangles_drawn_mean"]),
         pvs_nodes_mean: f(&s["pvs_nodes_mean"]),
         tests_mean: f(&s["tests_mean"]),
+        clusters_mean: f(&s["clusters_mean"]),
+        clusters_frustum_culled_fraction: f(&s["clusters_frustum_culled_fraction"]),
+        clusters_cone_culled_fraction: f(&s["clusters_cone_culled_fraction"]),
+        clusters_occlusion_culled_fraction: f(&s["clusters_occlusion_culled_fraction"]),
         pvs_exact_leaves: f(&culling["pvs_exact_leaves_ratio_mean"]),
         pvs_exact_triangles: f(&culling["pvs_exact_triangles_ratio_mean"]),
         false_culled_leaves_total: culling["false_culled_leaves_total"].as_u64().unwrap_or(0),
@@ -476,6 +485,33 @@ fn markdown(r: &Report, a: &Args) -> String {
                 format!("{:.1}", e.frame_ms_p95),
                 e.speedup_vs_vfc.map_or("–".into(), |s| format!("{s:.2}")),
             ],
+        })
+        .collect();
+    table(&mut md, &header, &rows);
+    md.push_str(
+        "## Clusters inside the visible nodes\n\nRVG's clusters of at most 128 triangles a frame, the shares it skips \
+         as outside the frustum, facing away and hidden, the triangles it draws and their ratio to the exactly visible \
+         triangles.\n\n",
+    );
+    let header: Vec<String> = ["method", "tau", "clusters", "frustum %", "facing away %", "hidden %", "triangles", "PVS/exact triangles"]
+        .map(String::from)
+        .to_vec();
+    let pct = |x: f64| format!("{:.1}", x * 100.0);
+    let rows: Vec<Vec<String>> = r
+        .runs
+        .iter()
+        .filter(|e| e.error.is_none())
+        .map(|e| {
+            vec![
+                e.mode.clone(),
+                e.tau.to_string(),
+                format!("{:.0}", e.clusters_mean),
+                pct(e.clusters_frustum_culled_fraction),
+                pct(e.clusters_cone_culled_fraction),
+                pct(e.clusters_occlusion_culled_fraction),
+                format!("{:.0}", e.triangles_drawn_mean),
+                format!("{:.1}", e.pvs_exact_triangles),
+            ]
         })
         .collect();
     table(&mut md, &header, &rows);
