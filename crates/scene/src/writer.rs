@@ -76,10 +76,14 @@ pub fn header_hash(header: &Header) -> u64 {
 /// write never leaves a half file under the final name). Returns the file's size in bytes and
 /// its content hash.
 pub fn write_scene(path: &Path, scene: &SceneData) -> std::io::Result<(u64, [u64; 2])> {
-    // Each block's object, from the LOD nodes naming it (HLODs have none).
+    // Each block's object, from the LOD nodes naming it: only for a leaf's level 0, which is
+    // the object's own geometry (a simplified level may have lost the object's closure; HLODs
+    // have no object).
     let mut object = vec![NONE; scene.blocks.len()];
-    for n in scene.nodes.iter().filter(|n| n.kind() == NodeKind::Lod) {
-        object[n.block as usize] = n.object;
+    for (id, n) in scene.nodes.iter().enumerate().filter(|(_, n)| n.kind() == NodeKind::Lod) {
+        if scene.nodes[n.parent as usize].first_lod == id as u32 {
+            object[n.block as usize] = n.object;
+        }
     }
     let encoded: Vec<Encoded> = scene
         .blocks
