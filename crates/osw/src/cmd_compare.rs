@@ -43,8 +43,9 @@ struct Side {
     pvs_exact_leaves_ratio_mean: f64,
     pvs_exact_triangles_ratio_mean: f64,
     /// Triangles drawn (stats.csv: after cluster culling inside the PVS's nodes) over exactly
-    /// visible triangles.
-    drawn_exact_triangles_ratio_mean: f64,
+    /// visible triangles; none for a run without stats.csv.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    drawn_exact_triangles_ratio_mean: Option<f64>,
     /// Against `--exact-lod`: nodes visible at the runs' tau that the PVS does not draw.
     #[serde(skip_serializing_if = "Option::is_none")]
     lod_false_culled_total: Option<u64>,
@@ -147,9 +148,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 if which == 0 { row.a = Some(e) } else { row.b = Some(e) }
             }
             let mut s = side(&errs);
-            let drawn = Columns::read(&dir.join("stats.csv"))?.get("triangles_drawn")?;
-            s.drawn_exact_triangles_ratio_mean =
-                drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64;
+            let stats = dir.join("stats.csv");
+            if stats.exists() {
+                let drawn = Columns::read(&stats)?.get("triangles_drawn")?;
+                s.drawn_exact_triangles_ratio_mean =
+                    Some(drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64);
+            }
             if let Some((lod_leaves, lod_tris)) = &lod {
                 let mut missed = Vec::with_capacity(frames);
                 for f in 0..frames {
@@ -206,11 +210,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.frame_ms_median_b,
         report.speedup_a_over_b,
         report.culling_a.as_ref().map_or(String::new(), |s| format!(
-            ", a: {} false-culled leaves{}, PVS/exact leaves {:.2}, drawn/exact triangles {:.1}",
+            ", a: {} false-culled leaves{}, PVS/exact leaves {:.2}{}",
             s.false_culled_leaves_total,
             s.lod_false_culled_total.map_or(String::new(), |n| format!(" ({n} against visibility at its tau)")),
             s.pvs_exact_leaves_ratio_mean,
-            s.drawn_exact_triangles_ratio_mean
+            s.drawn_exact_triangles_ratio_mean.map_or(String::new(), |r| format!(", drawn/exact triangles {r:.1}"))
         )),
         a.out.display()
     );

@@ -148,6 +148,17 @@ fn image_error_is_reported_at_tau_above_zero() {
     render(&scene, &path, ("vfc", "exact"), "0", &d.path().join("ref"));
     render(&scene, &path, ("prev", "exact"), "8", &d.path().join("prev8"));
     let c = compare(&d.path().join("prev8"), &d.path().join("ref"), &exact, &d.path().join("cmp"));
+    // Run time next to the error: each run's median frame time from its summary, and the
+    // triangles drawn (stats.csv) over the exactly visible ones.
+    let summary = |run: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.path().join(run).join("summary.json")).unwrap()).unwrap()
+    };
+    assert_eq!(c["frame_ms_median_a"], summary("prev8")["frame_ms_median"], "{c}");
+    assert_eq!(c["frame_ms_median_b"], summary("ref")["frame_ms_median"], "{c}");
+    let drawn = csv_column(&d.path().join("prev8/stats.csv"), "triangles_drawn");
+    let visible = csv_column(&exact.join("exact.csv"), "visible_triangles");
+    let ratio = drawn.iter().zip(&visible).map(|(d, v)| d / v.max(1.0)).sum::<f64>() / 6.0;
+    assert!((c["culling_a"]["drawn_exact_triangles_ratio_mean"].as_f64().unwrap() - ratio).abs() < 1e-9 * ratio, "{c}");
     // From the orbit, coarse levels are chosen: the image differs and the error says by how much.
     assert!(c["identical_frames"].as_u64().unwrap() < 6, "{c}");
     assert!(c["psnr_db_min"].as_f64().unwrap() > 10.0, "{c}");

@@ -8,10 +8,7 @@ use std::path::Path;
 
 /// Mean of column `name` of a CSV file.
 fn csv_mean(file: &Path, name: &str) -> f64 {
-    let text = std::fs::read_to_string(file).unwrap();
-    let mut lines = text.lines();
-    let col = lines.next().unwrap().split(',').position(|c| c == name).unwrap_or_else(|| panic!("{} has no {name}", file.display()));
-    let v: Vec<f64> = lines.map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect();
+    let v = csv_column(file, name);
     v.iter().sum::<f64>() / v.len() as f64
 }
 

@@ -125,6 +125,14 @@ pub const MODES: [(&str, &str); 7] =
     [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid"), ("prev", "queries"), ("prev", "hybrid")];
 pub const SIZE: &str = "256x256";
 
+/// Column `name` of a CSV file with a header row.
+pub fn csv_column(file: &Path, name: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut lines = text.lines();
+    let col = lines.next().unwrap().split(',').position(|c| c == name).unwrap_or_else(|| panic!("{} has no {name}", file.display()));
+    lines.map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect()
+}
+
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
