@@ -492,7 +492,7 @@ fn markdown(r: &Report, a: &Args) -> String {
         .collect();
     table(&mut md, &header, &rows);
     md.push_str(
-        "## Clusters inside the visible nodes\n\nRVG's clusters of at most 128 triangles a frame, the shares it skips \
+        "## Clusters inside the visible nodes\n\nRVG's clusters a frame, the shares it skips \
          as outside the frustum, facing away and hidden, the triangles it draws, and the ratio to the exactly visible \
          triangles of the PVS's nodes' triangles and of the triangles drawn.\n\n",
     );
