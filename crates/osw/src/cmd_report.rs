@@ -395,6 +395,11 @@ fn error_chart<'a>(r: &Report, modes: &[String]) -> Chart<'a> {
 }
 
 /// A Markdown table: rows of cells under a header.
+/// One row per run that finished, in order.
+fn finished_rows(r: &Report, row: impl Fn(&Entry) -> Vec<String>) -> Vec<Vec<String>> {
+    r.runs.iter().filter(|e| e.error.is_none()).map(row).collect()
+}
+
 fn table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
     let line = |cells: &[String]| format!("| {} |\n", cells.join(" | "));
     out.push_str(&line(header));
@@ -510,24 +515,19 @@ fn markdown(r: &Report, a: &Args) -> String {
     .map(String::from)
     .to_vec();
     let pct = |x: f64| format!("{:.1}", x * 100.0);
-    let rows: Vec<Vec<String>> = r
-        .runs
-        .iter()
-        .filter(|e| e.error.is_none())
-        .map(|e| {
-            vec![
-                e.mode.clone(),
-                e.tau.to_string(),
-                format!("{:.0}", e.clusters_mean),
-                pct(e.clusters_frustum_culled_fraction),
-                pct(e.clusters_cone_culled_fraction),
-                pct(e.clusters_occlusion_culled_fraction),
-                format!("{:.0}", e.triangles_drawn_mean),
-                format!("{:.1}", e.pvs_exact_triangles),
-                format!("{:.1}", e.drawn_exact_triangles),
-            ]
-        })
-        .collect();
+    let rows = finished_rows(r, |e| {
+        vec![
+            e.mode.clone(),
+            e.tau.to_string(),
+            format!("{:.0}", e.clusters_mean),
+            pct(e.clusters_frustum_culled_fraction),
+            pct(e.clusters_cone_culled_fraction),
+            pct(e.clusters_occlusion_culled_fraction),
+            format!("{:.0}", e.triangles_drawn_mean),
+            format!("{:.1}", e.pvs_exact_triangles),
+            format!("{:.1}", e.drawn_exact_triangles),
+        ]
+    });
     table(&mut md, &header, &rows);
     md.push_str(
         "## Error against run time\n\nPSNR against full-detail vfc (∞ when every frame is identical), pixels that differ, \
@@ -547,24 +547,19 @@ fn markdown(r: &Report, a: &Args) -> String {
     .map(String::from)
     .to_vec();
     let db = |v: Option<f64>| v.map_or("∞".to_string(), |x| format!("{x:.1}"));
-    let rows: Vec<Vec<String>> = r
-        .runs
-        .iter()
-        .filter(|e| e.error.is_none())
-        .map(|e| {
-            vec![
-                e.mode.clone(),
-                e.tau.to_string(),
-                format!("{:.1}", e.frame_ms_median),
-                db(e.psnr_db_median),
-                db(e.psnr_db_min),
-                format!("{}/{}", e.identical_frames, r.frames),
-                format!("{:.3}", e.differing_fraction_mean * 100.0),
-                format!("{:.3}", e.differing_fraction_max * 100.0),
-                format!("{:.2}", e.pvs_exact_triangles),
-            ]
-        })
-        .collect();
+    let rows = finished_rows(r, |e| {
+        vec![
+            e.mode.clone(),
+            e.tau.to_string(),
+            format!("{:.1}", e.frame_ms_median),
+            db(e.psnr_db_median),
+            db(e.psnr_db_min),
+            format!("{}/{}", e.identical_frames, r.frames),
+            format!("{:.3}", e.differing_fraction_mean * 100.0),
+            format!("{:.3}", e.differing_fraction_max * 100.0),
+            format!("{:.2}", e.pvs_exact_triangles),
+        ]
+    });
     table(&mut md, &header, &rows);
     md.push_str("![image error against frame time](error_vs_time.png)\n");
     let switch: Vec<(&Entry, &Traffic)> = r.runs.iter().filter_map(|e| Some((e, e.traffic.as_ref()?))).collect();
