@@ -1,5 +1,6 @@
 //! HC traversal on the CPU with fake testers (no GPU): the cost of the traversal itself per
-//! frame of a 2M-triangle plant, from the root and from the previous frame's visible set.
+//! frame of a 2M-triangle plant, from the root and from the previous frame's visible set; and
+//! the CPU pyramid HC builds from the depth it reads back.
 //! Run: `cargo bench -p osw-cull --bench hc`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -54,5 +55,11 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// HC's CPU farthest-depth pyramid of a 1024x1024 depth buffer (built every HC frame).
+fn pyramid(c: &mut Criterion) {
+    let depth: Vec<f32> = (0..1024 * 1024u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 8) as f32 / 16_777_216.0).collect();
+    c.bench_function("hc pyramid 1024x1024", |b| b.iter(|| osw_cull::hzb::Pyramid::new(1024, 1024, depth.clone())));
+}
+
+criterion_group!(benches, bench, pyramid);
 criterion_main!(benches);
