@@ -123,13 +123,14 @@ pub fn visible_clusters(
     }
 }
 
-/// meshopt's cone test on the bounding sphere: every triangle of the cluster faces away from
-/// the eye when dot(c - eye, axis) >= cutoff * |c - eye| + radius. The quantised axis and
-/// cutoff are conservative together; a cutoff of 127 (1.0) passes no eye. A back face is hidden
-/// only while the eye is outside its closed parts' box, grown by the near plane (which would
-/// otherwise cut the front faces away).
+/// meshopt's cone tests: every triangle of the cluster faces away from the eye when the eye
+/// lies in the cone behind the apex, dot(normalize(apex - eye), axis) >= cutoff, or when
+/// dot(c - eye, axis) >= cutoff * |c - eye| + radius on the bounding sphere. Each is
+/// conservative alone; a margin covers f32 rounding. A back face is hidden only while the eye is
+/// outside its closed parts' box, grown by the near plane (which would otherwise cut the front
+/// faces away).
 fn faces_away(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> bool {
-    if c.cone_cutoff == osw_scene::cluster::NO_CONE {
+    if c.cone_cutoff >= 1.0 {
         return false;
     }
     let grow = view.near * 2.0 + view.eye.abs().max_element() * 2.4e-7;
@@ -138,10 +139,11 @@ fn faces_away(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> boo
     if view.eye.cmpge(lo).all() && view.eye.cmple(hi).all() {
         return false;
     }
-    let axis = DVec3::from(c.cone_axis.map(|a| a as f64 / 127.0));
-    let cutoff = c.cone_cutoff as f64 / 127.0;
+    let axis = DVec3::from(c.cone_axis.map(f64::from));
+    let cutoff = c.cone_cutoff as f64 + 1e-4;
+    let to_apex = DVec3::from(c.cone_apex.map(f64::from)) - view.eye;
     let d = center - view.eye;
-    d.dot(axis) >= cutoff * d.length() + radius
+    to_apex.dot(axis) >= cutoff * to_apex.length() || d.dot(axis) >= cutoff * d.length() + radius
 }
 
 #[cfg(test)]
@@ -226,7 +228,7 @@ mod tests {
     #[test]
     fn spheres_behind_the_eye_are_frustum_culled() {
         let c =
-            |x: f32| ClusterRecord { center: [x, 0.0, 0.0], radius: 1.0, cone_cutoff: 127, index_count: 3, ..bytemuck::Zeroable::zeroed() };
+            |x: f32| ClusterRecord { center: [x, 0.0, 0.0], radius: 1.0, cone_cutoff: 2.0, index_count: 3, ..bytemuck::Zeroable::zeroed() };
         let clusters = [c(-10.0), c(10.0)];
         let clusters = [ClusterRecord { first_index: 3, ..clusters[1] }, clusters[0]];
         let view = View::new(&Camera::look_at(DVec3::ZERO, DVec3::X, 60.0), DVec3::ZERO, 64, 64, 0.01);

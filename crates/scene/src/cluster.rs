@@ -24,8 +24,8 @@ use crate::mesh::Mesh;
 use glam::{DVec3, Vec3};
 use rustc_hash::FxHashMap;
 
-/// Most triangles in a cluster. Measured on the 2M plant walk at tau 0 (prev, frustum and cone
-/// tests): clusters of 128 / 64 / 32 triangles leave 110,826 / 102,276 / 94,018 triangles a
+/// Most triangles in a cluster. Measured on the 2M plant walk at tau 0 (prev, frustum and
+/// sphere-cone tests): clusters of 128 / 64 / 32 triangles leave 110,826 / 102,276 / 94,018 triangles a
 /// frame of the PVS's 138,878 (smaller clusters are tighter for both tests; a pass tests 2.2K /
 /// 3.6K / 6.6K clusters on the CPU, which costs little), the whole run 4% faster with 32 than
 /// with 128; the 20M plant's file grows 10% (80 bytes a cluster) and its build 6%.
@@ -39,8 +39,8 @@ pub const MAX_VERTICES: usize = 32;
 /// documentation suggests 0.25 for cone culling).
 const CONE_WEIGHT: f32 = 0.25;
 
-/// The cone cutoff that no eye passes (meshopt's value for a cone wider than a half-space).
-pub const NO_CONE: i8 = 127;
+/// A cone cutoff that no eye passes (meshopt gives 1 for a cone wider than a half-space).
+pub const NO_CONE: f32 = 2.0;
 
 /// `mesh`'s indices in cluster order, and the clusters (index range, sphere, cone, box of
 /// their closed parts). Every triangle is kept exactly once, with its winding. `object`: the
@@ -64,15 +64,15 @@ pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRe
             clusters.push(ClusterRecord {
                 center: b.center,
                 radius: b.radius,
-                cone_axis: b.cone_axis_s8,
-                cone_cutoff: if closed.is_some() { b.cone_cutoff_s8 } else { NO_CONE },
+                cone_apex: b.cone_apex,
+                cone_axis: b.cone_axis,
+                cone_cutoff: if closed.is_some() { b.cone_cutoff } else { NO_CONE },
                 first_index,
                 index_count: indices.len() as u32 - first_index,
                 bbox_min: bbox.min.into(),
                 bbox_max: bbox.max.into(),
                 closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
                 closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
-                reserved: 0,
             });
         }
     }

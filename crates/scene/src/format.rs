@@ -165,22 +165,24 @@ impl BlockRecord {
 }
 
 /// A run of at most [`crate::cluster::MAX_TRIANGLES`] triangles of one block, close together
-/// and facing alike, that a pass culls as a unit: 80 bytes.
+/// and facing alike, that a pass culls as a unit: 100 bytes.
 ///
-/// The cone is meshopt's, quantised conservatively: every triangle of the cluster faces away
-/// from an eye at `e` when `dot(c - e, a) >= cutoff * |c - e| + radius`, with `c` the centre,
-/// `a = cone_axis / 127` and `cutoff = cone_cutoff / 127`. A back face is hidden only while the
-/// eye is outside the closed part it belongs to: `closed_min..closed_max` bounds the closed
-/// parts of the cluster's triangles (see [`crate::cluster`]). A cluster with a triangle of an
-/// open part stores `cone_cutoff = 127`, which no eye passes.
+/// The cone is meshopt's: every triangle of the cluster faces away from an eye at `e` when
+/// `dot(normalize(apex - e), axis) >= cutoff`, or (looser near the cluster, but without the
+/// apex's precision limits far away) when `dot(c - e, axis) >= cutoff * |c - e| + radius`
+/// with `c` the centre. A back face is hidden only while the eye is outside the closed part it
+/// belongs to: `closed_min..closed_max` bounds the closed parts of the cluster's triangles (see
+/// [`crate::cluster`]). A cluster with a triangle of an open part stores a cutoff of
+/// [`crate::cluster::NO_CONE`], which no eye passes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct ClusterRecord {
     /// Bounding sphere, block-local (the scene's local frame).
     pub center: [f32; 3],
     pub radius: f32,
-    pub cone_axis: [i8; 3],
-    pub cone_cutoff: i8,
+    pub cone_apex: [f32; 3],
+    pub cone_axis: [f32; 3],
+    pub cone_cutoff: f32,
     /// Indices `first_index..first_index + index_count` of the block.
     pub first_index: u32,
     pub index_count: u32,
@@ -189,7 +191,6 @@ pub struct ClusterRecord {
     pub bbox_max: [f32; 3],
     pub closed_min: [f32; 3],
     pub closed_max: [f32; 3],
-    pub reserved: u32,
 }
 
 impl ClusterRecord {
@@ -210,6 +211,6 @@ mod tests {
         assert_eq!(std::mem::size_of::<Header>(), 256);
         assert_eq!(std::mem::size_of::<NodeRecord>(), 64);
         assert_eq!(std::mem::size_of::<BlockRecord>(), 40);
-        assert_eq!(std::mem::size_of::<ClusterRecord>(), 80);
+        assert_eq!(std::mem::size_of::<ClusterRecord>(), 100);
     }
 }
