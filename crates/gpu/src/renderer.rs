@@ -209,7 +209,7 @@ impl Renderer {
             false
         })?;
         let mut answers = Vec::with_capacity(boxes.len());
-        self.test_raw(view, &boxes, HcTest::Exact, &mut answers)?;
+        self.test_raw(view, &mut boxes.into_iter(), HcTest::Exact, &mut answers)?;
         let mut occluded = 0;
         for (&(id, k), &visible) in candidates.iter().zip(&answers) {
             if visible > 0 {
@@ -342,8 +342,8 @@ impl Renderer {
     pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: HcTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
         debug_assert_ne!(test, HcTest::Hybrid, "the hybrid is osw_render's hc_pass: the CPU pyramid, then Exact");
         let mut words = Vec::with_capacity(ids.len());
-        let boxes: Vec<osw_scene::Aabb> = ids.iter().map(|&id| self.scene.node(id).aabb()).collect();
-        self.test_raw(view, &boxes, test, &mut words)?;
+        let scene = Arc::clone(&self.scene);
+        self.test_raw(view, &mut ids.iter().map(|&id| scene.node(id).aabb()), test, &mut words)?;
         let counts = test == HcTest::ExactCount;
         out.extend(words.iter().map(|&w| Visibility { visible: w > 0, pixels: counts.then_some(w) }));
         Ok(())
@@ -351,17 +351,26 @@ impl Renderer {
 
     /// The raw answer per box: exact flag or pixel count, query non-zero, or for the pyramid
     /// 0 (hidden) or 1 + the level read (u32::MAX: a corner behind the eye).
-    fn test_raw(&mut self, view: &View, boxes: &[osw_scene::Aabb], test: HcTest, out: &mut Vec<u32>) -> Result<(), RenderError> {
+    fn test_raw(
+        &mut self,
+        view: &View,
+        boxes: &mut dyn Iterator<Item = osw_scene::Aabb>,
+        test: HcTest,
+        out: &mut Vec<u32>,
+    ) -> Result<(), RenderError> {
         self.gpu.queue.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
         let chunk_len = if test == HcTest::Queries { QUERIES } else { crate::limits::MAX_BOXES };
-        for chunk in boxes.chunks(chunk_len as usize) {
+        loop {
             self.gpu_boxes.clear();
-            for b in chunk {
-                let (lo, hi) = view.test_box(b);
+            for b in (&mut *boxes).take(chunk_len as usize) {
+                let (lo, hi) = view.test_box(&b);
                 let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
                 self.gpu_boxes.push(GpuBox { lo: lo.extend(0.0).to_array(), hi: hi.extend(0.0).to_array() });
             }
-            let n = chunk.len() as u64;
+            if self.gpu_boxes.is_empty() {
+                break;
+            }
+            let n = self.gpu_boxes.len() as u64;
             self.gpu.queue.write_buffer(&self.boxes_buf, 0, bytemuck::cast_slice(&self.gpu_boxes));
             let mut enc = self.gpu.device.create_command_encoder(&Default::default());
             enc.clear_buffer(&self.results_buf, 0, Some(n * 4));

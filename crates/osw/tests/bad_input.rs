@@ -226,6 +226,12 @@ fn bad_command_lines_are_refused() {
         osw_err(&["build", "--gen", "city", &arg, "-o", o.to_str().unwrap()], "--loose-split must be a fraction");
     }
     osw_err(&["path", "--scene", "/nonexistent.osw", "--kind", "walk", "-o", "p.csv"], "/nonexistent.osw");
+    for tests in ["frustrum", "none,cone", ""] {
+        let args = ["render", "--scene", "s.osw", "--path", "p.csv", "--mode", "vfc", "--cluster-tests", tests, "--out", "o"];
+        let out = osw(&args);
+        assert_eq!(out.status.code(), Some(2), "{tests:?}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("expected a list of frustum, cone and occlusion, or none"), "{tests:?}");
+    }
 }
 
 #[test]

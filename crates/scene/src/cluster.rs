@@ -116,8 +116,10 @@ fn normal(mesh: &Mesh, t: &[u32]) -> DVec3 {
 pub struct Parts {
     /// Per vertex, its part.
     part_of: Vec<u32>,
-    /// Per part: its box, or None when it is open.
+    /// Per part (indexed by its name, see `of`): its box, or None when it is open.
     closed: Vec<Option<Aabb>>,
+    /// Whether every part with a triangle is closed.
+    all_closed: bool,
 }
 
 impl Parts {
@@ -139,16 +141,9 @@ impl Parts {
             uf.join(welded[t[0] as usize], welded[t[1] as usize]);
             uf.join(welded[t[0] as usize], welded[t[2] as usize]);
         }
-        let mut number: FxHashMap<u32, u32> = FxHashMap::default();
-        let part_of: Vec<u32> = welded
-            .iter()
-            .map(|&w| {
-                let root = uf.find(w);
-                let n = number.len() as u32;
-                *number.entry(root).or_insert(n)
-            })
-            .collect();
-        let parts = number.len();
+        // A part is named by its union-find root (a welded id).
+        let part_of: Vec<u32> = welded.iter().map(|&w| uf.find(w)).collect();
+        let parts = weld.len();
         // +1 for a -> b and -1 for b -> a on the edge's sorted key; a part is closed when all
         // its edges sum to 0 (and it has a triangle), outward when its signed volume is > 0.
         let mut edges: FxHashMap<(u32, u32), i32> = FxHashMap::default();
@@ -173,18 +168,14 @@ impl Parts {
             }
         }
         let mut open: Vec<bool> = (0..parts).map(|p| !(has_triangle[p] && volume[p] > 0.0)).collect();
-        // The welded ids of an unbalanced edge name its part through any vertex welded to it.
-        let mut vertex_of_weld = vec![0u32; weld.len()];
-        for (v, &w) in welded.iter().enumerate() {
-            vertex_of_weld[w as usize] = v as u32;
-        }
         for (&(a, _), &c) in &edges {
             if c != 0 {
-                open[part_of[vertex_of_weld[a as usize] as usize] as usize] = true;
+                open[uf.find(a) as usize] = true;
             }
         }
+        let all_closed = (0..parts).all(|p| !has_triangle[p] || !open[p]);
         let closed = boxes.into_iter().zip(open).map(|(b, open)| (!open).then_some(b)).collect();
-        Parts { part_of, closed }
+        Parts { part_of, closed, all_closed }
     }
 
     /// The box of the parts of the triangles `indices` when every one is closed.
@@ -194,7 +185,7 @@ impl Parts {
 
     /// Whether the whole mesh is closed and wound outwards: every part is.
     pub fn all_closed(&self) -> bool {
-        self.closed.iter().all(Option::is_some)
+        self.all_closed
     }
 }
 
