@@ -6,7 +6,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec3;
 use osw_cull::{AllVisible, View, Visibility, VisibilityTester, hardware_cull, hardware_cull_from};
-use osw_scene::build::{BuildOptions, BuildReport, make_scene};
+use osw_scene::build::{BuildOptions, node_table};
 use osw_scene::generators::{GenKind, generate};
 use osw_scene::{Camera, NodeId};
 
@@ -20,9 +20,7 @@ impl VisibilityTester for Alternate {
 }
 
 fn bench(c: &mut Criterion) {
-    let scene = make_scene(generate(GenKind::Plant, 2_000_000, 1).objects, &BuildOptions::default(), &mut BuildReport::default(), &())
-        .expect("scene");
-    let nodes = &scene.nodes;
+    let nodes = &node_table(generate(GenKind::Plant, 2_000_000, 1).objects, &BuildOptions::default()).expect("scene");
     let root = nodes[0].aabb();
     let eye = root.center().as_dvec3() + DVec3::new(0.0, 0.0, -0.3 * root.extent().z as f64);
     let view = View::new(&Camera::look_along(eye, DVec3::Z, 60.0), DVec3::ZERO, 1024, 1024, 0.01);

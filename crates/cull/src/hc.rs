@@ -306,12 +306,12 @@ pub(crate) mod tests {
     }
 
     fn plant() -> &'static [NodeRecord] {
-        use osw_scene::build::{BuildOptions, BuildReport, make_scene};
+        use osw_scene::build::{BuildOptions, node_table};
         use osw_scene::generators::{GenKind, generate};
         static NODES: std::sync::OnceLock<Vec<NodeRecord>> = std::sync::OnceLock::new();
         NODES.get_or_init(|| {
             let objects = generate(GenKind::Plant, 40_000, 3).objects;
-            make_scene(objects, &BuildOptions::default(), &mut BuildReport::default(), &()).expect("plant").nodes
+            node_table(objects, &BuildOptions::default()).expect("plant")
         })
     }
 

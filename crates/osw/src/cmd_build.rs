@@ -2,7 +2,8 @@
 
 use anyhow::{Context, bail};
 use osw_scene::generators::GenKind;
-use osw_scene::{BuildOptions, build_scene};
+use osw_scene::source::{InMemory, Shifted, Source};
+use osw_scene::{BuildOptions, build};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -36,10 +37,19 @@ pub struct Args {
     /// objects without one in hashed colours), or hashed for every object.
     #[arg(long, value_enum, default_value_t = Colors::Model)]
     colors: Colors,
-    /// Output scene file; the report goes beside it as <scene>.build.json.
+    /// Most input triangles built in memory at once (one subtree of the hierarchy at a time:
+    /// peak memory follows this, not the model's size). The scene is the same for any value;
+    /// only the order of its blocks in the file changes.
+    #[arg(long, default_value_t = osw_scene::limits::BUCKET_TRIANGLES, value_name = "N")]
+    bucket_triangles: u64,
+    /// Output scene file; the report goes beside it as <scene>.build.json. A temporary
+    /// <scene>.osw.spill of about the input's size lies beside it while building.
     #[arg(short, long)]
     output: PathBuf,
 }
+
+/// Most triangles of a generated scene: node and header triangle counts are u32.
+const MOST_TRIANGLES: u64 = 4_000_000_000;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Colors {
@@ -62,39 +72,55 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !(0.0..=1.0).contains(&a.loose_split) {
         bail!("--loose-split must be a fraction from 0 to 1 (got {})", a.loose_split);
     }
+    if a.bucket_triangles == 0 {
+        bail!("--bucket-triangles must be at least 1");
+    }
     let started = std::time::Instant::now();
     let bar = crate::progress::Bar::new();
-    let (mut objects, input, notes) = match (&a.input, a.generator) {
+    let (source, input, notes): (Box<dyn Source>, String, Vec<String>) = match (&a.input, a.generator) {
         (Some(path), _) => {
             let imported = osw_scene::import::read(path)?;
             let notes = imported.skipped.iter().map(|s| format!("skipped {s}")).collect::<Vec<_>>();
             for s in &imported.skipped {
                 tracing::warn!("{}: skipped {s}", path.display());
             }
-            (imported.objects, path.display().to_string(), notes)
+            (Box::new(InMemory::new(imported.objects)), path.display().to_string(), notes)
         }
         (None, Some(kind)) => {
-            if a.triangles > 200_000_000 {
-                bail!("--triangles {} is above the 200M this tool is sized for", a.triangles);
+            if a.triangles > MOST_TRIANGLES {
+                bail!("--triangles {} is above the {}M a scene file holds (triangle counts are u32)", a.triangles, MOST_TRIANGLES / 1_000_000);
             }
-            let g = osw_scene::generators::generate(kind, a.triangles, a.seed);
-            (g.objects, format!("--gen {kind:?} --triangles {} --seed {}", a.triangles, a.seed).to_lowercase(), g.notes)
+            let input = format!("--gen {kind:?} --triangles {} --seed {}", a.triangles, a.seed).to_lowercase();
+            let (source, notes): (Box<dyn Source>, _) = match kind {
+                // The plant streams (a site of any size); the others are small by nature.
+                GenKind::Plant => (Box::new(osw_scene::generators::plant::Site::new(a.triangles.max(1_000), a.seed)), Vec::new()),
+                _ => {
+                    let g = osw_scene::generators::generate(kind, a.triangles, a.seed);
+                    (Box::new(InMemory::new(g.objects)), g.notes)
+                }
+            };
+            (source, input, notes)
         }
         (None, None) => unreachable!("clap requires a source"),
     };
-    if let Some(offset) = a.offset {
-        let shift = glam::DAffine3::from_translation(glam::DVec3::from_array(offset));
-        objects.iter_mut().for_each(|o| o.placement = shift * o.placement);
-    }
-    let opts = BuildOptions { chunk_triangles: a.chunk_triangles, loose_split: a.loose_split, model_colors: a.colors == Colors::Model };
-    let report = build_scene(objects, &input, notes, &opts, &a.output, started, &bar);
+    let mut source = match a.offset {
+        Some(by) => Box::new(Shifted { inner: source, by: glam::DVec3::from_array(by) }),
+        None => source,
+    };
+    let opts = BuildOptions {
+        chunk_triangles: a.chunk_triangles,
+        loose_split: a.loose_split,
+        model_colors: a.colors == Colors::Model,
+        bucket_triangles: a.bucket_triangles,
+    };
+    let report = build(source.as_mut(), &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
     let mut report = report?;
     report.peak_rss_kb = osw_render::stats::peak_resident_kb();
     let json = a.output.with_extension("build.json");
     std::fs::write(&json, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", json.display()))?;
     out!(
-        "build: {} input triangles → {} nodes ({} leaves, {} HLODs, up to {} LOD levels), {:.1} MB in {:.2} s ({:.2} M triangles/s, peak memory {:.2} GB)",
+        "build: {} input triangles → {} nodes ({} leaves, {} HLODs, up to {} LOD levels), {:.1} MB in {:.2} s ({:.2} M triangles/s, peak memory {:.2} GB, temporary disk {:.2} GB, {} subtrees of up to {} triangles)",
         report.input_triangles,
         report.nodes,
         report.leaves,
@@ -103,7 +129,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.output_bytes as f64 / 1e6,
         report.seconds,
         report.input_triangles_per_second / 1e6,
-        report.peak_rss_kb as f64 / 1e6 * 1.024
+        report.peak_rss_kb as f64 / 1e6 * 1.024,
+        report.temp_bytes as f64 / 1e9,
+        report.buckets,
+        report.bucket_triangles
     );
     out!("colours: {} of {} objects have none of their own (drawn in hashed colours)", report.objects_without_color, report.objects);
     if report.loose_splits > 0 {

@@ -2,16 +2,24 @@
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// One bar reused across the stages of a build.
-pub struct Bar(ProgressBar);
+/// One bar reused across the stages of a build, and Ctrl-C: the build stops at its next batch
+/// or subtree and removes its partial and temporary files.
+pub struct Bar(ProgressBar, &'static std::sync::atomic::AtomicBool);
 
 impl Bar {
     pub fn new() -> Bar {
+        static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
         let bar = ProgressBar::new(0);
         bar.set_style(
-            ProgressStyle::with_template("{msg:>6} [{bar:40}] {pos}/{len} {elapsed}").expect("valid template").progress_chars("=> "),
+            ProgressStyle::with_template("{msg:>6} [{bar:40}] {pos}/{len} {elapsed} (eta {eta})").expect("valid template").progress_chars("=> "),
         );
-        Bar(bar)
+        // A second Ctrl-C (or a handler already set) ends the process as usual.
+        let _ = ctrlc::set_handler(|| {
+            if STOP.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                std::process::exit(130);
+            }
+        });
+        Bar(bar, &STOP)
     }
 
     pub fn finish(&self) {
@@ -28,6 +36,10 @@ impl osw_scene::build::Progress for Bar {
 
     fn advance(&self, n: u64) {
         self.0.inc(n);
+    }
+
+    fn cancelled(&self) -> bool {
+        self.1.load(std::sync::atomic::Ordering::Relaxed)
     }
 }
 

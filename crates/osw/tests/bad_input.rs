@@ -191,18 +191,21 @@ fn corrupted_or_truncated_scene_files_are_refused_by_name() {
     let mut v = bytes.clone();
     v[8] = 99; // version
     info(&v, "version");
-    v[8] = 2; // a file of version 2 (no clusters): refused with how to rebuild it
-    info(&v, "scene format version 2, this build reads version 3; rebuild the scene with `osw build`");
+    v[8] = 3; // a file of version 3 (tables before the blob): refused with how to rebuild it
+    info(&v, "scene format version 3, this build reads version 4; rebuild the scene with `osw build`");
+    let h = *osw_scene::SceneFile::open(&good).unwrap().header();
     let mut v = bytes.clone();
-    v[300] ^= 0x40; // inside the node table
+    v[h.nodes_offset as usize + 100] ^= 0x40; // inside the node table
+    info(&v, "content hash");
+    let mut v = bytes.clone();
+    v[h.blocks_offset as usize + 50] ^= 0x40; // inside the block table, at the end of the file
     info(&v, "content hash");
     let mut v = bytes.clone();
     v[40] ^= 1; // a header count
     info(&v, "header hash");
     // A flipped geometry byte passes opening (only tables are read) and fails on first read.
     let mut v = bytes.clone();
-    let n = v.len();
-    v[n - 200] ^= 0x10;
+    v[h.blob_offset as usize + 200] ^= 0x10;
     std::fs::write(&bad, &v).unwrap();
     osw_ok(&["info", "--scene", bad.to_str().unwrap()]);
     osw_err(&["info", "--scene", bad.to_str().unwrap(), "--check-geometry"], "fails its hash");
@@ -221,6 +224,8 @@ fn bad_command_lines_are_refused() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("expected city, teapots or plant"));
     osw_err(&["build", "--gen", "city", "--chunk-triangles", "0", "-o", o.to_str().unwrap()], "chunk-triangles");
+    osw_err(&["build", "--gen", "city", "--bucket-triangles", "0", "-o", o.to_str().unwrap()], "bucket-triangles");
+    osw_err(&["build", "--gen", "plant", "--triangles", "5000000000", "-o", o.to_str().unwrap()], "u32");
     for f in ["1.5", "-0.1", "NaN"] {
         let arg = format!("--loose-split={f}");
         osw_err(&["build", "--gen", "city", &arg, "-o", o.to_str().unwrap()], "--loose-split must be a fraction");
@@ -249,4 +254,32 @@ fn a_closed_stdout_is_not_a_crash() {
     let r = child.wait_with_output().unwrap();
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(out.exists());
+}
+
+#[test]
+fn ctrl_c_stops_a_build_and_removes_its_partial_and_temporary_files() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("big.osw");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
+        .args(["build", "--gen", "plant", "--triangles", "30000000", "-o", out.to_str().unwrap()])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut child = Proc(child);
+    // Wait until the build has written temporary data, then interrupt it as Ctrl-C does.
+    let spill = out.with_extension("osw.spill");
+    let t = std::time::Instant::now();
+    while std::fs::metadata(&spill).map_or(0, |m| m.len()) < 1 << 20 {
+        assert!(t.elapsed().as_secs() < 60, "no spill file after 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let pid = child.0.id().to_string();
+    assert!(std::process::Command::new("kill").args(["-INT", &pid]).status().unwrap().success());
+    let status = child.0.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.0.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(1), "{err}");
+    assert!(err.contains("interrupted") && !err.contains("panicked"), "{err}");
+    let left: Vec<_> = std::fs::read_dir(d.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
 }

@@ -1,16 +1,25 @@
-//! The scene build: objects → placement around one origin → clean-up → chunks → BVH → LOD chains → HLODs → node table and
-//! geometry blocks (paper 000 sec. 4.1), and the report of what it made and what it left out.
+//! The scene build, out of core: its peak memory is one batch of the input or one subtree of
+//! the model plus the tables, whatever the model's size (paper 000 sec. 4.1 for what it makes).
+//!
+//! 1. Stream ([`crate::stream`]): the source's batches → placement around one origin →
+//!    clean-up → chunks, appended to a spill file beside the output.
+//! 2. The BVH over all chunk boxes ([`crate::bvh`]; a box per few thousand triangles).
+//! 3. Subtrees of at most `bucket_triangles` input triangles, in depth-first order
+//!    ([`crate::subtree`]): their chunks read back, LOD chains, HLODs, blocks encoded and
+//!    appended to the scene file. Of a subtree only its root's coarsest representation stays.
+//! 4. The groups above the subtrees: their HLODs from those representations.
+//! 5. The node and block tables after the blob, then the header ([`crate::writer`]).
+//!
+//! The node table and every block do not depend on the bucket size; only the order of the
+//! blocks in the file does (a test builds one model both ways).
 
 use crate::aabb::Aabb;
-use crate::bvh;
-use crate::chunk::{Chunks, SplitOptions};
-use crate::format::{NONE, NodeKind, NodeRecord};
-use crate::hlod::NoHlod;
-use crate::limits::{CHUNK_TRIANGLES, LOOSE_SPLIT, MIN_RELATIVE_ERROR};
-use crate::lod::{Level, LodStats};
-use crate::mesh::{CleanStats, Mesh, MeshError, Object};
-use crate::writer::{SceneData, write_scene};
-use rayon::prelude::*;
+use crate::format::NodeRecord;
+use crate::lod::LodStats;
+use crate::mesh::{MeshError, Object};
+use crate::source::{InMemory, Source};
+use crate::subtree::Built;
+use crate::writer::{SceneFields, SceneWriter};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
@@ -25,18 +34,29 @@ pub struct BuildOptions {
     pub loose_split: f32,
     /// Keep the model's colours (false: every object in its hashed colour).
     pub model_colors: bool,
+    /// Most input triangles built in memory at once (see [`crate::limits::BUCKET_TRIANGLES`]).
+    pub bucket_triangles: u64,
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        BuildOptions { chunk_triangles: CHUNK_TRIANGLES, loose_split: LOOSE_SPLIT, model_colors: true }
+        BuildOptions {
+            chunk_triangles: crate::limits::CHUNK_TRIANGLES,
+            loose_split: crate::limits::LOOSE_SPLIT,
+            model_colors: true,
+            bucket_triangles: crate::limits::BUCKET_TRIANGLES,
+        }
     }
 }
 
-/// Progress of a long build, reported per stage. `()` reports nothing.
+/// Progress of a long build, reported per stage, and whether the user asked to stop. `()`
+/// reports nothing and never stops.
 pub trait Progress: Sync {
     fn stage(&self, name: &str, total: u64);
     fn advance(&self, n: u64);
+    fn cancelled(&self) -> bool {
+        false
+    }
 }
 
 impl Progress for () {
@@ -72,10 +92,29 @@ pub struct BuildReport {
     pub input_triangles_per_second: f64,
     /// Peak resident memory of the building process (KiB; set by the caller, 0 if unknown).
     pub peak_rss_kb: u64,
+    /// Most temporary disk the build used (the spill file of chunks), bytes.
+    pub temp_bytes: u64,
+    /// Subtrees built one at a time, and the most input triangles in one.
+    pub buckets: u64,
+    pub bucket_triangles: u64,
+    /// Seconds per stage, summed over batches and subtrees.
     pub stage_seconds: BTreeMap<String, f64>,
     /// What the build left out and why.
     pub left_out: Vec<String>,
     pub notes: Vec<String>,
+}
+
+/// Seconds per stage, summed over every time a stage runs.
+#[derive(Default)]
+pub struct Times(BTreeMap<String, f64>);
+
+impl Times {
+    pub fn run<T>(&mut self, stage: &str, f: impl FnOnce() -> T) -> T {
+        let t = Instant::now();
+        let r = f();
+        *self.0.entry(stage.to_owned()).or_default() += t.elapsed().as_secs_f64();
+        r
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -86,13 +125,21 @@ pub enum BuildError {
     Empty(String),
     #[error("scene too large: {0}")]
     TooLarge(String),
-    #[error("{path}: {source}")]
-    Write { path: String, source: std::io::Error },
+    #[error("{path}: {error}")]
+    Write { path: String, error: std::io::Error },
+    #[error("temporary file {path}: {error}")]
+    Temp { path: String, error: std::io::Error },
+    #[error("interrupted: the partial scene and the temporary files were removed")]
+    Interrupted,
 }
 
-/// Builds the scene from `objects` and writes it to `out`. `input` names the source in the
-/// report; `notes` go into the report as they are. `started` is when reading or generating the
-/// input began, `input_seconds` how long that took: the report's times are end to end.
+impl BuildError {
+    pub(crate) fn temp(path: &Path, source: std::io::Error) -> BuildError {
+        BuildError::Temp { path: path.display().to_string(), error: source }
+    }
+}
+
+/// Builds the scene from objects in memory (see [`build`]).
 pub fn build_scene(
     objects: Vec<Object>,
     input: &str,
@@ -102,300 +149,134 @@ pub fn build_scene(
     started: Instant,
     progress: &dyn Progress,
 ) -> Result<BuildReport, BuildError> {
+    build(&mut InMemory::new(objects), input, notes, opts, out, started, progress)
+}
+
+/// Builds the scene from `source` and writes it to `out`. `input` names the source in the
+/// report; `notes` go into the report as they are. `started` is when reading the input began:
+/// the report's times are end to end.
+pub fn build(
+    source: &mut dyn Source,
+    input: &str,
+    notes: Vec<String>,
+    opts: &BuildOptions,
+    out: &Path,
+    started: Instant,
+    progress: &dyn Progress,
+) -> Result<BuildReport, BuildError> {
     let mut report = BuildReport { input: input.to_owned(), notes, ..Default::default() };
-    report.stage_seconds.insert("input".into(), started.elapsed().as_secs_f64());
-    let scene = make_scene(objects, opts, &mut report, progress)?;
-    let t = Instant::now();
-    progress.stage("write", 1);
-    let (bytes, hash) = write_scene(out, &scene).map_err(|source| BuildError::Write { path: out.display().to_string(), source })?;
-    progress.advance(1);
-    report.stage_seconds.insert("write".into(), t.elapsed().as_secs_f64());
+    let mut times = Times::default();
+    times.0.insert("input".into(), started.elapsed().as_secs_f64());
+    let s = crate::stream::stream(source, opts, out, &mut report, &mut times, progress)?;
+    let scene_box = s.chunks.iter().fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
+    let min_error = (crate::limits::MIN_RELATIVE_ERROR * scene_box.extent().length()).max(f32::MIN_POSITIVE);
+
+    progress.stage("bvh", 1);
+    let boxes: Vec<Aabb> = s.chunks.iter().map(|c| c.bounds).collect();
+    let tree = times.run("bvh", || crate::bvh::build(&boxes));
+    drop(boxes);
+    let lod_ids_max = 2 * tree.len() as u64 + s.chunks.len() as u64 * crate::limits::LOD_MAX_LEVELS as u64;
+    if lod_ids_max > crate::limits::MAX_NODES as u64 {
+        return Err(BuildError::TooLarge(format!("{} chunks need more than 2^32 node ids", s.chunks.len())));
+    }
+    let subtree_triangles = subtree_triangles(&tree, &s.chunks);
+    if subtree_triangles[0] > u32::MAX as u64 {
+        return Err(BuildError::TooLarge(format!("{} triangles: a scene holds at most 2^32", subtree_triangles[0])));
+    }
+    let buckets = buckets(&tree, &subtree_triangles, opts.bucket_triangles.max(1));
+    report.buckets = buckets.len() as u64;
+    report.bucket_triangles = buckets.iter().map(|b| b.iter().map(|&r| subtree_triangles[r as usize]).sum::<u64>()).max().unwrap_or(0);
+
+    let mut writer = SceneWriter::create(out).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
+    let mut built = Built::new(&tree, &s.chunks, &s.closed_objects, min_error);
+    progress.stage("build", subtree_triangles[0]);
+    for roots in &buckets {
+        if progress.cancelled() {
+            return Err(BuildError::Interrupted);
+        }
+        built.subtrees(roots, &s.spill, &mut writer, &mut times, progress)?;
+    }
+    // The groups above the subtrees, deepest first.
+    let roots: std::collections::HashSet<u32> = buckets.iter().flatten().copied().collect();
+    if !roots.contains(&0) {
+        for layer in crate::subtree::layers(&tree, &[0], |id| roots.contains(&id)).iter().rev() {
+            built.groups(layer, &mut writer, &mut times)?;
+        }
+    }
+    drop(s.spill);
+
+    progress.stage("tables", 1);
+    let (nodes, blocks) = times.run("tables", || built.tables(&mut report));
+    let fields = SceneFields {
+        origin: s.origin.to_array(),
+        bvh_count: tree.len() as u32,
+        object_count: report.objects as u32,
+        leaf_count: report.leaves as u32,
+        leaf_triangles: nodes[0].triangles,
+    };
+    let (bytes, hash) =
+        times.run("write", || writer.finish(fields, &nodes, &blocks)).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
     report.output_bytes = bytes;
     report.content_hash = format!("{:016x}{:016x}", hash[1], hash[0]);
+    report.stage_seconds = times.0;
     report.seconds = started.elapsed().as_secs_f64();
     report.input_triangles_per_second = report.input_triangles as f64 / report.seconds.max(1e-9);
     Ok(report)
 }
 
-fn timed<T>(report: &mut BuildReport, stage: &str, f: impl FnOnce(&mut BuildReport) -> T) -> T {
-    let t = Instant::now();
-    let r = f(report);
-    report.stage_seconds.insert(stage.into(), t.elapsed().as_secs_f64());
-    r
-}
-
-/// Every step but writing: the node table and blocks in memory.
-pub fn make_scene(
-    objects: Vec<Object>,
-    opts: &BuildOptions,
-    report: &mut BuildReport,
-    progress: &dyn Progress,
-) -> Result<SceneData, BuildError> {
-    report.input_triangles = objects.iter().map(|o| o.mesh.triangle_count() as u64).sum();
-    let (mut objects, origin) = timed(report, "place", |_| crate::place::place(objects));
-    let colored = objects.iter().filter(|o| !o.mesh.colors.is_empty()).count();
-    if !opts.model_colors && colored > 0 {
-        objects.iter_mut().for_each(|o| o.mesh.colors = Vec::new());
-        report.left_out.push(format!("the model's colours of {colored} objects (--colors hashed)"));
-    }
-    progress.stage("clean", objects.len() as u64);
-    let objects = timed(report, "clean", |report| clean(objects, report, progress))?;
-    report.objects = objects.len() as u64;
-    report.objects_without_color = objects.iter().filter(|o| o.mesh.colors.is_empty()).count() as u64;
-    let scene_box = objects.iter().fold(Aabb::EMPTY, |b, o| b.union(o.mesh.bounds()));
-    let min_error = (MIN_RELATIVE_ERROR * scene_box.extent().length()).max(f32::MIN_POSITIVE);
-
-    progress.stage("chunk", objects.len() as u64);
-    let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
-    // Whether each object is closed and wound outwards is decided on the whole object, before
-    // chunks cut it open (see crate::cluster).
-    let (per_object, closed_objects): (Vec<Chunks>, Vec<Option<Aabb>>) = timed(report, "chunk", |_| {
-        objects
-            .par_iter()
-            .map(|o| {
-                progress.advance(1);
-                let closed = crate::cluster::Parts::of(&o.mesh).all_closed().then(|| o.mesh.bounds());
-                (crate::chunk::split(&o.mesh, split), closed)
-            })
-            .unzip()
-    });
-    drop(objects);
-    report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
-    report.loose_splits = per_object.iter().map(|c| c.loose_splits as u64).sum();
-    let chunks: Vec<(u32, Mesh)> =
-        per_object.into_iter().enumerate().flat_map(|(i, c)| c.meshes.into_iter().map(move |m| (i as u32, m))).collect();
-    report.chunks = chunks.len() as u64;
-
-    let boxes: Vec<Aabb> = chunks.iter().map(|(_, m)| m.bounds()).collect();
-    let tree = timed(report, "bvh", |_| bvh::build(&boxes));
-    let lod_ids_max = tree.len() as u64 + chunks.iter().map(|_| crate::limits::LOD_MAX_LEVELS as u64).sum::<u64>() + tree.len() as u64;
-    if lod_ids_max > crate::limits::MAX_NODES as u64 {
-        return Err(BuildError::TooLarge(format!("{} chunks need more than 2^32 node ids", chunks.len())));
-    }
-
-    progress.stage("lod", chunks.len() as u64);
-    let (chains, lod_stats) = timed(report, "lod", |_| {
-        let chains: Vec<(Vec<Level>, LodStats)> = chunks
-            .par_iter()
-            .map(|(_, m)| {
-                let r = crate::lod::chain(m, min_error);
-                progress.advance(1);
-                r
-            })
-            .collect();
-        let mut stats = LodStats::default();
-        chains.iter().for_each(|(_, s)| stats.add(*s));
-        (chains.into_iter().map(|(c, _)| c).collect::<Vec<_>>(), stats)
-    });
-
-    let groups = tree.iter().filter(|n| n.item.is_none()).count() as u64;
-    progress.stage("hlod", groups);
-    let (hlods, hlod_stats) = timed(report, "hlod", |_| hlods(&tree, &chains, min_error, progress));
-
-    let scene = SceneData { closed_objects, ..assemble(&tree, &chunks, chains, hlods, origin.to_array(), report) };
-    report_left_out(report, &lod_stats, &hlod_stats, groups);
-    Ok(scene)
-}
-
-fn clean(objects: Vec<Object>, report: &mut BuildReport, progress: &dyn Progress) -> Result<Vec<Object>, BuildError> {
-    let cleaned: Vec<Result<(Object, CleanStats), BuildError>> = objects
-        .into_par_iter()
-        .enumerate()
-        .map(|(index, o)| {
-            progress.advance(1);
-            let (mesh, stats) = o.mesh.clean().map_err(|source| BuildError::Mesh { index, name: o.name.clone(), source })?;
-            Ok((Object { mesh, ..o }, stats))
-        })
-        .collect();
-    let mut stats = CleanStats::default();
-    let mut kept = Vec::with_capacity(cleaned.len());
-    let mut empty = Vec::new();
-    for r in cleaned {
-        let (o, s) = r?;
-        stats.add(s);
-        if o.mesh.is_empty() {
-            empty.push(o.name);
-        } else {
-            kept.push(o);
-        }
-    }
-    report.degenerate_triangles_dropped = stats.degenerate_triangles;
-    if stats.degenerate_triangles > 0 {
-        report
-            .left_out
-            .push(format!("{} degenerate triangles (repeated index or zero area): they cover no pixel", stats.degenerate_triangles));
-    }
-    if !empty.is_empty() {
-        let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();
-        report.left_out.push(format!("{} objects with no triangles left after clean-up, e.g. {}", empty.len(), names.join(", ")));
-    }
-    if kept.is_empty() {
-        return Err(BuildError::Empty(format!("no triangles in the input ({} objects)", empty.len())));
-    }
-    Ok(kept)
-}
-
-/// HLOD per group, deepest level first so that a group's inputs exist when it is built. BVH
-/// ids are breadth first, so each depth is a contiguous id range and children lie above it.
-fn hlods(tree: &[bvh::BvhNode], chains: &[Vec<Level>], min_error: f32, progress: &dyn Progress) -> (Vec<Option<Level>>, HlodStats) {
-    let mut depth = vec![0u32; tree.len()];
-    for id in 1..tree.len() {
-        depth[id] = depth[tree[id].parent.expect("non-root") as usize] + 1;
-    }
-    let mut reps: Vec<Option<Level>> = vec![None; tree.len()];
-    let mut stats = HlodStats::default();
-    let max_depth = depth.iter().copied().max().unwrap_or(0);
-    for d in (0..=max_depth).rev() {
-        let start = depth.partition_point(|&x| x < d);
-        let end = depth.partition_point(|&x| x <= d);
-        let (here, below) = reps.split_at_mut(end);
-        let below = &*below;
-        let built: Vec<Option<Result<Level, NoHlod>>> = (start..end)
-            .into_par_iter()
-            .map(|id| {
-                tree[id].item.is_none().then(|| {
-                    let mut parts = Vec::new();
-                    coarse_parts(tree, chains, below, end, id, &mut parts);
-                    progress.advance(1);
-                    crate::hlod::build(&parts, min_error)
-                })
-            })
-            .collect();
-        for (slot, b) in here[start..end].iter_mut().zip(built) {
-            match b {
-                Some(Err(NoHlod::NotCoarser)) => stats.not_coarser += 1,
-                Some(Err(NoHlod::Vanished)) => stats.vanished += 1,
-                _ => {}
-            }
-            *slot = b.and_then(Result::ok);
-        }
-    }
-    (reps, stats)
-}
-
-/// Why groups got no HLOD (see [`NoHlod`]).
-#[derive(Clone, Copy, Debug, Default)]
-struct HlodStats {
-    not_coarser: u64,
-    vanished: u64,
-}
-
-/// The coarsest representations under group `id`: per child its HLOD or coarsest LOD, or, for
-/// a child group without an HLOD, its own children's, recursively. `below[k - offset]` holds
-/// the HLOD of group k.
-fn coarse_parts<'a>(
-    tree: &[bvh::BvhNode],
-    chains: &'a [Vec<Level>],
-    below: &'a [Option<Level>],
-    offset: usize,
-    id: usize,
-    parts: &mut Vec<&'a Level>,
-) {
-    for c in tree[id].children.clone() {
-        let c = c as usize;
-        match (tree[c].item, &below[c - offset]) {
-            (Some(chunk), _) => parts.push(chains[chunk as usize].last().expect("level 0")),
-            (None, Some(h)) => parts.push(h),
-            (None, None) => coarse_parts(tree, chains, below, offset, c, parts),
-        }
-    }
-}
-
-/// Numbers LOD nodes after the BVH nodes (each BVH node's LODs contiguous, finest first) and
-/// fills in the records.
-fn assemble(
-    tree: &[bvh::BvhNode],
-    chunks: &[(u32, Mesh)],
-    chains: Vec<Vec<Level>>,
-    hlods: Vec<Option<Level>>,
-    origin: [f64; 3],
-    report: &mut BuildReport,
-) -> SceneData {
-    let bvh_count = tree.len() as u32;
-    let mut nodes: Vec<NodeRecord> = Vec::with_capacity(tree.len() * 3);
-    let mut lods: Vec<NodeRecord> = Vec::new();
-    let mut blocks: Vec<Mesh> = Vec::new();
-    let mut chains: Vec<Option<Vec<Level>>> = chains.into_iter().map(Some).collect();
-    let mut hlods = hlods;
-    for (id, n) in tree.iter().enumerate() {
-        let levels: Vec<Level> = match n.item {
-            Some(chunk) => chains[chunk as usize].take().expect("each chunk in one leaf"),
-            None => hlods[id].take().into_iter().collect(),
-        };
-        let object = n.item.map_or(NONE, |c| chunks[c as usize].0);
-        let first_lod = bvh_count + lods.len() as u32;
-        for l in &levels {
-            let b = l.mesh.bounds();
-            lods.push(NodeRecord {
-                bbox_min: b.min.into(),
-                kind: NodeKind::Lod as u32,
-                bbox_max: b.max.into(),
-                error: l.error,
-                parent: id as u32,
-                first_child: 0,
-                child_count: 0,
-                first_lod: 0,
-                lod_count: 0,
-                block: lods.len() as u32,
-                object,
-                triangles: l.mesh.triangle_count() as u32,
-            });
-        }
-        report.lod_levels_max = report.lod_levels_max.max(if n.item.is_some() { levels.len() as u64 } else { 0 });
-        if n.item.is_none() && !levels.is_empty() {
-            report.hlod_nodes += 1;
-        }
-        let error = levels.first().map_or(0.0, |l| l.error);
-        blocks.extend(levels.into_iter().map(|l| l.mesh));
-        nodes.push(NodeRecord {
-            bbox_min: n.bounds.min.into(),
-            kind: if n.item.is_some() { NodeKind::Leaf } else { NodeKind::Group } as u32,
-            bbox_max: n.bounds.max.into(),
-            error,
-            parent: n.parent.unwrap_or(NONE),
-            first_child: if n.children.is_empty() { 0 } else { n.children.start },
-            child_count: n.children.len() as u32,
-            first_lod,
-            lod_count: (bvh_count + lods.len() as u32) - first_lod,
-            block: NONE,
-            object,
-            triangles: n.item.map_or(0, |c| chunks[c as usize].1.triangle_count() as u32),
-        });
-    }
-    // Bottom-up (children have larger ids): subtree triangles, and the error of a group
-    // without an HLOD (the largest of its children's, so errors never decrease going up).
+/// Input triangles under each BVH node (children have larger ids than their parent).
+fn subtree_triangles(tree: &[crate::bvh::BvhNode], chunks: &[crate::stream::Chunk]) -> Vec<u64> {
+    let mut t = vec![0u64; tree.len()];
     for id in (0..tree.len()).rev() {
-        let n = nodes[id];
-        if n.kind() == NodeKind::Group {
-            let triangles = n.children().map(|c| nodes[c as usize].triangles).sum();
-            let children_error = n.children().map(|c| nodes[c as usize].error).fold(0.0, f32::max);
-            nodes[id].triangles = triangles;
-            if n.lod_count == 0 {
-                nodes[id].error = children_error;
-            }
-        }
+        t[id] = match tree[id].item {
+            Some(c) => chunks[c as usize].triangles as u64,
+            None => tree[id].children.clone().map(|c| t[c as usize]).sum(),
+        };
     }
-    report.leaves = tree.iter().filter(|n| n.item.is_some()).count() as u64;
-    report.groups = tree.len() as u64 - report.leaves;
-    report.lod_nodes = lods.len() as u64;
-    report.stored_triangles = lods.iter().map(|l| l.triangles as u64).sum();
-    let leaf_triangles = nodes[0].triangles;
-    nodes.extend(lods);
-    report.nodes = nodes.len() as u64;
-    SceneData {
-        origin,
-        bvh_count,
-        leaf_count: report.leaves as u32,
-        object_count: report.objects as u32,
-        leaf_triangles,
-        nodes,
-        blocks,
-        closed_objects: Vec::new(),
-    }
+    t
 }
 
-fn report_left_out(report: &mut BuildReport, lod: &LodStats, hlod: &HlodStats, groups: u64) {
+/// The subtrees built one at a time: the highest nodes with at most `most` triangles under
+/// them (or single leaves), in depth-first order, and consecutive small ones put together up
+/// to `most`.
+fn buckets(tree: &[crate::bvh::BvhNode], triangles: &[u64], most: u64) -> Vec<Vec<u32>> {
+    let mut out: Vec<Vec<u32>> = Vec::new();
+    let mut filling = 0u64;
+    let mut stack = vec![0u32];
+    while let Some(id) = stack.pop() {
+        let n = &tree[id as usize];
+        let t = triangles[id as usize];
+        if t <= most || n.item.is_some() {
+            match out.last_mut() {
+                Some(b) if filling + t <= most => b.push(id),
+                _ => {
+                    out.push(vec![id]);
+                    filling = 0;
+                }
+            }
+            filling += t;
+        } else {
+            stack.extend(n.children.clone().rev());
+        }
+    }
+    out
+}
+
+/// The node table of `objects` built with `opts`, through a temporary file: for tests and
+/// benches that need a real hierarchy without a GPU.
+pub fn node_table(objects: Vec<Object>, opts: &BuildOptions) -> Result<Vec<NodeRecord>, BuildError> {
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let path = std::env::temp_dir().join(format!("osw-node-table-{}-{k}.osw", std::process::id()));
+    build_scene(objects, "node table", Vec::new(), opts, &path, Instant::now(), &())?;
+    let nodes = crate::SceneFile::open(&path).map(|f| f.nodes().to_vec());
+    let _ = std::fs::remove_file(&path);
+    nodes.map_err(|e| BuildError::Write { path: path.display().to_string(), error: std::io::Error::other(e.to_string()) })
+}
+
+pub(crate) fn report_left_out(report: &mut BuildReport, lod: &LodStats, not_coarser: u64, vanished: u64) {
     let l = crate::limits::LOD_MIN_TRIANGLES;
+    let groups = report.groups;
     if lod.too_small > 0 {
         report
             .left_out
@@ -408,25 +289,27 @@ fn report_left_out(report: &mut BuildReport, lod: &LodStats, hlod: &HlodStats, g
             lod.not_paying
         ));
     }
-    if hlod.not_coarser > 0 {
+    if not_coarser > 0 {
         let keep = (crate::limits::HLOD_MAX_FRACTION * 100.0).round();
-        report.left_out.push(format!("HLODs of {} of {groups} interior nodes: simplification kept more than {keep}% of the children's triangles, so drawing the children costs little more", hlod.not_coarser));
+        report.left_out.push(format!("HLODs of {not_coarser} of {groups} interior nodes: simplification kept more than {keep}% of the children's triangles, so drawing the children costs little more"));
     }
-    if hlod.vanished > 0 {
-        report.left_out.push(format!("HLODs of {} of {groups} interior nodes: the children's coarsest levels are too small to merge into anything coarser; the parent's HLOD covers them", hlod.vanished));
+    if vanished > 0 {
+        report.left_out.push(format!("HLODs of {vanished} of {groups} interior nodes: the children's coarsest levels are too small to merge into anything coarser; the parent's HLOD covers them"));
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::format::NodeKind;
     use crate::generators::shapes;
+    use crate::mesh::Mesh;
     use glam::Vec3;
 
     #[test]
     fn empty_input_is_an_error_naming_why() {
         let o = Object::new("nothing", Mesh::default());
-        let e = make_scene(vec![o], &BuildOptions::default(), &mut BuildReport::default(), &()).unwrap_err();
+        let e = node_table(vec![o], &BuildOptions::default()).unwrap_err();
         assert!(e.to_string().contains("empty scene"), "{e}");
     }
 
@@ -435,8 +318,9 @@ mod tests {
         let mut m = Mesh::default();
         shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
         m.positions[3][0] = f32::INFINITY;
-        let e = make_scene(vec![Object::new("boxy", m)], &BuildOptions::default(), &mut BuildReport::default(), &()).unwrap_err();
-        assert!(e.to_string().contains("object 0 (boxy)") && e.to_string().contains("non-finite"), "{e}");
+        let ok = |name: &str| Object::new(name, { let mut m = Mesh::default(); shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE); m });
+        let e = node_table(vec![ok("a"), ok("b"), Object::new("boxy", m)], &BuildOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("object 2 (boxy)") && e.to_string().contains("non-finite"), "{e}");
     }
 
     #[test]
@@ -444,13 +328,38 @@ mod tests {
         // Expected: node 0 = the leaf, node 1 = its only LOD (12 triangles, too small to simplify).
         let mut m = Mesh::default();
         shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
-        let mut report = BuildReport::default();
-        let s = make_scene(vec![Object::new("b", m)], &BuildOptions::default(), &mut report, &()).unwrap();
-        assert_eq!(s.bvh_count, 1);
-        assert_eq!(s.nodes.len(), 2);
-        assert_eq!(s.nodes[0].kind(), NodeKind::Leaf);
-        assert_eq!(s.nodes[0].lods(), 1..2);
-        assert_eq!(s.nodes[1].triangles, 12);
-        assert!(report.left_out.iter().any(|l| l.contains("LODs of 1 chunks")));
+        let nodes = node_table(vec![Object::new("b", m)], &BuildOptions::default()).unwrap();
+        assert_eq!(nodes.len(), 2);
+        assert_eq!(nodes[0].kind(), NodeKind::Leaf);
+        assert_eq!(nodes[0].lods(), 1..2);
+        assert_eq!(nodes[1].triangles, 12);
+    }
+
+    #[test]
+    fn buckets_cover_every_leaf_once_in_depth_first_order() {
+        let boxes: Vec<Aabb> = (0..50).map(|i| Aabb::new(Vec3::splat(i as f32), Vec3::splat(i as f32 + 0.5))).collect();
+        let tree = crate::bvh::build(&boxes);
+        let triangles: Vec<u64> = {
+            let mut t = vec![0u64; tree.len()];
+            for id in (0..tree.len()).rev() {
+                t[id] = match tree[id].item {
+                    Some(i) => 10 + i as u64,
+                    None => tree[id].children.clone().map(|c| t[c as usize]).sum(),
+                };
+            }
+            t
+        };
+        for most in [1, 30, 100, 400, u64::MAX] {
+            let b = buckets(&tree, &triangles, most);
+            let roots: Vec<u32> = b.iter().flatten().copied().collect();
+            let mut leaves: Vec<u32> = crate::subtree::layers(&tree, &roots, |_| false).into_iter().flatten().filter_map(|id| tree[id as usize].item).collect();
+            leaves.sort();
+            assert_eq!(leaves, (0..50).collect::<Vec<_>>(), "most {most}");
+            for bucket in &b {
+                let t: u64 = bucket.iter().map(|&r| triangles[r as usize]).sum();
+                assert!(t <= most || bucket.len() == 1, "most {most}: bucket of {t}");
+            }
+        }
+        assert_eq!(buckets(&tree, &triangles, u64::MAX), vec![vec![0]]);
     }
 }

@@ -31,13 +31,9 @@ use rustc_hash::FxHashMap;
 /// with 128; the 20M plant's file grows 10% (80 bytes a cluster) and its build 6%.
 pub const MAX_TRIANGLES: usize = 32;
 
-/// Most vertices in a cluster: as many as triangles keeps clusters compact (and so their
-/// spheres small and cones narrow) on meshes with shared vertices.
+/// Most distinct vertices in a cluster: as many as triangles keeps clusters compact (and so
+/// their spheres small) on meshes with shared vertices.
 pub const MAX_VERTICES: usize = 32;
-
-/// meshopt's weight of cone tightness against compactness when growing a meshlet (its
-/// documentation suggests 0.25 for cone culling).
-const CONE_WEIGHT: f32 = 0.25;
 
 /// A cone cutoff that no eye passes (meshopt gives 1 for a cone wider than a half-space).
 pub const NO_CONE: f32 = 2.0;
@@ -48,36 +44,78 @@ pub const NO_CONE: f32 = 2.0;
 pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRecord>) {
     let parts = Parts::of(mesh);
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte positions");
+    let space = mesh.bounds();
     let mut indices = Vec::with_capacity(mesh.indices.len());
     let mut clusters = Vec::new();
+    let mut order: Vec<(u32, u32)> = Vec::new();
+    // Per vertex, the last cluster that used it: counts a cluster's distinct vertices.
+    let mut stamp = vec![u32::MAX; mesh.positions.len()];
     for bin in facing_bins(mesh) {
-        if bin.is_empty() {
-            continue;
-        }
-        let meshlets = meshopt::build_meshlets(&bin, &adapter, MAX_VERTICES, MAX_TRIANGLES, CONE_WEIGHT);
-        for m in meshlets.iter() {
-            let b = meshopt::compute_meshlet_bounds(m, &adapter);
-            let first_index = indices.len() as u32;
-            indices.extend(m.triangles.iter().map(|&t| m.vertices[t as usize]));
-            let closed = parts.closed_box(&indices[first_index as usize..]).or(object);
-            let bbox = Aabb::from_points(m.vertices.iter().map(|&v| &mesh.positions[v as usize]));
-            clusters.push(ClusterRecord {
-                center: b.center,
-                radius: b.radius,
-                cone_apex: b.cone_apex,
-                cone_axis: b.cone_axis,
-                cone_cutoff: if closed.is_some() { b.cone_cutoff } else { NO_CONE },
-                first_index,
-                index_count: indices.len() as u32 - first_index,
-                bbox_min: bbox.min.into(),
-                bbox_max: bbox.max.into(),
-                closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
-                closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
-            });
+        // Along the Morton curve of the triangles' centroids, a cluster ends at MAX_TRIANGLES
+        // triangles or MAX_VERTICES vertices (which keeps it compact where the curve jumps).
+        order.clear();
+        order.extend(bin.chunks_exact(3).enumerate().map(|(k, t)| (morton(&space, t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0), k as u32)));
+        order.sort_unstable();
+        let mut first_index = indices.len() as u32;
+        let mut vertices = 0;
+        for (n, &(_, k)) in order.iter().enumerate() {
+            let t = &bin[k as usize * 3..k as usize * 3 + 3];
+            let id = clusters.len() as u32;
+            let new = t.iter().filter(|&&v| stamp[v as usize] != id).count();
+            let triangles = (indices.len() - first_index as usize) / 3;
+            if triangles == MAX_TRIANGLES || vertices + new > MAX_VERTICES {
+                clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index));
+                first_index = indices.len() as u32;
+                vertices = 0;
+            }
+            let id = clusters.len() as u32;
+            for &v in t {
+                vertices += usize::from(stamp[v as usize] != id);
+                stamp[v as usize] = id;
+            }
+            indices.extend_from_slice(t);
+            if n + 1 == order.len() {
+                clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index));
+            }
         }
     }
     debug_assert_eq!(indices.len(), mesh.indices.len());
     (indices, clusters)
+}
+
+/// The cluster of `indices[first_index..]`: its bounds and cone (meshopt's), and the box of its
+/// closed parts or object.
+fn cluster(mesh: &Mesh, adapter: &meshopt::VertexDataAdapter, parts: &Parts, object: Option<Aabb>, indices: &[u32], first_index: u32) -> ClusterRecord {
+    let cluster = &indices[first_index as usize..];
+    let b = meshopt::compute_cluster_bounds(cluster, adapter);
+    let closed = parts.closed_box(cluster).or(object);
+    let bbox = Aabb::from_points(cluster.iter().map(|&v| &mesh.positions[v as usize]));
+    ClusterRecord {
+        center: b.center,
+        radius: b.radius,
+        cone_apex: b.cone_apex,
+        cone_axis: b.cone_axis,
+        cone_cutoff: if closed.is_some() { b.cone_cutoff } else { NO_CONE },
+        first_index,
+        index_count: cluster.len() as u32,
+        bbox_min: bbox.min.into(),
+        bbox_max: bbox.max.into(),
+        closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
+        closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
+    }
+}
+
+/// The 30-bit Morton code of `p` in `space` (10 bits an axis).
+fn morton(space: &Aabb, p: Vec3) -> u32 {
+    let q = ((p - space.min) / space.extent().max(Vec3::splat(f32::MIN_POSITIVE)) * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+    let spread = |v: f32| {
+        let mut x = v as u32;
+        x = (x | (x << 16)) & 0x0300_00ff;
+        x = (x | (x << 8)) & 0x0300_f00f;
+        x = (x | (x << 4)) & 0x030c_30c3;
+        (x | (x << 2)) & 0x0924_9249
+    };
+    spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
 }
 
 /// The triangles of `mesh` in seven bins: by the axis and sign their normal points along most

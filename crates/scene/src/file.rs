@@ -219,11 +219,11 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     let nodes_end = h.nodes_offset.checked_add(h.node_count as u64 * 64);
     let blocks_end = h.blocks_offset.checked_add(h.block_count as u64 * BLOCK_BYTES);
     let layout_ok = h.header_bytes as usize == hsize
-        && h.nodes_offset == hsize as u64
+        && h.blob_offset == hsize as u64
+        && h.blob_bytes.is_multiple_of(BLOCK_ALIGN)
+        && h.blob_offset.checked_add(h.blob_bytes) == Some(h.nodes_offset)
         && nodes_end == Some(h.blocks_offset)
-        && blocks_end.is_some_and(|e| e <= h.blob_offset && h.blob_offset - e < BLOCK_ALIGN)
-        && h.blob_offset.is_multiple_of(BLOCK_ALIGN)
-        && h.blob_offset.checked_add(h.blob_bytes) == Some(h.file_bytes);
+        && blocks_end == Some(h.file_bytes);
     if !layout_ok {
         return Err(corrupt("section offsets do not match the counts".into()));
     }

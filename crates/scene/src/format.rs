@@ -1,16 +1,19 @@
-//! The scene file format, version 2: one file that the three processes of the cluster map into
+//! The scene file format, version 4: one file that the three processes of the cluster map into
 //! memory and read in place (paper 000, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
 //! ```text
 //! offset 0              Header (256 bytes)
-//! header.nodes_offset   [NodeRecord; node_count]       64 bytes each
-//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each
-//! header.blob_offset    geometry blocks, each BLOCK_ALIGN-aligned:
+//! header.blob_offset    geometry blocks (256), each BLOCK_ALIGN-aligned and padded to it:
 //!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
 //!                       block has colours, [u16 or u32; index_count] in cluster order,
 //!                       padding to 4 bytes, then [ClusterRecord; cluster_count]
+//! header.nodes_offset   [NodeRecord; node_count]       64 bytes each, right after the blob
+//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each, to the end of the file
 //! ```
+//! The tables follow the blob because the build streams: blocks are written as each part of the
+//! model is built, and the tables are complete only at the end (see [`crate::build`]). Blocks
+//! lie in the blob in the order they were built (a subtree's blocks together), not in id order.
 //! All integers little-endian. Node ids are dense: ids `0..bvh_count` are BVH nodes in
 //! breadth-first order (root = 0), ids `bvh_count..node_count` are LOD and HLOD nodes, each its
 //! own id as in paper 000 sec. 4.1; a BVH node's LODs are contiguous, finest first.
@@ -31,7 +34,8 @@ pub const NONE: u32 = u32::MAX;
 pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// 2: geometry blocks may carry the model's colours (version 1 had none). 3: each block's
 /// triangles are grouped into clusters with bounds and normal cones (see [`ClusterRecord`]).
-pub const VERSION: u32 = 3;
+/// 4: the tables follow the blob (an out-of-core build writes them last).
+pub const VERSION: u32 = 4;
 
 /// The fixed-size file header.
 #[repr(C)]

@@ -9,12 +9,15 @@
 //!   whose box is loose.
 //! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
 //! - [`lod`] and [`hlod`]: static LOD chains per leaf, HLODs per interior node.
-//! - [`build`]: the pipeline above plus the report of what it left out.
+//! - [`build`]: the pipeline above, out of core ([`source`] streams the input, [`stream`] chunks
+//!   it into the [`spill`] file, [`subtree`] builds the hierarchy's geometry a subtree at a time),
+//!   plus the report of what it left out.
 //! - [`format`] and [`file`]: the versioned, hashed, memory-mapped scene file.
 //! - [`error_metric`]: object-space error projected to pixels (tau).
 //! - [`camera`] and [`path`]: cameras, the path CSV, and walk/orbit/flyover paths.
 
 pub mod aabb;
+mod append;
 pub mod build;
 pub mod bvh;
 pub mod camera;
@@ -32,10 +35,14 @@ pub mod mesh;
 pub mod path;
 pub mod path_gen;
 pub mod place;
+pub mod source;
+pub mod spill;
+pub mod stream;
+pub mod subtree;
 pub mod writer;
 
 pub use aabb::Aabb;
-pub use build::{BuildOptions, BuildReport, build_scene};
+pub use build::{BuildOptions, BuildReport, build, build_scene};
 pub use camera::Camera;
 pub use file::{SceneError, SceneFile};
 pub use format::{NodeId, NodeKind, NodeRecord};

@@ -29,6 +29,12 @@ pub const LOD_TARGET_RATIO: f32 = 0.25;
 /// almost nothing and cost a node id and its selection.
 pub const LOD_MIN_TRIANGLES: u32 = 32;
 
+/// Most input triangles whose LODs, HLODs and blocks the build makes in memory at once (one
+/// subtree, see [`crate::build`]). The build holds about 50 bytes per triangle of a subtree
+/// (chains, HLOD inputs and encoded blocks), so 4M keeps that near 200 MB while a subtree's
+/// thousand-odd chunks still keep both cores busy.
+pub const BUCKET_TRIANGLES: u64 = 4_000_000;
+
 /// Most LOD levels per leaf (the original counts as level 0).
 pub const LOD_MAX_LEVELS: usize = 8;
 

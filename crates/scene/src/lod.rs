@@ -39,14 +39,14 @@ impl LodStats {
 /// The chain for `mesh`: level 0 is `mesh` itself with error 0, then coarser levels with
 /// increasing error, each at most LOD_MIN_REDUCTION of the previous one's triangles.
 /// `min_error` (> 0) is the smallest error a simplified level may report.
-pub fn chain(mesh: &Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
+pub fn chain(mesh: Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
     let mut stats = LodStats::default();
-    let mut levels = vec![Level { mesh: mesh.clone(), error: 0.0 }];
     if mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize {
         stats.too_small += 1;
-        return (levels, stats);
+        return (vec![Level { mesh, error: 0.0 }], stats);
     }
     let scale = meshopt::simplify_scale_decoder(&mesh.positions);
+    let mut levels = vec![Level { mesh, error: 0.0 }];
     loop {
         let prev = levels.last().expect("level 0");
         let target = ((prev.mesh.indices.len() as f32 * LOD_TARGET_RATIO) as usize / 3 * 3).max(3);
@@ -84,7 +84,7 @@ mod tests {
     fn a_fine_sphere_gets_a_chain_of_coarser_levels_with_growing_error() {
         let mut m = Mesh::default();
         shapes::lathe(&mut m, Vec3::ZERO, &shapes::sphere_profile(1.0, 32), 64); // ~4000 triangles
-        let (levels, _) = chain(&m, 1e-6);
+        let (levels, _) = chain(m, 1e-6);
         assert!(levels.len() >= 3, "{} levels", levels.len());
         for w in levels.windows(2) {
             assert!(w[1].mesh.triangle_count() as f32 <= w[0].mesh.triangle_count() as f32 * LOD_MIN_REDUCTION);
@@ -98,7 +98,7 @@ mod tests {
     fn a_box_is_too_small_for_a_lod() {
         let mut m = Mesh::default();
         shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
-        let (levels, stats) = chain(&m, 1e-6);
+        let (levels, stats) = chain(m, 1e-6);
         assert_eq!(levels.len(), 1);
         assert_eq!(stats.too_small, 1);
     }

@@ -38,14 +38,26 @@ pub fn relative(points: &[[f64; 3]], anchor: DVec3) -> Vec<[f32; 3]> {
 }
 
 /// Moves every object into scene-local coordinates around the origin of their world bounds;
-/// returns the objects (placements now the identity) and the origin. A position whose local
-/// coordinate overflows f32 becomes infinite, which the clean-up reports by object.
+/// returns the objects (placements now the identity) and the origin.
 pub fn place(mut objects: Vec<Object>) -> (Vec<Object>, DVec3) {
-    let (min, max) = objects
+    let (min, max) = world_bounds(&objects);
+    let origin = origin_of(min, max);
+    to_local(&mut objects, origin);
+    (objects, origin)
+}
+
+/// Bounds of the objects' finite world positions (placements applied).
+pub fn world_bounds(objects: &[Object]) -> (DVec3, DVec3) {
+    objects
         .par_iter()
         .map(|o| bounds(o.mesh.positions.iter().map(|p| o.placement.transform_point3(Vec3::from_array(*p).as_dvec3()))))
-        .reduce(|| bounds(std::iter::empty()), |(a, b), (c, d)| (a.min(c), b.max(d)));
-    let origin = origin_of(min, max);
+        .reduce(|| bounds(std::iter::empty()), |(a, b), (c, d)| (a.min(c), b.max(d)))
+}
+
+/// Moves objects into scene-local coordinates around `origin` (placements become the
+/// identity). A position whose local coordinate overflows f32 becomes infinite, which the
+/// clean-up reports by object.
+pub fn to_local(objects: &mut [Object], origin: DVec3) {
     objects.par_iter_mut().for_each(|o| {
         let to_local = DAffine3::from_translation(-origin) * o.placement;
         if to_local != DAffine3::IDENTITY {
@@ -57,7 +69,6 @@ pub fn place(mut objects: Vec<Object>) -> (Vec<Object>, DVec3) {
         }
         o.placement = DAffine3::IDENTITY;
     });
-    (objects, origin)
 }
 
 /// Bounds of the finite points (a non-finite one is an error the clean-up reports by object).

@@ -1,14 +1,173 @@
-//! Writes the scene file (layout in [`crate::format`]).
+//! Writes the scene file (layout in [`crate::format`]) as the build goes: blocks are appended
+//! to the blob as soon as they are encoded, and the node and block tables, known only at the
+//! end, follow the blob. Nothing of the geometry stays in memory once written.
 
-use crate::format::{BLOCK_BYTES, BlockRecord, CLUSTER_BYTES, Header, MAGIC, NONE, NodeKind, NodeRecord, VERSION};
+use crate::format::{BLOCK_BYTES, BlockRecord, Header, MAGIC, NONE, NodeKind, NodeRecord, VERSION};
 use crate::limits::BLOCK_ALIGN;
+use crate::append::Appender;
 use crate::mesh::Mesh;
 use rayon::prelude::*;
-use std::io::Write;
-use std::path::Path;
-use xxhash_rust::xxh3::{xxh3_64, xxh3_128};
+use std::io::{Seek, Write};
+use std::path::{Path, PathBuf};
+use xxhash_rust::xxh3::xxh3_64;
 
-/// A built scene in memory: the node table and one mesh per geometry block.
+/// One block's bytes, as [`crate::format`] lays them out, and its record without the offset.
+pub struct Encoded {
+    pub bytes: Vec<u8>,
+    pub record: BlockRecord,
+}
+
+/// The bytes of one block: positions, colours if any, then the indices in cluster order (u16
+/// when every index fits, else u32), padding to 4 bytes and the clusters. `object`: the box of
+/// the block's object when that is closed (see [`crate::cluster::clusterize`]).
+pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
+    let (indices, clusters) = crate::cluster::clusterize(mesh, object);
+    let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters.as_slice()));
+    bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
+    bytes.extend_from_slice(mesh.colors.as_flattened());
+    let index_bytes = if mesh.positions.len() <= 1 << 16 {
+        bytes.extend(indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
+        2
+    } else {
+        bytes.extend_from_slice(bytemuck::cast_slice(&indices));
+        4
+    };
+    bytes.resize(bytes.len().next_multiple_of(4), 0);
+    bytes.extend_from_slice(bytemuck::cast_slice(&clusters));
+    let record = BlockRecord {
+        offset: 0,
+        hash: xxh3_64(&bytes),
+        vertex_count: mesh.positions.len() as u32,
+        index_count: mesh.indices.len() as u32,
+        index_bytes,
+        color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
+        cluster_count: clusters.len() as u32,
+        reserved: 0,
+    };
+    debug_assert_eq!(record.byte_len(), bytes.len() as u64);
+    Encoded { bytes, record }
+}
+
+/// Hash that names the scene's content: see [`crate::format`].
+pub fn content_hash(header: &Header, nodes: &[NodeRecord], blocks: &[BlockRecord]) -> [u64; 2] {
+    let mut h = *header;
+    h.content_hash = [0; 2];
+    h.header_hash = 0;
+    let mut s = xxhash_rust::xxh3::Xxh3::new();
+    s.update(bytemuck::bytes_of(&h));
+    s.update(bytemuck::cast_slice(nodes));
+    s.update(bytemuck::cast_slice(blocks));
+    let v = s.digest128();
+    [v as u64, (v >> 64) as u64]
+}
+
+pub fn header_hash(header: &Header) -> u64 {
+    let mut h = *header;
+    h.header_hash = 0;
+    xxh3_64(bytemuck::bytes_of(&h))
+}
+
+/// The scene-wide fields of the header that the writer does not work out itself.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SceneFields {
+    pub origin: [f64; 3],
+    pub bvh_count: u32,
+    pub object_count: u32,
+    pub leaf_count: u32,
+    pub leaf_triangles: u32,
+}
+
+/// A scene file being written: `<path>.partial` until [`SceneWriter::finish`] renames it into
+/// place, removed if the writer is dropped before (a failed or interrupted build leaves no half
+/// file under any name).
+pub struct SceneWriter {
+    path: PathBuf,
+    partial: PathBuf,
+    file: Option<Appender>,
+    /// Bytes of blob written so far (a multiple of BLOCK_ALIGN).
+    blob_bytes: u64,
+}
+
+const HEADER_BYTES: u64 = std::mem::size_of::<Header>() as u64;
+
+impl SceneWriter {
+    pub fn create(path: &Path) -> std::io::Result<SceneWriter> {
+        let partial = path.with_extension("osw.partial");
+        let mut file = Appender::new(std::fs::File::create(&partial)?);
+        // The header is written last, over these zeros; the blob starts right after it.
+        file.append(vec![0; HEADER_BYTES as usize])?;
+        Ok(SceneWriter { path: path.to_owned(), partial, file: Some(file), blob_bytes: 0 })
+    }
+
+    /// Appends a block; returns its record with the offset filled in.
+    pub fn block(&mut self, e: Encoded) -> std::io::Result<BlockRecord> {
+        let record = BlockRecord { offset: self.blob_bytes, ..e.record };
+        let mut bytes = e.bytes;
+        bytes.resize(bytes.len().next_multiple_of(BLOCK_ALIGN as usize), 0);
+        self.blob_bytes += bytes.len() as u64;
+        self.file.as_mut().expect("writer open until finish").append(bytes)?;
+        Ok(record)
+    }
+
+    /// The file being written.
+    pub fn path(&self) -> &Path {
+        &self.partial
+    }
+
+    /// Writes the tables and the header, and renames the file into place. Returns the file's
+    /// size and its content hash.
+    pub fn finish(mut self, fields: SceneFields, nodes: &[NodeRecord], blocks: &[BlockRecord]) -> std::io::Result<(u64, [u64; 2])> {
+        let blob_offset = HEADER_BYTES;
+        let nodes_offset = blob_offset + self.blob_bytes;
+        let blocks_offset = nodes_offset + nodes.len() as u64 * 64;
+        let file_bytes = blocks_offset + blocks.len() as u64 * BLOCK_BYTES;
+        let mut header = Header {
+            magic: MAGIC,
+            version: VERSION,
+            header_bytes: HEADER_BYTES as u32,
+            origin: fields.origin,
+            node_count: nodes.len() as u32,
+            bvh_count: fields.bvh_count,
+            block_count: blocks.len() as u32,
+            object_count: fields.object_count,
+            leaf_count: fields.leaf_count,
+            leaf_triangles: fields.leaf_triangles,
+            nodes_offset,
+            blocks_offset,
+            blob_offset,
+            blob_bytes: self.blob_bytes,
+            file_bytes,
+            content_hash: [0; 2],
+            header_hash: 0,
+            reserved: [0; 16],
+        };
+        header.content_hash = content_hash(&header, nodes, blocks);
+        header.header_hash = header_hash(&header);
+        let mut file = self.file.take().expect("writer open until finish").finish()?;
+        let mut tables = std::io::BufWriter::with_capacity(1 << 22, &mut file);
+        tables.write_all(bytemuck::cast_slice(nodes))?;
+        tables.write_all(bytemuck::cast_slice(blocks))?;
+        tables.flush()?;
+        drop(tables);
+        file.seek(std::io::SeekFrom::Start(0))?;
+        file.write_all(bytemuck::bytes_of(&header))?;
+        // No fsync: the kernel writes the pages back while the scene is already in use (a
+        // 1B-triangle scene would wait a minute and a half for the disk here).
+        std::fs::rename(&self.partial, &self.path)?;
+        Ok((file_bytes, header.content_hash))
+    }
+}
+
+impl Drop for SceneWriter {
+    fn drop(&mut self) {
+        if self.file.take().is_some() {
+            let _ = std::fs::remove_file(&self.partial);
+        }
+    }
+}
+
+/// A whole scene in memory: a node table and one mesh per block, as tests and tools make them
+/// by hand (the build streams instead).
 #[derive(Clone, Debug, Default)]
 pub struct SceneData {
     pub origin: [f64; 3],
@@ -22,59 +181,7 @@ pub struct SceneData {
     pub closed_objects: Vec<Option<crate::Aabb>>,
 }
 
-fn align(x: u64) -> u64 {
-    x.div_ceil(BLOCK_ALIGN) * BLOCK_ALIGN
-}
-
-/// One block's bytes, as [`crate::format`] lays them out.
-struct Encoded {
-    bytes: Vec<u8>,
-    index_bytes: u32,
-    cluster_count: u32,
-}
-
-/// The bytes of one block: positions, colours if any, then the indices in cluster order (u16
-/// when every index fits, else u32), padding to 4 bytes and the clusters. `object`: the box of
-/// the block's object when that is closed (see [`crate::cluster::clusterize`]).
-fn block_bytes(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
-    let (indices, clusters) = crate::cluster::clusterize(mesh, object);
-    let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + clusters.len() * CLUSTER_BYTES as usize);
-    bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
-    bytes.extend_from_slice(mesh.colors.as_flattened());
-    let index_bytes = if mesh.positions.len() <= 1 << 16 {
-        bytes.extend(indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
-        2
-    } else {
-        bytes.extend_from_slice(bytemuck::cast_slice(&indices));
-        4
-    };
-    bytes.resize(bytes.len().next_multiple_of(4), 0);
-    bytes.extend_from_slice(bytemuck::cast_slice(&clusters));
-    Encoded { bytes, index_bytes, cluster_count: clusters.len() as u32 }
-}
-
-/// Hash that names the scene's content: see [`crate::format`].
-pub fn content_hash(header: &Header, nodes: &[NodeRecord], blocks: &[BlockRecord]) -> [u64; 2] {
-    let mut h = *header;
-    h.content_hash = [0; 2];
-    h.header_hash = 0;
-    let mut bytes = Vec::with_capacity(256 + nodes.len() * 64 + blocks.len() * BLOCK_BYTES as usize);
-    bytes.extend_from_slice(bytemuck::bytes_of(&h));
-    bytes.extend_from_slice(bytemuck::cast_slice(nodes));
-    bytes.extend_from_slice(bytemuck::cast_slice(blocks));
-    let v = xxh3_128(&bytes);
-    [v as u64, (v >> 64) as u64]
-}
-
-pub fn header_hash(header: &Header) -> u64 {
-    let mut h = *header;
-    h.header_hash = 0;
-    xxh3_64(bytemuck::bytes_of(&h))
-}
-
-/// Writes `scene` to `path` (through a temporary file renamed into place, so that a failed
-/// write never leaves a half file under the final name). Returns the file's size in bytes and
-/// its content hash.
+/// Writes `scene` to `path`. Returns the file's size in bytes and its content hash.
 pub fn write_scene(path: &Path, scene: &SceneData) -> std::io::Result<(u64, [u64; 2])> {
     // Each block's object, from the LOD nodes naming it: only for a leaf's level 0, which is
     // the object's own geometry (a simplified level may have lost the object's closure; HLODs
@@ -89,70 +196,16 @@ pub fn write_scene(path: &Path, scene: &SceneData) -> std::io::Result<(u64, [u64
         .blocks
         .par_iter()
         .zip(&object)
-        .map(|(mesh, &o)| block_bytes(mesh, scene.closed_objects.get(o as usize).copied().flatten()))
+        .map(|(mesh, &o)| encode(mesh, scene.closed_objects.get(o as usize).copied().flatten()))
         .collect();
-    let mut blocks = Vec::with_capacity(encoded.len());
-    let mut offset = 0u64;
-    for (e, mesh) in encoded.iter().zip(&scene.blocks) {
-        blocks.push(BlockRecord {
-            offset,
-            hash: 0,
-            vertex_count: mesh.positions.len() as u32,
-            index_count: mesh.indices.len() as u32,
-            index_bytes: e.index_bytes,
-            color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
-            cluster_count: e.cluster_count,
-            reserved: 0,
-        });
-        debug_assert_eq!(blocks.last().map(|b| b.byte_len()), Some(e.bytes.len() as u64));
-        offset = align(offset + e.bytes.len() as u64);
-    }
-    let hashes: Vec<u64> = encoded.par_iter().map(|e| xxh3_64(&e.bytes)).collect();
-    for (b, h) in blocks.iter_mut().zip(hashes) {
-        b.hash = h;
-    }
-    let nodes_offset = std::mem::size_of::<Header>() as u64;
-    let blocks_offset = nodes_offset + scene.nodes.len() as u64 * 64;
-    let blob_offset = align(blocks_offset + blocks.len() as u64 * BLOCK_BYTES);
-    let mut header = Header {
-        magic: MAGIC,
-        version: VERSION,
-        header_bytes: nodes_offset as u32,
+    let mut w = SceneWriter::create(path)?;
+    let blocks = encoded.into_iter().map(|e| w.block(e)).collect::<std::io::Result<Vec<_>>>()?;
+    let fields = SceneFields {
         origin: scene.origin,
-        node_count: scene.nodes.len() as u32,
         bvh_count: scene.bvh_count,
-        block_count: blocks.len() as u32,
         object_count: scene.object_count,
         leaf_count: scene.leaf_count,
         leaf_triangles: scene.leaf_triangles,
-        nodes_offset,
-        blocks_offset,
-        blob_offset,
-        blob_bytes: offset,
-        file_bytes: blob_offset + offset,
-        content_hash: [0; 2],
-        header_hash: 0,
-        reserved: [0; 16],
     };
-    header.content_hash = content_hash(&header, &scene.nodes, &blocks);
-    header.header_hash = header_hash(&header);
-
-    let tmp = path.with_extension("osw.partial");
-    let mut w = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&tmp)?);
-    w.write_all(bytemuck::bytes_of(&header))?;
-    w.write_all(bytemuck::cast_slice(&scene.nodes))?;
-    w.write_all(bytemuck::cast_slice(&blocks))?;
-    let mut at = blocks_offset + blocks.len() as u64 * BLOCK_BYTES;
-    let zeros = [0u8; BLOCK_ALIGN as usize];
-    w.write_all(&zeros[..(blob_offset - at) as usize])?;
-    at = 0;
-    for (e, b) in encoded.iter().zip(&blocks) {
-        w.write_all(&zeros[..(b.offset - at) as usize])?;
-        w.write_all(&e.bytes)?;
-        at = b.offset + e.bytes.len() as u64;
-    }
-    w.write_all(&zeros[..(offset - at) as usize])?;
-    w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-    std::fs::rename(&tmp, path)?;
-    Ok((header.file_bytes, header.content_hash))
+    w.finish(fields, &scene.nodes, &blocks)
 }

@@ -3,11 +3,17 @@
 //! elbows), floors are slabs on I-beam columns, walkways with railings run along bay rows and
 //! the outside walls have doors. The stand-in for the 13M-triangle power plant of papers 000,
 //! 001 and 004: deep occlusion between floors and equipment, objects from 10 to 10^4 triangles.
+//!
+//! A plant above [`BUILDING_TRIANGLES`] is a site of buildings side by side with roads between
+//! them, as real sites grow (more units, not denser ones), each building like a smaller plant.
+//! The site streams a batch of bays at a time ([`Site`] is a [`Source`]), so a plant of any
+//! size is generated in the memory of one batch.
 
 use super::shapes::{add_box, cylinder, lathe, rounded, tube};
 use super::triangles_of;
 use crate::mesh::{Mesh, Object};
-use glam::Vec3;
+use crate::source::Source;
+use glam::{DVec3, Vec3};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -17,27 +23,107 @@ pub const FLOOR: f32 = 6.0;
 pub const FLOORS: u32 = 3;
 const SLAB: f32 = 0.3;
 const WALL: f32 = 0.4;
+/// Most triangles of one building; a larger plant has more buildings.
+pub const BUILDING_TRIANGLES: u64 = 100_000_000;
+/// The road between two buildings (m).
+const ROAD: f32 = 2.0 * BAY;
+/// Bays generated at once (about a million triangles).
+const BATCH_BAYS: u64 = 512;
 
+/// The whole plant in memory.
 pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
-    // Measure the average bay on a sample, then lay out as many bays as the budget pays for.
-    let sample: u64 = (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed, Vec3::splat(BAY * 100.0)))).sum::<u64>() / 16;
-    let bays = (triangles * 95 / 100 / (sample + 60)).max(1);
-    let per_floor = bays.div_ceil(FLOORS as u64);
-    let nz = ((per_floor as f64 / 2.0).sqrt().ceil() as u64).max(1);
-    let nx = per_floor.div_ceil(nz);
-    let origin = |b: u64| Vec3::new((b % nx) as f32 * BAY, (b / (nx * nz)) as f32 * FLOOR, ((b / nx) % nz) as f32 * BAY);
-    let size = Vec3::new(nx as f32 * BAY, 0.0, nz as f32 * BAY);
-    let mut objects: Vec<Object> = (0..nx * nz * FLOORS as u64).into_par_iter().flat_map_iter(|b| bay(origin(b), b, seed, size)).collect();
-    for f in 0..FLOORS {
-        objects.push(Object::new(format!("structure floor {f}"), structure(size, f, nx, nz)));
-    }
-    objects.extend(walls(size, nx, nz, seed));
-    objects
+    let mut site = Site::new(triangles, seed);
+    std::iter::from_fn(|| site.next_batch()).flatten().collect()
 }
 
-/// The equipment of one bay with its corner at `o`, in a building `size` (x, z) across; `id`
-/// seeds it.
-fn bay(o: Vec3, id: u64, seed: u64, size: Vec3) -> Vec<Object> {
+/// A plant as a stream of batches: each building's bays, then its floors and walls.
+pub struct Site {
+    seed: u64,
+    /// Bays across (x) and deep (z) of every building, and their corners.
+    nx: u64,
+    nz: u64,
+    corners: Vec<Vec3>,
+    triangles: u64,
+    /// The next building and the next bay in it.
+    building: usize,
+    bay: u64,
+}
+
+impl Site {
+    pub fn new(triangles: u64, seed: u64) -> Site {
+        Site::sized(triangles, seed, BUILDING_TRIANGLES)
+    }
+
+    /// A site whose buildings hold at most `building` triangles each.
+    fn sized(triangles: u64, seed: u64, building: u64) -> Site {
+        // Measure the average bay on a sample, then lay out as many bays as the budget pays for.
+        let sample: u64 = (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed, Vec3::ZERO, Vec3::splat(BAY * 100.0)))).sum::<u64>() / 16;
+        let buildings = triangles.div_ceil(building).max(1);
+        let bays = (triangles / buildings * 95 / 100 / (sample + 60)).max(1);
+        let per_floor = bays.div_ceil(FLOORS as u64);
+        let nz = ((per_floor as f64 / 2.0).sqrt().ceil() as u64).max(1);
+        let nx = per_floor.div_ceil(nz);
+        // Buildings on a grid about as wide as it is deep.
+        let size = Vec3::new(nx as f32 * BAY, 0.0, nz as f32 * BAY);
+        let columns = ((buildings as f32 * size.z / size.x).sqrt().ceil() as u64).clamp(1, buildings);
+        let corners = (0..buildings)
+            .map(|k| Vec3::new((k % columns) as f32 * (size.x + ROAD), 0.0, (k / columns) as f32 * (size.z + ROAD)))
+            .collect();
+        Site { seed, nx, nz, corners, triangles, building: 0, bay: 0 }
+    }
+
+    fn size(&self) -> Vec3 {
+        Vec3::new(self.nx as f32 * BAY, 0.0, self.nz as f32 * BAY)
+    }
+
+    fn bays(&self) -> u64 {
+        self.nx * self.nz * FLOORS as u64
+    }
+}
+
+impl Source for Site {
+    fn world_bounds(&self) -> (DVec3, DVec3) {
+        let size = self.size();
+        let last = self.corners.iter().fold(Vec3::ZERO, |m, c| m.max(*c));
+        let min = Vec3::new(-WALL, 0.0, -WALL);
+        let max = last + Vec3::new(size.x + WALL, FLOORS as f32 * FLOOR, size.z + WALL);
+        (min.as_dvec3(), max.as_dvec3())
+    }
+
+    fn triangles_hint(&self) -> u64 {
+        self.triangles
+    }
+
+    fn next_batch(&mut self) -> Option<Vec<Object>> {
+        let corner = *self.corners.get(self.building)?;
+        let (nx, nz, size, seed) = (self.nx, self.nz, self.size(), self.seed);
+        // Bay ids and the walls' stream differ per building; building 0 is the plant of old.
+        let first_id = self.building as u64 * (1 << 32);
+        let walls_stream = u64::MAX - self.building as u64;
+        if self.bay < self.bays() {
+            let bays = self.bay..(self.bay + BATCH_BAYS).min(self.bays());
+            self.bay = bays.end;
+            let origin = |b: u64| corner + Vec3::new((b % nx) as f32 * BAY, (b / (nx * nz)) as f32 * FLOOR, ((b / nx) % nz) as f32 * BAY);
+            return Some(bays.into_par_iter().flat_map_iter(|b| bay(origin(b), first_id + b, seed, corner, size)).collect());
+        }
+        let mut objects: Vec<Object> = (0..FLOORS)
+            .map(|f| Object::new(format!("structure floor {f}{}", suffix(self.building)), structure(corner, size, f, nx, nz)))
+            .collect();
+        objects.extend(walls(corner, size, nx, nz, seed, walls_stream, self.building));
+        self.building += 1;
+        self.bay = 0;
+        Some(objects)
+    }
+}
+
+/// Names of a building's own objects: building 0 as the plant always named them.
+fn suffix(building: usize) -> String {
+    if building == 0 { String::new() } else { format!(" building {building}") }
+}
+
+/// The equipment of one bay with its corner at `o`, in a building from `corner` and `size`
+/// (x, z) across; `id` seeds it.
+fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
     let mut r = super::rng(seed, id);
     let mut out = Vec::new();
     let floor_y = o.y + SLAB;
@@ -112,7 +198,7 @@ fn bay(o: Vec3, id: u64, seed: u64, size: Vec3) -> Vec<Object> {
         }
         // Pipes stay inside the building's walls.
         for c in &mut corners {
-            (c.x, c.z) = (c.x.clamp(0.5, size.x - 0.5), c.z.clamp(0.5, size.z - 0.5));
+            (c.x, c.z) = (c.x.clamp(corner.x + 0.5, corner.x + size.x - 0.5), c.z.clamp(corner.z + 0.5, corner.z + size.z - 0.5));
         }
         let seg = (8.0 + rad * 30.0) as u32;
         let mut m = Mesh::default();
@@ -136,8 +222,9 @@ fn bay(o: Vec3, id: u64, seed: u64, size: Vec3) -> Vec<Object> {
     out
 }
 
-/// Floor slabs (one box per bay) and I-beam columns at bay corners for floor `f`.
-fn structure(size: Vec3, f: u32, nx: u64, nz: u64) -> Mesh {
+/// Floor slabs (one box per bay) and I-beam columns at bay corners for floor `f` of the
+/// building at `corner`.
+fn structure(corner: Vec3, size: Vec3, f: u32, nx: u64, nz: u64) -> Mesh {
     let mut m = Mesh::default();
     let y = f as f32 * FLOOR;
     for i in 0..nx {
@@ -155,12 +242,18 @@ fn structure(size: Vec3, f: u32, nx: u64, nz: u64) -> Mesh {
             add_box(&mut m, c + Vec3::new(-0.03, 0.0, -0.12), Vec3::new(c.x + 0.03, top, c.z + 0.12));
         }
     }
+    moved(m, corner)
+}
+
+fn moved(mut m: Mesh, by: Vec3) -> Mesh {
+    m.positions.iter_mut().for_each(|p| *p = (Vec3::from_array(*p) + by).to_array());
     m
 }
 
-/// Outside walls, one object per side and floor, with a door in one bay in four.
-fn walls(size: Vec3, nx: u64, nz: u64, seed: u64) -> Vec<Object> {
-    let mut r = super::rng(seed, u64::MAX);
+/// Outside walls of the building at `corner`, one object per side and floor, with a door in
+/// one bay in four; `stream` seeds them.
+fn walls(corner: Vec3, size: Vec3, nx: u64, nz: u64, seed: u64, stream: u64, building: usize) -> Vec<Object> {
+    let mut r = super::rng(seed, stream);
     let mut out = Vec::new();
     for f in 0..FLOORS {
         let y0 = f as f32 * FLOOR + SLAB;
@@ -179,8 +272,39 @@ fn walls(size: Vec3, nx: u64, nz: u64, seed: u64) -> Vec<Object> {
                 };
                 add_box(&mut m, lo, hi);
             }
-            out.push(Object::new(format!("wall {side} floor {f}"), m));
+            out.push(Object::new(format!("wall {side} floor {f}{}", suffix(building)), moved(m, corner)));
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::place::world_bounds;
+
+    #[test]
+    fn a_site_streams_buildings_side_by_side_within_its_bounds() {
+        for (triangles, building) in [(60_000, BUILDING_TRIANGLES), (150_000, 40_000)] {
+            let mut site = Site::sized(triangles, 7, building);
+            let (min, max) = site.world_bounds();
+            let batches: Vec<Vec<Object>> = std::iter::from_fn(|| site.next_batch()).collect();
+            let objects: Vec<Object> = batches.into_iter().flatten().collect();
+            let (lo, hi) = world_bounds(&objects);
+            assert!(lo.cmpge(min).all() && hi.cmple(max).all(), "{lo}..{hi} outside {min}..{max}");
+            // The declared bounds are tight: within a pipe's reach of the true ones.
+            assert!((lo - min).max_element() < 1.0 && (max - hi).max_element() < 1.0, "{lo}..{hi} vs {min}..{max}");
+            let walls = objects.iter().filter(|o| o.name.starts_with("wall 0 floor 0")).count() as u64;
+            assert_eq!(walls, triangles.div_ceil(building), "one building per {building} triangles");
+            let total = triangles_of(&objects) as f64;
+            assert!((total / triangles as f64 - 1.0).abs() < 0.15, "{total} triangles for a budget of {triangles}");
+        }
+    }
+
+    #[test]
+    fn the_stream_is_the_same_for_the_same_seed() {
+        let names = |seed| generate(50_000, seed).into_iter().map(|o| (o.name, o.mesh.positions.len())).collect::<Vec<_>>();
+        assert_eq!(names(3), names(3));
+        assert_ne!(names(3), names(4));
+    }
 }

@@ -1,0 +1,99 @@
+//! Where a build's objects come from: a stream of batches, so that the build never holds more
+//! of the model than one batch (see [`crate::build`]). Before the first batch a source gives
+//! the world bounds of everything it will stream: the scene origin is their rounded centre
+//! ([`crate::place`]), and every vertex goes to scene-local f32 as it arrives.
+
+use crate::mesh::Object;
+use glam::{DAffine3, DVec3};
+
+/// A stream of objects in world coordinates.
+pub trait Source: Send {
+    /// Bounds of the world positions the stream will give (each object's placement applied).
+    /// They may be larger than the true bounds: the origin only has to be a whole-unit point
+    /// that moves with the model.
+    fn world_bounds(&self) -> (DVec3, DVec3);
+    /// About how many triangles the stream will give (for progress).
+    fn triangles_hint(&self) -> u64;
+    /// The next batch, None at the end. Batches come in the same order for the same input.
+    fn next_batch(&mut self) -> Option<Vec<Object>>;
+}
+
+/// Triangles a batch aims at: large enough to keep both cores busy, small next to memory.
+pub const BATCH_TRIANGLES: u64 = 1 << 20;
+
+/// Objects already in memory (an imported file, a small generated scene), streamed in batches.
+pub struct InMemory {
+    objects: std::vec::IntoIter<Object>,
+    bounds: (DVec3, DVec3),
+    triangles: u64,
+}
+
+impl InMemory {
+    pub fn new(objects: Vec<Object>) -> InMemory {
+        InMemory {
+            bounds: crate::place::world_bounds(&objects),
+            triangles: objects.iter().map(|o| o.mesh.triangle_count() as u64).sum(),
+            objects: objects.into_iter(),
+        }
+    }
+}
+
+impl Source for InMemory {
+    fn world_bounds(&self) -> (DVec3, DVec3) {
+        self.bounds
+    }
+
+    fn triangles_hint(&self) -> u64 {
+        self.triangles
+    }
+
+    fn next_batch(&mut self) -> Option<Vec<Object>> {
+        let mut batch = Vec::new();
+        let mut triangles = 0;
+        while triangles < BATCH_TRIANGLES {
+            let Some(o) = self.objects.next() else { break };
+            triangles += o.mesh.triangle_count() as u64;
+            batch.push(o);
+        }
+        (!batch.is_empty()).then_some(batch)
+    }
+}
+
+/// Another source moved by `by` in the world (`osw build --offset`), in f64 like a model's own
+/// coordinates.
+pub struct Shifted<S> {
+    pub inner: S,
+    pub by: DVec3,
+}
+
+impl<S: Source> Source for Shifted<S> {
+    fn world_bounds(&self) -> (DVec3, DVec3) {
+        let (min, max) = self.inner.world_bounds();
+        (min + self.by, max + self.by)
+    }
+
+    fn triangles_hint(&self) -> u64 {
+        self.inner.triangles_hint()
+    }
+
+    fn next_batch(&mut self) -> Option<Vec<Object>> {
+        let shift = DAffine3::from_translation(self.by);
+        let mut batch = self.inner.next_batch()?;
+        batch.iter_mut().for_each(|o| o.placement = shift * o.placement);
+        Some(batch)
+    }
+}
+
+impl<S: Source + ?Sized> Source for Box<S> {
+    fn world_bounds(&self) -> (DVec3, DVec3) {
+        (**self).world_bounds()
+    }
+
+    fn triangles_hint(&self) -> u64 {
+        (**self).triangles_hint()
+    }
+
+    fn next_batch(&mut self) -> Option<Vec<Object>> {
+        (**self).next_batch()
+    }
+}

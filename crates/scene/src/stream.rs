@@ -1,0 +1,127 @@
+//! Stage 1 of the build: the source's batches → placement around one origin → clean-up → chunks,
+//! appended to the spill file. Of each chunk only its box and where it lies stay in memory.
+
+use crate::aabb::Aabb;
+use crate::build::{BuildError, BuildOptions, BuildReport, Progress, Times};
+use crate::chunk::SplitOptions;
+use crate::mesh::{CleanStats, Object};
+use crate::source::Source;
+use crate::spill::{Sealed, Spill, SpillRef};
+use rayon::prelude::*;
+use std::path::Path;
+
+/// A chunk: the unit of the BVH (one per leaf), its object and where its mesh waits.
+#[derive(Clone, Copy, Debug)]
+pub struct Chunk {
+    pub bounds: Aabb,
+    pub object: u32,
+    pub triangles: u32,
+    pub spill: SpillRef,
+}
+
+/// What the stream left for the rest of the build.
+pub struct Streamed {
+    pub chunks: Vec<Chunk>,
+    pub spill: Sealed,
+    /// Per object: its box when it is closed and wound outwards (see [`crate::cluster`]).
+    pub closed_objects: Vec<Option<Aabb>>,
+    pub origin: glam::DVec3,
+}
+
+pub fn stream(
+    source: &mut dyn Source,
+    opts: &BuildOptions,
+    out: &Path,
+    report: &mut BuildReport,
+    times: &mut Times,
+    progress: &dyn Progress,
+) -> Result<Streamed, BuildError> {
+    let (min, max) = source.world_bounds();
+    let origin = crate::place::origin_of(min, max);
+    let mut spill = Spill::create(out).map_err(|e| BuildError::temp(out, e))?;
+    let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
+    let (mut chunks, mut closed_objects) = (Vec::new(), Vec::new());
+    let (mut seen, mut clean_stats, mut empty, mut colors_dropped) = (0, CleanStats::default(), Vec::new(), 0);
+    progress.stage("input", source.triangles_hint());
+    loop {
+        if progress.cancelled() {
+            return Err(BuildError::Interrupted);
+        }
+        let Some(mut batch) = times.run("input", || source.next_batch()) else { break };
+        let triangles: u64 = batch.iter().map(|o| o.mesh.triangle_count() as u64).sum();
+        report.input_triangles += triangles;
+        times.run("place", || crate::place::to_local(&mut batch, origin));
+        if !opts.model_colors {
+            colors_dropped += batch.iter().filter(|o| !o.mesh.colors.is_empty()).count();
+            batch.iter_mut().for_each(|o| o.mesh.colors = Vec::new());
+        }
+        let cleaned = times.run("clean", || clean(batch, seen))?;
+        seen += cleaned.len();
+        // Whether each object is closed and wound outwards is decided on the whole object,
+        // before chunks cut it open (see crate::cluster).
+        let split: Vec<_> = times.run("chunk", || {
+            cleaned
+                .into_par_iter()
+                .map(|(o, stats)| {
+                    let closed = crate::cluster::Parts::of(&o.mesh).all_closed().then(|| o.mesh.bounds());
+                    let chunks = (!o.mesh.is_empty()).then(|| crate::chunk::split(&o.mesh, split));
+                    (o.name, o.mesh.colors.is_empty(), stats, closed, chunks)
+                })
+                .collect()
+        });
+        times.run("spill", || -> Result<(), BuildError> {
+            for (name, uncolored, stats, closed, split) in split {
+                clean_stats.add(stats);
+                let Some(split) = split else {
+                    empty.push(name);
+                    continue;
+                };
+                let object = closed_objects.len() as u32;
+                closed_objects.push(closed);
+                report.objects_without_color += u64::from(uncolored);
+                report.loose_splits += split.loose_splits as u64;
+                for m in &split.meshes {
+                    let spill = spill.append(m).map_err(|e| BuildError::temp(spill.path(), e))?;
+                    chunks.push(Chunk { bounds: m.bounds(), object, triangles: m.triangle_count() as u32, spill });
+                }
+            }
+            Ok(())
+        })?;
+        progress.advance(triangles);
+    }
+    report.objects = closed_objects.len() as u64;
+    report.chunks = chunks.len() as u64;
+    report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
+    report.degenerate_triangles_dropped = clean_stats.degenerate_triangles;
+    if colors_dropped > 0 {
+        report.left_out.push(format!("the model's colours of {colors_dropped} objects (--colors hashed)"));
+    }
+    if clean_stats.degenerate_triangles > 0 {
+        report.left_out.push(format!(
+            "{} degenerate triangles (repeated index or zero area): they cover no pixel",
+            clean_stats.degenerate_triangles
+        ));
+    }
+    if !empty.is_empty() {
+        let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();
+        report.left_out.push(format!("{} objects with no triangles left after clean-up, e.g. {}", empty.len(), names.join(", ")));
+    }
+    if chunks.is_empty() {
+        return Err(BuildError::Empty(format!("no triangles in the input ({} objects)", empty.len())));
+    }
+    report.temp_bytes = spill.bytes();
+    let spill = spill.seal().map_err(|e| BuildError::temp(out, e))?;
+    Ok(Streamed { chunks, spill, closed_objects, origin })
+}
+
+/// Cleans a batch whose first object is the input's `first`-th (errors name it by that index).
+fn clean(batch: Vec<Object>, first: usize) -> Result<Vec<(Object, CleanStats)>, BuildError> {
+    batch
+        .into_par_iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let (mesh, stats) = o.mesh.clean().map_err(|source| BuildError::Mesh { index: first + i, name: o.name.clone(), source })?;
+            Ok((Object { mesh, ..o }, stats))
+        })
+        .collect()
+}
