@@ -4,7 +4,9 @@
 # loopback, lavapipe when there is no GPU), then measures it against frustum-only rendering at
 # the same tau: its speed-up, the image error of its frames, and its culling error against
 # exact visibility of the scene as drawn at that tau (so LOD error, which both share, is not
-# counted as culling error).
+# counted as culling error). It ends with a small `osw report` on the walk's first frames:
+# vfc, prev, the switch and ovc (paper 003, also with adaptive culling) at a few taus, each
+# run in a line at a glance and the error-against-time plot with its Pareto front.
 # Frames and the report land in out/demo (OUT=...). Sizes: TRIANGLES (default 20M: the
 # smallest plant of `scripts/scale.sh` where the switch is clearly ahead of vfc, 3.1x at tau 1;
 # at 2M it is 1.5x), FRAMES (default 300), TAU (pixels of error, default 1), SIZE (default
@@ -29,5 +31,9 @@ $osw path --scene "$out/plant.osw" --kind walk --frames "$frames" --seed 1 -o "$
   $osw exact --scene "$out/plant.osw" --path "$out/walk.csv" --size "$size" --tau "$tau" --out "$out/exact"
   $osw render --scene "$out/plant.osw" --path "$out/walk.csv" --mode vfc --tau "$tau" --size "$size" --out "$out/vfc"
   $osw compare --a "$out/switch" --b "$out/vfc" --exact "$out/exact" --out "$out/report"
+  head -n $((${SMALL_FRAMES:-20} + 1)) "$out/walk.csv" > "$out/walk-small.csv"
+  $osw report --scene "$out/plant.osw" --path "$out/walk-small.csv" --size "$size" --taus "0,$tau" \
+    --modes vfc,prev,switch,ovc --adaptive "0,${ADAPTIVE:-1e-6}" --out "$out/small"
 } | tee "$out/report.txt"
 echo "demo: frames in $out/switch/frames, per-frame statistics in $out/switch/stats.csv, report in $out/report.txt and $out/report/"
+echo "demo: error against time in $out/small/error_vs_time.png, tables in $out/small/report.md"

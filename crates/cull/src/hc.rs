@@ -38,6 +38,10 @@ pub struct HcStats {
     pub occlusion_culled: u32,
     /// Groups that stopped at their HLOD because few of their pixels are visible.
     pub pixel_stops: u32,
+    /// Boxes seen but counted as occluded by adaptive culling (paper 003 eq. 1).
+    pub adaptive_culled: u32,
+    /// Boxes taken as visible untested because the culling budget was spent (paper 003 eq. 2).
+    pub over_budget: u32,
 }
 
 /// Runs HC from the root for `view` at `tau` pixels of error, testing every box in the

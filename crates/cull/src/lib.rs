@@ -6,8 +6,9 @@
 //! - [`tester`]: the visibility-test interface (GPU implementations live in `osw-gpu`).
 //! - [`hc`]: the hardware cull traversal, paper 000 alg. 4.1 with level batches (sec. 4.7.1)
 //!   and the pixel-count LOD stop (sec. 4.7.2).
-//! - [`sw`], [`chc`], [`hzb`]: the baselines of papers 001 and 002 (stop-and-wait, coherent
-//!   hierarchical culling, a software Z pyramid).
+//! - [`ovc`], [`chc`], [`hzb`]: the baselines of papers 003, 001 and 002 (depth-ordered
+//!   interleaved culling with adaptive culling and a budget, which without them is 001's
+//!   stop-and-wait; coherent hierarchical culling; a software Z pyramid).
 //! - [`cluster`]: frustum and back-face cone tests of the clusters inside a node drawn.
 //! - [`delta`]: visible-set deltas, V(i) = (V(i-1) - removed) ∪ added (paper 000 sec. 3.4).
 //! - [`states`]: nodes classified visible / frustum-culled / occlusion-culled, for display.
@@ -22,8 +23,8 @@ pub mod front;
 pub mod frustum;
 pub mod hc;
 pub mod hzb;
+pub mod ovc;
 pub mod states;
-pub mod sw;
 pub mod tester;
 pub mod view;
 

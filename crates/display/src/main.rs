@@ -57,6 +57,10 @@ struct Args {
     /// Do not write frame PNGs.
     #[arg(long)]
     no_frames: bool,
+    /// Longest wait for one frame, seconds (a first frame at full detail of a huge scene may
+    /// need more than the default).
+    #[arg(long, default_value_t = receive::WAIT.as_secs_f64(), value_name = "SECS")]
+    frame_timeout: f64,
     /// Output directory: frames/NNNNN.png, stats.csv, pvs.txt, summary.json; paths/ and
     /// screenshots/ from the window.
     #[arg(long)]
@@ -130,7 +134,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
         rt.spawn(links::keep_node(k, addr.clone(), me.clone(), notes_tx.clone(), Duration::from_secs(10)));
     }
     drop(notes_tx);
-    let mut frames = Frames::connect(notes, scene.header().node_count, &mut || {
+    let wait = Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
+    let mut frames = Frames::connect(notes, scene.header().node_count, wait, &mut || {
         ui.as_mut().map(Ui::pump);
     })?;
     std::fs::create_dir_all(a.out.join("frames"))?;

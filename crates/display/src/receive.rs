@@ -10,8 +10,10 @@ use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
-/// Longest wait for a frame (or for the nodes to connect).
-const WAIT: Duration = Duration::from_secs(30);
+/// Longest wait for a frame (or for the nodes to connect) unless the display is told
+/// another (`--frame-timeout`: a first frame at full detail of a billion triangles takes
+/// longer).
+pub const WAIT: Duration = Duration::from_secs(30);
 
 /// How often a wait hands control back (a window keeps answering while the frame comes in).
 const SLICE: Duration = Duration::from_millis(15);
@@ -30,12 +32,14 @@ pub struct Frames {
     /// Messages not for the frame at hand yet (the next HC may start before this frame is
     /// shown) or from the node that is not its source (kept in case the source is lost).
     held: VecDeque<Arrival>,
+    /// Longest wait for a frame.
+    wait: Duration,
 }
 
 impl Frames {
-    /// Waits until both nodes are connected.
-    pub fn connect(notes: Receiver<Note>, max_id: u32, idle: &mut dyn FnMut()) -> anyhow::Result<Frames> {
-        let mut f = Frames { notes, cluster: Cluster::default(), visible: Vec::new(), max_id, prev_eof: None, held: VecDeque::new() };
+    /// Waits until both nodes are connected; a frame may then take up to `wait`.
+    pub fn connect(notes: Receiver<Note>, max_id: u32, wait: Duration, idle: &mut dyn FnMut()) -> anyhow::Result<Frames> {
+        let mut f = Frames { notes, cluster: Cluster::default(), visible: Vec::new(), max_id, prev_eof: None, held: VecDeque::new(), wait };
         let deadline = Instant::now() + WAIT;
         while f.cluster.nodes.iter().any(Option::is_none) {
             let note = f.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("the nodes did not connect within {WAIT:?}"))?;
@@ -68,12 +72,12 @@ impl Frames {
         let (mut added, mut removed, mut keyframe) = (Vec::new(), Vec::new(), None);
         let mut replay: VecDeque<Arrival> = std::mem::take(&mut self.held);
         let max_id = self.max_id;
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + self.wait;
         loop {
             let (node, m, bytes, at) = match replay.pop_front() {
                 Some(x) => x,
                 None => {
-                    let note = self.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("frame {i}: not complete after {WAIT:?}"))?;
+                    let note = self.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("frame {i}: not complete after {:?} (--frame-timeout)", self.wait))?;
                     match self.cluster.note(note)? {
                         Some(x) => x,
                         None => {

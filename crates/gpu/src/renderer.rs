@@ -70,6 +70,9 @@ pub struct Renderer {
     /// The cluster tests of colour and depth passes (the item pass, exact visibility's
     /// reference, draws every triangle).
     pub cluster_tests: ClusterTests,
+    /// Exact box tests read one pixel line in `.0`, from line `.1` (paper 003 sec. 3.3's
+    /// interleaved sampling, see shaders/boxtest.wgsl); (1, 0) reads every line.
+    pub sampling: (u32, u32),
     draw: DrawPipelines,
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
@@ -135,6 +138,7 @@ impl Renderer {
             target,
             residency: Residency::new(residency_bytes),
             cluster_tests: ClusterTests::default(),
+            sampling: (1, 0),
             draw,
             boxtest,
             view_buf,
@@ -365,7 +369,8 @@ impl Renderer {
             for b in (&mut *boxes).take(chunk_len as usize) {
                 let (lo, hi) = view.test_box(&b);
                 let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
-                self.gpu_boxes.push(GpuBox { lo: lo.extend(0.0).to_array(), hi: hi.extend(0.0).to_array() });
+                let (lines, first) = self.sampling;
+                self.gpu_boxes.push(GpuBox { lo: lo.extend(lines as f32).to_array(), hi: hi.extend(first as f32).to_array() });
             }
             if self.gpu_boxes.is_empty() {
                 break;

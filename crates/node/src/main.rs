@@ -33,6 +33,11 @@ struct Args {
     /// Send the whole visible set every frame (a keyframe) instead of deltas.
     #[arg(long)]
     full: bool,
+    /// Adaptive culling (paper 003 eq. 1) in HC's exact tests: a box whose visible pixels, as
+    /// a share of its screen rectangle and discounted by its depth, fall below this counts as
+    /// hidden. 0 is conservative.
+    #[arg(long, default_value_t = 0.0)]
+    adaptive: f64,
     /// Write this node's per-frame statistics (CSV) here.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -96,6 +101,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         rt.spawn(link::keep_connected(peer.clone(), me.clone(), events_tx, Arc::clone(&gate)));
     }
     let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events, gate);
+    sw.adaptive = a.adaptive;
     let log = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);

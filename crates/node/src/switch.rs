@@ -87,6 +87,8 @@ pub struct Switch {
     pub batch: usize,
     /// Send keyframes (the whole V(i)) instead of deltas.
     pub full: bool,
+    /// Adaptive culling's threshold in HC's exact tests (paper 003 eq. 1; 0: conservative).
+    pub adaptive: f64,
     pub renderer: Renderer,
     events: Receiver<Event>,
     gate: Arc<CameraGate>,
@@ -140,6 +142,7 @@ impl Switch {
         Switch {
             batch,
             full,
+            adaptive: 0.0,
             renderer,
             events,
             gate,
@@ -457,7 +460,7 @@ impl Switch {
             drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
         }
         let mut pvs = Vec::new();
-        let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, &self.visible, &mut pvs)?;
+        let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, self.adaptive, &self.visible, &mut pvs)?;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         diff(&self.visible, &pvs, &mut added, &mut removed);
         // RVG gets the whole set when it may not hold this node's V(i-1): while running alone.

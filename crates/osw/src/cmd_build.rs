@@ -13,7 +13,8 @@ pub struct Args {
     /// and instanced, as gltfpack writes them), .obj (with its .mtl files) or .ply (ASCII or
     /// binary, float or double).
     input: Option<PathBuf>,
-    /// Generate a scene instead: city, teapots or plant.
+    /// Generate a scene instead: city, teapots, plant (streamed: any size, a site of buildings
+    /// above 100M) or forest (paper 003's trees before a castle).
     #[arg(long = "gen", value_name = "KIND")]
     generator: Option<GenKind>,
     /// Triangle budget of a generated scene.

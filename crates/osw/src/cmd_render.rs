@@ -11,8 +11,9 @@ pub struct Args {
     #[command(flatten)]
     walk: WalkArgs,
     /// Culling mode: vfc (frustum only), sw (stop and wait), chc (coherent hierarchical
-    /// culling), hzb (software Z pyramid, GigaWalk-like) or prev (the switch's algorithm on
-    /// one GPU).
+    /// culling), hzb (software Z pyramid, GigaWalk-like), prev (the switch's algorithm on
+    /// one GPU) or ovc (paper 003: depth-ordered interleaved culling; see --adaptive, --budget
+    /// and --sampling).
     #[arg(long)]
     mode: Mode,
     /// Pixels of error allowed by LOD selection (0 = full detail).
@@ -26,6 +27,19 @@ pub struct Args {
     /// per box, as the paper; the slow reference).
     #[arg(long, default_value = "hybrid", value_parser = parse_hc)]
     hc: HcTest,
+    /// ovc and prev: adaptive culling's threshold (paper 003 eq. 1): a box whose visible
+    /// pixels, as a share of its screen rectangle and discounted by its depth, fall below it
+    /// counts as occluded (prev: in HC's exact tests). 0 is off (conservative).
+    #[arg(long, default_value_t = 0.0, value_name = "T")]
+    adaptive: f64,
+    /// ovc: cost-adaptive culling (paper 003 eq. 2): occlusion tests stop after F times the
+    /// previous frame's render time; the remaining nodes are only frustum culled. Off by default.
+    #[arg(long, value_name = "F")]
+    budget: Option<f64>,
+    /// ovc: the box tests read one in S pixel lines a frame, interleaved (paper 003 sec. 3.3;
+    /// 1 reads all: conservative).
+    #[arg(long, default_value_t = 1, value_name = "S")]
+    sampling: u32,
     /// Do not write frame PNGs (statistics only).
     #[arg(long)]
     no_frames: bool,
@@ -48,11 +62,35 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !(a.tau >= 0.0 && a.tau.is_finite()) {
         anyhow::bail!("--tau must be a finite number >= 0, got {}", a.tau);
     }
+    if !(a.adaptive >= 0.0 && a.adaptive.is_finite()) {
+        anyhow::bail!("--adaptive must be a finite number >= 0, got {}", a.adaptive);
+    }
+    if a.budget.is_some_and(|f| !(f > 0.0 && f.is_finite())) {
+        anyhow::bail!("--budget must be a finite number > 0, got {}", a.budget.unwrap_or_default());
+    }
+    if a.sampling == 0 {
+        anyhow::bail!("--sampling must be at least 1");
+    }
+    if a.mode != Mode::Ovc && (a.budget.is_some() || a.sampling > 1) {
+        anyhow::bail!("--budget and --sampling are ovc's (paper 003); --mode is {}", a.mode.name());
+    }
+    if !matches!(a.mode, Mode::Ovc | Mode::Prev) && a.adaptive > 0.0 {
+        anyhow::bail!("--adaptive is ovc's and prev's (paper 003 eq. 1); --mode is {}", a.mode.name());
+    }
     let (cams, mut r) = a.walk.open()?;
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, a.mode.name());
     let spec =
-        RunSpec { scene: &a.walk.scene, path: &a.walk.path, mode: a.mode, tau: a.tau, hc: a.hc, out: &a.out, write_frames: !a.no_frames };
+        RunSpec {
+            scene: &a.walk.scene,
+            path: &a.walk.path,
+            mode: a.mode,
+            tau: a.tau,
+            hc: a.hc,
+            ovc: osw_cull::ovc::OvcOptions { adaptive: a.adaptive, budget: a.budget, sampling: a.sampling },
+            out: &a.out,
+            write_frames: !a.no_frames,
+        };
     let s = render_path(&mut r, &cams, &spec, &|| bar.inc(1));
     bar.finish_and_clear();
     let s = s?;

@@ -18,7 +18,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-const MODES: [&str; 6] = ["vfc", "sw", "chc", "hzb", "prev", "switch"];
+const MODES: [&str; 7] = ["vfc", "sw", "chc", "hzb", "prev", "switch", "ovc"];
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -27,9 +27,13 @@ pub struct Args {
     /// Pixels-of-error thresholds to run each mode at.
     #[arg(long, value_delimiter = ',', default_value = "0,1,2,5,10,20")]
     taus: Vec<f64>,
-    /// Modes to run: vfc, sw, chc, hzb, prev (single process) and switch (`osw run`).
-    #[arg(long, value_delimiter = ',', default_value = "vfc,sw,chc,hzb,prev,switch")]
+    /// Modes to run: vfc, sw, chc, hzb, prev, ovc (single process) and switch (`osw run`).
+    #[arg(long, value_delimiter = ',', default_value = "vfc,sw,chc,hzb,prev,switch,ovc")]
     modes: Vec<String>,
+    /// Adaptive-culling thresholds (paper 003 eq. 1) to run ovc, prev and the switch at, each a
+    /// point of its own (0: conservative).
+    #[arg(long, value_delimiter = ',', default_value = "0")]
+    adaptive: Vec<f64>,
     /// Keep every run's frame PNGs (by default they are deleted once compared).
     #[arg(long)]
     keep_frames: bool,
@@ -44,6 +48,8 @@ pub struct Args {
 struct Entry {
     mode: String,
     tau: f64,
+    /// ovc's adaptive-culling threshold (0: conservative).
+    adaptive: f64,
     frame_ms_median: f64,
     frame_ms_p95: f64,
     or_ms_median: f64,
@@ -102,6 +108,8 @@ struct Report {
     width: u32,
     height: u32,
     frames: usize,
+    /// Triangles of the scene at full detail.
+    scene_triangles: u64,
     exact_leaves_mean: f64,
     exact_triangles_mean: f64,
     runs: Vec<Entry>,
@@ -112,8 +120,13 @@ pub(crate) fn read_json(p: &Path) -> anyhow::Result<Value> {
         .with_context(|| format!("parsing {}", p.display()))
 }
 
-fn run_name(mode: &str, tau: f64) -> String {
-    format!("{mode}-tau{tau}")
+fn run_name(mode: &str, tau: f64, adaptive: f64) -> String {
+    if adaptive == 0.0 { format!("{mode}-tau{tau}") } else { format!("{mode}-tau{tau}-adaptive{adaptive}") }
+}
+
+/// A run as the tables name it: the mode, and its adaptive threshold when it has one.
+fn label(e: &Entry) -> String {
+    if e.adaptive == 0.0 { e.mode.clone() } else { format!("{} (adaptive {})", e.mode, e.adaptive) }
 }
 
 /// Runs `osw ARGS` with its output in `log`; on failure the error quotes the log's last line.
@@ -193,8 +206,9 @@ impl Plan<'_> {
         Ok(())
     }
 
-    /// One mode at one tau into `dir`: the run, then its comparison with the reference.
-    fn run(&self, mode: &str, tau: f64, dir: &Path) -> anyhow::Result<()> {
+    /// One mode at one tau (and adaptive threshold) into `dir`: the run, then its comparison
+    /// with the reference.
+    fn run(&self, mode: &str, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<()> {
         let frames_kept = dir != self.reference || osw_render::output::frame_path(dir, 0).exists();
         if self.done(dir) && frames_kept {
             return Ok(());
@@ -211,6 +225,9 @@ impl Plan<'_> {
             [vec!["render".to_string(), "--mode".into(), mode.into()], self.walk_args()].concat()
         };
         args.extend(["--tau".into(), tau.to_string(), "--out".into(), dir.display().to_string()]);
+        if adaptive > 0.0 {
+            args.extend(["--adaptive".into(), adaptive.to_string()]);
+        }
         osw(&args, &dir.join("run.log"))?;
         let compare = [
             "compare",
@@ -234,7 +251,7 @@ impl Plan<'_> {
     }
 }
 
-fn entry(mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Entry> {
+fn entry(mode: &str, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entry> {
     let s = read_json(&dir.join("summary.json"))?;
     let c = read_json(&dir.join("compare/compare.json"))?;
     let f = |v: &Value| v.as_f64().unwrap_or(0.0);
@@ -247,6 +264,7 @@ fn entry(mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Entry> {
     Ok(Entry {
         mode: mode.into(),
         tau,
+        adaptive,
         frame_ms_median: f(&s["frame_ms_median"]),
         frame_ms_p95: f(&s["frame_ms_p95"]),
         or_ms_median: or_ms,
@@ -297,20 +315,33 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(t) = a.taus.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
         bail!("--taus: {t} is not a pixel error (a finite number ≥ 0)");
     }
+    if let Some(t) = a.adaptive.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+        bail!("--adaptive: {t} is not a threshold (a finite number ≥ 0)");
+    }
     let scene = osw_scene::SceneFile::open(&a.walk.scene)?;
     let [lo, hi] = scene.content_hash();
+    let scene_triangles = scene.header().leaf_triangles as u64;
     drop(scene);
     std::fs::create_dir_all(a.out.join("runs"))?;
     let plan = Plan {
         a: &a,
         scene_hash: format!("{hi:016x}{lo:016x}"),
         exact: a.out.join("exact"),
-        reference: a.out.join("runs").join(run_name("vfc", 0.0)),
+        reference: a.out.join("runs").join(run_name("vfc", 0.0, 0.0)),
     };
 
-    let runs: Vec<(String, f64)> = a.modes.iter().flat_map(|m| a.taus.iter().map(move |&t| (m.clone(), t))).collect();
+    // Every mode at every tau; those with adaptive culling also at every threshold.
+    let conservative = [0.0];
+    let runs: Vec<(String, f64, f64)> = a
+        .modes
+        .iter()
+        .flat_map(|m| {
+            let adaptive: &[f64] = if ["ovc", "prev", "switch"].contains(&m.as_str()) { &a.adaptive } else { &conservative };
+            a.taus.iter().flat_map(move |&t| adaptive.iter().map(move |&ad| (m.clone(), t, ad)))
+        })
+        .collect();
     let bar = crate::progress::steps(runs.len() as u64 + 1 + a.taus.len().max(1) as u64, "report");
-    let dir = |mode: &str, tau: f64| a.out.join("runs").join(run_name(mode, tau));
+    let dir = |mode: &str, tau: f64, adaptive: f64| a.out.join("runs").join(run_name(mode, tau, adaptive));
     // Full detail for PVS/exact, and the scene as drawn at each tau for culling error.
     for tau in std::iter::once(0.0).chain(a.taus.iter().copied().filter(|&t| t > 0.0)) {
         bar.set_message(format!("exact tau {tau}"));
@@ -320,17 +351,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // The reference first, while any run needs it: every run's image error is measured
     // against its frames.
     bar.set_message("vfc tau 0 (reference)");
-    if runs.iter().any(|(m, t)| !plan.done(&dir(m, *t))) {
-        plan.run("vfc", 0.0, &plan.reference).context("the reference run (vfc at tau 0)")?;
+    if runs.iter().any(|(m, t, ad)| !plan.done(&dir(m, *t, *ad))) {
+        plan.run("vfc", 0.0, 0.0, &plan.reference).context("the reference run (vfc at tau 0)")?;
     }
     bar.inc(1);
     let mut entries = Vec::new();
-    for (mode, tau) in &runs {
-        bar.set_message(format!("{mode} tau {tau}"));
-        let dir = dir(mode, *tau);
-        let e = plan.run(mode, *tau, &dir).and_then(|()| entry(mode, *tau, &dir)).unwrap_or_else(|e| {
-            bar.println(format!("osw: {mode} at tau {tau} failed: {e:#}"));
-            Entry { mode: mode.clone(), tau: *tau, error: Some(format!("{e:#}")), ..Default::default() }
+    for (mode, tau, adaptive) in &runs {
+        bar.set_message(format!("{} tau {tau}", run_name(mode, *tau, *adaptive)));
+        let dir = dir(mode, *tau, *adaptive);
+        let e = plan.run(mode, *tau, *adaptive, &dir).and_then(|()| entry(mode, *tau, *adaptive, &dir)).unwrap_or_else(|e| {
+            bar.println(format!("osw: {} failed: {e:#}", run_name(mode, *tau, *adaptive)));
+            Entry { mode: mode.clone(), tau: *tau, adaptive: *adaptive, error: Some(format!("{e:#}")), ..Default::default() }
         });
         entries.push(e);
         bar.inc(1);
@@ -351,15 +382,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         width: a.walk.size.0,
         height: a.walk.size.1,
         frames,
+        scene_triangles,
         exact_leaves_mean,
         exact_triangles_mean,
         runs: entries,
     };
     std::fs::write(a.out.join("report.json"), serde_json::to_string_pretty(&report)?)?;
     std::fs::write(a.out.join("report.md"), markdown(&report, &a))?;
-    let failed: Vec<String> = report.runs.iter().filter(|e| e.error.is_some()).map(|e| run_name(&e.mode, e.tau)).collect();
+    let failed: Vec<String> = report.runs.iter().filter(|e| e.error.is_some()).map(|e| run_name(&e.mode, e.tau, e.adaptive)).collect();
     if failed.len() < report.runs.len() {
-        crate::plot::write(&error_chart(&report, &a.modes), &a.out.join("error_vs_time"))?;
+        crate::plot::write(&error_chart(&report), &a.out.join("error_vs_time"))?;
     }
     if !failed.is_empty() {
         bail!(
@@ -370,28 +402,75 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             a.out.display()
         );
     }
-    out!("report: {} modes × {} taus over {frames} frames → {}", a.modes.len(), a.taus.len(), a.out.join("report.md").display());
+    for e in report.runs.iter().filter(|e| e.mode != "vfc" && e.error.is_none()) {
+        out!("{}", at_a_glance(e, frames));
+    }
+    out!("report: {} runs ({} modes × {} taus) over {frames} frames → {}", report.runs.len(), a.modes.len(), a.taus.len(), a.out.join("report.md").display());
     Ok(())
 }
 
-fn error_chart<'a>(r: &Report, modes: &[String]) -> Chart<'a> {
-    let series: Vec<Series> = modes
+/// One run in a line: speed against vfc at its tau, image error against full-detail vfc, and
+/// its error split into culling error (nodes visible at its tau that it does not draw) and LOD
+/// error (leaves visible at full detail that coarse LODs hide).
+fn at_a_glance(e: &Entry, frames: usize) -> String {
+    let speed = e.speedup_vs_vfc.map_or("–".into(), |s| format!("{s:.2}x"));
+    let (culling, lod) = match e.false_culled_at_tau_total {
+        0 => ("no culling error".to_string(), "all of it LOD error"),
+        n => (format!("culling error: {n} nodes visible at tau {} not drawn", e.tau), "LOD and culling error"),
+    };
+    let psnr = e.psnr_db_median.map_or("∞".to_string(), |db| format!("{db:.1} dB"));
+    format!(
+        "{} at tau {}: {speed} vfc's speed ({:.1} ms a frame), {}/{frames} frames as full-detail vfc (PSNR median {psnr}), {culling}; {} leaves visible at full detail not drawn ({lod})",
+        label(e),
+        e.tau,
+        e.frame_ms_median,
+        e.identical_frames,
+        e.false_culled_leaves_total
+    )
+}
+
+/// One series per mode (and adaptive threshold), one point per tau, and the Pareto front over
+/// all of them: the runs that no other run beats in both frame time and image error.
+fn error_chart<'a>(r: &Report) -> Chart<'a> {
+    let done: Vec<&Entry> = r.runs.iter().filter(|e| e.error.is_none()).collect();
+    let point = |e: &Entry| (e.frame_ms_median, e.differing_fraction_mean * 100.0);
+    let mut labels: Vec<String> = done.iter().map(|e| label(e)).collect();
+    labels.dedup();
+    let mut series: Vec<Series> = labels
         .iter()
-        .map(|m| {
-            let runs: Vec<&Entry> = r.runs.iter().filter(|e| &e.mode == m && e.error.is_none()).collect();
-            Series {
-                name: m.clone(),
-                points: runs.iter().map(|e| (e.frame_ms_median, e.differing_fraction_mean * 100.0)).collect(),
-                point_labels: runs.iter().map(|e| format!("τ{}", e.tau)).collect(),
-            }
+        .map(|l| {
+            let runs: Vec<&&Entry> = done.iter().filter(|e| &label(e) == l).collect();
+            Series { name: l.clone(), points: runs.iter().map(|e| point(e)).collect(), point_labels: runs.iter().map(|e| format!("τ{}", e.tau)).collect() }
         })
         .collect();
+    let front = pareto(&done.iter().map(|e| point(e)).collect::<Vec<_>>());
+    series.push(Series {
+        name: "Pareto front".into(),
+        points: front.iter().map(|&k| point(done[k])).collect(),
+        point_labels: front.iter().map(|_| String::new()).collect(),
+    });
     Chart {
         title: "Image error against frame time (one point per tau)",
         x: "frame time, median (ms)",
         y: "pixels differing from full-detail vfc, mean (%)",
         series,
     }
+}
+
+/// Indices of the points (time, error) that no other point beats in both (ties kept once),
+/// by increasing time.
+fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0).then(points[a].1.total_cmp(&points[b].1)));
+    let mut best = f64::INFINITY;
+    order
+        .into_iter()
+        .filter(|&k| {
+            let better = points[k].1 < best;
+            best = best.min(points[k].1);
+            better
+        })
+        .collect()
 }
 
 /// A Markdown table: rows of cells under a header.
@@ -409,7 +488,7 @@ fn table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
 }
 
 fn markdown(r: &Report, a: &Args) -> String {
-    let get = |m: &str, t: f64| r.runs.iter().find(|e| e.mode == m && e.tau == t);
+    let get = |m: &str, t: f64| r.runs.iter().find(|e| e.mode == m && e.tau == t && e.adaptive == 0.0);
     let cell = |m: &str, t: f64, f: &dyn Fn(&Entry) -> String| match get(m, t) {
         Some(e) if e.error.is_none() => f(e),
         Some(_) => "failed".into(),
@@ -476,12 +555,12 @@ fn markdown(r: &Report, a: &Args) -> String {
         .iter()
         .map(|e| match &e.error {
             Some(err) => {
-                let mut row = vec![e.mode.clone(), e.tau.to_string(), format!("failed: {}", err.replace('|', "/"))];
+                let mut row = vec![label(e), e.tau.to_string(), format!("failed: {}", err.replace('|', "/"))];
                 row.resize(header.len(), "–".into());
                 row
             }
             None => vec![
-                e.mode.clone(),
+                label(e),
                 e.tau.to_string(),
                 format!("{:.0}", e.tests_mean),
                 format!("{:.1}", e.or_ms_median),
@@ -517,7 +596,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     let pct = |x: f64| format!("{:.1}", x * 100.0);
     let rows = finished_rows(r, |e| {
         vec![
-            e.mode.clone(),
+            label(e),
             e.tau.to_string(),
             format!("{:.0}", e.clusters_mean),
             pct(e.clusters_frustum_culled_fraction),
@@ -549,7 +628,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     let db = |v: Option<f64>| v.map_or("∞".to_string(), |x| format!("{x:.1}"));
     let rows = finished_rows(r, |e| {
         vec![
-            e.mode.clone(),
+            label(e),
             e.tau.to_string(),
             format!("{:.1}", e.frame_ms_median),
             db(e.psnr_db_median),
@@ -562,6 +641,22 @@ fn markdown(r: &Report, a: &Args) -> String {
     });
     table(&mut md, &header, &rows);
     md.push_str("![image error against frame time](error_vs_time.png)\n");
+    md.push_str(
+        "\n## Culling and speed-up (paper 003, table 2)\n\nThe share of the scene's full-detail triangles not drawn \
+         (culled by frustum, occlusion and LOD), the culling error at the run's tau (nodes visible at that tau not drawn; \
+         0 for a conservative run), and the speed-up over vfc at the same tau.\n\n",
+    );
+    let header: Vec<String> = ["method", "tau", "culled %", "false-culled at tau", "speed-up over vfc"].map(String::from).to_vec();
+    let rows = finished_rows(r, |e| {
+        vec![
+            label(e),
+            e.tau.to_string(),
+            format!("{:.1}", (1.0 - e.triangles_drawn_mean / r.scene_triangles.max(1) as f64) * 100.0),
+            e.false_culled_at_tau_total.to_string(),
+            e.speedup_vs_vfc.map_or("–".into(), |s| format!("{s:.2}")),
+        ]
+    });
+    table(&mut md, &header, &rows);
     let switch: Vec<(&Entry, &Traffic)> = r.runs.iter().filter_map(|e| Some((e, e.traffic.as_ref()?))).collect();
     if !switch.is_empty() {
         md.push_str(
@@ -592,4 +687,17 @@ fn markdown(r: &Report, a: &Args) -> String {
         table(&mut md, &header, &rows);
     }
     md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pareto;
+
+    #[test]
+    fn the_pareto_front_keeps_what_nothing_beats_in_both() {
+        // (time, error): 1 beats 3 (faster, less error); 0, 1, 2 and 4 trade one for the other.
+        let p = [(10.0, 0.0), (5.0, 1.0), (2.0, 5.0), (6.0, 2.0), (1.0, 9.0), (5.0, 1.0)];
+        assert_eq!(pareto(&p), vec![4, 2, 1, 0]);
+        assert!(pareto(&[]).is_empty());
+    }
 }

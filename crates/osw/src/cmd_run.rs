@@ -38,6 +38,15 @@ pub struct Args {
     /// Send the whole visible set every frame instead of deltas (the bandwidth comparison).
     #[arg(long)]
     full: bool,
+    /// Adaptive culling in HC's exact tests (paper 003 eq. 1): boxes whose visible pixels, as
+    /// a share of their screen rectangle and discounted by depth, fall below T count as hidden:
+    /// time bought with error. 0 is conservative.
+    #[arg(long, default_value_t = 0.0, value_name = "T")]
+    adaptive: f64,
+    /// Longest wait for one frame, seconds: the display gives up after it (a first frame at
+    /// full detail of a billion triangles needs more than the default).
+    #[arg(long, value_name = "SECS")]
+    frame_timeout: Option<f64>,
     /// Output directory: frames/, stats.csv, pvs.txt, summary.json (the display's), node-a.csv
     /// and node-b.csv (each node's frames), and each process's log.
     #[arg(long)]
@@ -105,6 +114,9 @@ pub fn play(a: Args) -> anyhow::Result<()> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    if !(a.adaptive >= 0.0 && a.adaptive.is_finite()) {
+        bail!("--adaptive must be a finite number >= 0, got {}", a.adaptive);
+    }
     std::fs::create_dir_all(&a.out)?;
     let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
     let s = |p: &Path| p.display().to_string();
@@ -113,6 +125,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let mut v: Vec<String> = vec!["--name".into(), name.into(), "--scene".into(), s(&a.scene), "--size".into(), size.clone()];
         if a.full {
             v.push("--full".into());
+        }
+        if a.adaptive > 0.0 {
+            v.extend(["--adaptive".into(), a.adaptive.to_string()]);
         }
         v
     };
@@ -138,6 +153,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     ];
     if let Some(p) = &a.path {
         args_d.extend(["--path".into(), s(p)]);
+    }
+    if let Some(t) = a.frame_timeout {
+        args_d.extend(["--frame-timeout".into(), t.to_string()]);
     }
     for (on, flag) in [(a.no_frames, "--no-frames"), (a.window, "--window"), (a.interactive, "--interactive")] {
         if on {

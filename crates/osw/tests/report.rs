@@ -18,14 +18,16 @@ fn report_covers_every_mode_and_tau_and_resumes() {
     let scene = build_gen(dir.path(), "plant", 60_000, 3);
     let path = camera_path(&scene, "walk", 8);
     let out = dir.path().join("report");
-    let args = ["report", "--scene", s(&scene), "--path", s(&path), "--size", "128x128", "--taus", "0,8", "--out", s(&out)];
+    // ovc, prev and the switch also with adaptive culling at a threshold that drops every box
+    // they test exactly.
+    let args = ["report", "--scene", s(&scene), "--path", s(&path), "--size", "128x128", "--taus", "0,8", "--adaptive", "0,1e9", "--out", s(&out)];
     osw_ok(&args);
 
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     let runs = report["runs"].as_array().unwrap();
-    let modes = ["vfc", "sw", "chc", "hzb", "prev", "switch"];
-    assert_eq!(runs.len(), modes.len() * 2);
+    let modes = ["vfc", "sw", "chc", "hzb", "prev", "switch", "ovc"];
+    assert_eq!(runs.len(), modes.len() * 2 + 6, "every mode at both taus, and ovc, prev and the switch adaptive at both");
     for mode in modes {
         assert!(md.contains(&format!("| {mode} fps")), "report.md lacks {mode} in table 1");
         for tau in [0.0, 8.0] {
@@ -63,11 +65,27 @@ fn report_covers_every_mode_and_tau_and_resumes() {
             }
         }
     }
+    // Adaptive culling buys triangles with error, and the report shows both.
+    for (mode, tau) in [("ovc", 0.0), ("ovc", 8.0), ("prev", 0.0), ("prev", 8.0), ("switch", 0.0), ("switch", 8.0)] {
+        let e = runs.iter().find(|e| e["mode"] == mode && e["tau"] == tau && e["adaptive"] == 1e9).expect("adaptive run");
+        let c = runs.iter().find(|e| e["mode"] == mode && e["tau"] == tau && e["adaptive"] == 0.0).unwrap();
+        assert!(e["error"].is_null(), "{e}");
+        assert!(e["triangles_drawn_mean"].as_f64().unwrap() < c["triangles_drawn_mean"].as_f64().unwrap(), "{mode}: {e} vs {c}");
+        assert!(e["false_culled_at_tau_total"].as_u64().unwrap() > 0, "approximate culling misses visible nodes: {e}");
+        assert!(md.contains(&format!("| {mode} (adaptive 1000000000) | {tau} | ")), "report.md lacks {mode}'s adaptive row at tau {tau}");
+        if mode != "switch" {
+            let run = out.join("runs").join(format!("{mode}-tau{tau}-adaptive1000000000"));
+            let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+            assert!(summary["adaptive_culled_mean"].as_f64().unwrap() > 0.0, "{summary}");
+        }
+    }
+    assert!(md.contains("paper 003, table 2"), "report.md lacks table 2's form");
+    assert!(std::fs::read_to_string(out.join("error_vs_time.svg")).unwrap().contains("Pareto front"), "no Pareto front in the plot");
     // PVS/exact against the exact run computed by `osw exact`: never below 1 at tau 0.
     let exact_leaves = csv_mean(&out.join("exact/exact.csv"), "visible_leaves");
     assert!(out.join("exact-tau8/exact_leaves.txt").exists(), "no exact visibility at tau 8");
     assert!((report["exact_leaves_mean"].as_f64().unwrap() - exact_leaves).abs() < 1e-9);
-    for e in runs.iter().filter(|e| e["tau"] == 0.0) {
+    for e in runs.iter().filter(|e| e["tau"] == 0.0 && e["adaptive"] == 0.0) {
         assert!(e["pvs_exact_leaves"].as_f64().unwrap() >= 1.0, "{e}");
     }
     let (w, h, px) = osw_render::output::read_png(&out.join("error_vs_time.png")).unwrap();
@@ -90,5 +108,6 @@ fn report_refuses_unknown_modes_and_bad_taus() {
     let base = ["report", "--scene", s(&scene), "--path", s(&path), "--out", s(&out)];
     osw_err(&[&base[..], &["--modes", "vfc,gigawalk"]].concat(), "gigawalk");
     osw_err(&[&base[..], &["--taus", "0,-1"]].concat(), "-1");
+    osw_err(&[&base[..], &["--adaptive", "0,NaN"]].concat(), "--adaptive");
     assert!(!out.join("runs").exists(), "nothing runs when the arguments are wrong");
 }

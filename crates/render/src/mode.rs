@@ -2,7 +2,10 @@
 //! timed: OR (occluders), HC (the cull), RVG (drawing the visible set).
 //!
 //! - `vfc`: frustum culling only, LODs at tau.
-//! - `sw`: hierarchical stop-and-wait tests, front to back (paper 001 sec. 3.3).
+//! - `sw`: hierarchical stop-and-wait tests, front to back (paper 001 sec. 3.3): `ovc` without
+//!   its knobs.
+//! - `ovc`: paper 003's depth-ordered interleaved culling, with adaptive culling (eq. 1), the
+//!   cost-adaptive budget (eq. 2) and interleaved sampling of the box tests (sec. 3.3).
 //! - `chc`: coherent hierarchical culling (paper 001 fig. 2), batched for wgpu's readback.
 //! - `hzb`: GigaWalk-like (paper 002 sec. 5.2-5.3): occluders picked by eq. 3 drawn at full
 //!   detail, depth read back, a Z pyramid built and boxes tested on the CPU.
@@ -18,7 +21,7 @@ use osw_cull::cluster::ClusterHistory;
 use osw_cull::delta::diff;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occluders};
-use osw_cull::sw::stop_and_wait;
+use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{DrawStats, GpuTester, HcTest, InterleavedTester, RenderError, Renderer};
@@ -32,10 +35,11 @@ pub enum Mode {
     Chc,
     Hzb,
     Prev,
+    Ovc,
 }
 
 impl Mode {
-    pub const ALL: [Mode; 5] = [Mode::Vfc, Mode::Sw, Mode::Chc, Mode::Hzb, Mode::Prev];
+    pub const ALL: [Mode; 6] = [Mode::Vfc, Mode::Sw, Mode::Chc, Mode::Hzb, Mode::Prev, Mode::Ovc];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -44,6 +48,7 @@ impl Mode {
             Mode::Chc => "chc",
             Mode::Hzb => "hzb",
             Mode::Prev => "prev",
+            Mode::Ovc => "ovc",
         }
     }
 }
@@ -74,6 +79,11 @@ pub struct ModeState {
     chc: Option<ChcState>,
     /// RVG's visible clusters of the last frame (prev).
     clusters: ClusterHistory,
+    /// Paper 003's knobs (ovc), the last frame's render time (eq. 2's T_render) and the frames
+    /// so far (which pixel lines sampled tests read).
+    pub ovc: OvcOptions,
+    last_render_ms: Option<f64>,
+    frames: u32,
 }
 
 fn ms(t: Instant) -> f64 {
@@ -130,6 +140,7 @@ pub fn hc_pass(
     view: &View,
     tau: f64,
     hc: HcTest,
+    adaptive: f64,
     previous: &[NodeId],
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, RenderError> {
@@ -164,36 +175,53 @@ pub fn hc_pass(
     pvs.sort_unstable();
     pvs.dedup();
     let mut tests = stats.tests;
-    let mut hidden = 0;
+    // Hidden boxes, and of those the ones only adaptive culling dropped.
+    let mut hidden = (0, 0);
     // The hybrid's exact test: every small box of the PVS against OR's depth, before any is
     // drawn (what the pyramid's rectangles let through, coarser than a box's silhouette).
     if hc == HcTest::Hybrid && occluders {
         let vp = view.view_proj().as_dmat4();
         let small: Vec<NodeId> =
             pvs.iter().copied().filter(|&id| Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_EXACT_PX).collect();
-        (tests, hidden) = (tests + small.len() as u32, hidden + drop_hidden(r, view, &small, pvs)?);
+        let d = drop_hidden(r, view, &small, adaptive, pvs)?;
+        (tests, hidden) = (tests + small.len() as u32, (hidden.0 + d.0, hidden.1 + d.1));
     }
     let added: Vec<NodeId> = pvs.iter().copied().filter(|id| previous.binary_search(id).is_err()).collect();
     if !added.is_empty() {
         r.draw(view, &added, Pass::Depth, false)?;
-        (tests, hidden) = (tests + added.len() as u32, hidden + drop_hidden(r, view, &added, pvs)?);
+        let d = drop_hidden(r, view, &added, adaptive, pvs)?;
+        (tests, hidden) = (tests + added.len() as u32, (hidden.0 + d.0, hidden.1 + d.1));
     }
-    Ok(HcStats { tests, occlusion_culled: stats.occlusion_culled + hidden, ..stats })
+    Ok(HcStats { tests, occlusion_culled: stats.occlusion_culled + hidden.0, adaptive_culled: hidden.1, ..stats })
 }
 
 /// Tests the boxes of `ids` (sorted, in `pvs`) exactly against the depth buffer as it is and
-/// removes the hidden ones from `pvs`; returns how many. As in HC, boxes around the eye or
-/// across the near plane are not tested.
-fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], pvs: &mut Vec<NodeId>) -> Result<u32, RenderError> {
+/// removes the hidden ones from `pvs`, and with `adaptive` > 0 also those whose visible pixels
+/// score under it by paper 003's eq. 1 ([`osw_cull::ovc::adapcull`]): the switch's
+/// approximate knob, applied where HC tests exactly. Returns how many it removed, and how many
+/// of those only adaptive culling did. As in HC, boxes around the eye or across the near plane
+/// are not tested.
+fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], adaptive: f64, pvs: &mut Vec<NodeId>) -> Result<(u32, u32), RenderError> {
     let ids: Vec<NodeId> = ids.iter().copied().filter(|&id| !view.frustum.needs_no_test(&r.scene.node(id).aabb())).collect();
     if ids.is_empty() {
-        return Ok(0);
+        return Ok((0, 0));
     }
     let mut seen = Vec::with_capacity(ids.len());
-    r.test_boxes(view, &ids, HcTest::Exact, &mut seen)?;
-    let hidden: Vec<NodeId> = ids.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
+    r.test_boxes(view, &ids, if adaptive > 0.0 { HcTest::ExactCount } else { HcTest::Exact }, &mut seen)?;
+    let faint = |id: NodeId, px: Option<u32>| px.is_some_and(|p| osw_cull::ovc::adapcull(view, &r.scene.node(id).aabb(), p as f64) < adaptive);
+    let mut dropped = (0, 0);
+    let hidden: Vec<NodeId> = ids
+        .iter()
+        .zip(&seen)
+        .filter(|&(&id, v)| {
+            let drop = !v.visible || (adaptive > 0.0 && faint(id, v.pixels));
+            dropped = (dropped.0 + u32::from(drop), dropped.1 + u32::from(drop && v.visible));
+            drop
+        })
+        .map(|(&id, _)| id)
+        .collect();
     pvs.retain(|id| hidden.binary_search(id).is_err());
-    Ok(hidden.len() as u32)
+    Ok(dropped)
 }
 
 impl ModeState {
@@ -209,6 +237,9 @@ impl ModeState {
             occluders: Vec::new(),
             chc: None,
             clusters: ClusterHistory::default(),
+            ovc: OvcOptions::default(),
+            last_render_ms: None,
+            frames: 0,
         }
     }
 
@@ -231,16 +262,24 @@ impl ModeState {
                 s.hc_ms = ms(t);
                 hc
             }
-            Mode::Sw | Mode::Chc => {
+            Mode::Sw | Mode::Chc | Mode::Ovc => {
                 let t = Instant::now();
                 r.draw(view, &[], Pass::Depth, true)?;
                 let chc = self.chc.get_or_insert_with(|| ChcState::new(scene.bvh_count()));
+                let opts = if self.mode == Mode::Ovc { self.ovc } else { OvcOptions::default() };
+                // Eq. 2: T_budget = T_render of the previous frame times F (none on the first).
+                let budget_ms = opts.budget.zip(self.last_render_ms).map(|(f, render)| f * render);
+                r.sampling = (opts.sampling.max(1), self.frames % opts.sampling.max(1));
                 let mut occ = InterleavedTester::new(r);
+                if opts.adaptive > 0.0 {
+                    occ.tester.test = HcTest::ExactCount;
+                }
                 let hc = match self.mode {
-                    Mode::Sw => stop_and_wait(nodes, view, self.tau, &mut occ, &mut pvs),
-                    _ => chc.frame(nodes, view, self.tau, &mut occ, &mut pvs),
+                    Mode::Chc => chc.frame(nodes, view, self.tau, &mut occ, &mut pvs),
+                    _ => ovc(nodes, view, self.tau, &opts, budget_ms, &mut occ, &mut || ms(t), &mut pvs),
                 };
                 occ.finish(view)?;
+                r.sampling = (1, 0);
                 s.hc_ms = ms(t);
                 hc
             }
@@ -263,7 +302,7 @@ impl ModeState {
                 let added = draw_occluders(r, view, &self.added, self.tau, false, &mut self.occluders)?;
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), front.nodes + added.nodes, front.triangles + added.triangles);
                 let t = Instant::now();
-                let hc = hc_pass(r, view, self.tau, self.hc, &self.visible, &mut pvs)?;
+                let hc = hc_pass(r, view, self.tau, self.hc, self.ovc.adaptive, &self.visible, &mut pvs)?;
                 s.hc_ms = ms(t);
                 hc
             }
@@ -280,12 +319,14 @@ impl ModeState {
         };
         s.rvg_ms = ms(t);
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
+        (self.last_render_ms, self.frames) = (Some(s.rvg_ms), self.frames + 1);
         (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
         let c = drawn.clusters;
         (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled, s.clusters_occlusion_culled) =
             (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
         (s.tests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
             (hc.tests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
+        (s.adaptive_culled, s.over_budget) = (hc.adaptive_culled, hc.over_budget);
         self.older = std::mem::replace(&mut self.visible, pvs);
         Ok(s)
     }

@@ -28,6 +28,8 @@ pub struct RunSpec<'a> {
     pub mode: Mode,
     pub tau: f64,
     pub hc: HcTest,
+    /// ovc's knobs (paper 003; the other modes ignore them).
+    pub ovc: osw_cull::ovc::OvcOptions,
     /// Output directory.
     pub out: &'a Path,
     pub write_frames: bool,
@@ -41,6 +43,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
         std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
     }
     let mut state = ModeState::new(mode, tau, spec.hc);
+    state.ovc = spec.ovc;
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
     let mut pvs = String::new();
     for (i, cam) in cams.iter().enumerate() {
@@ -61,6 +64,9 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
         mode: mode.name().to_owned(),
         tau,
         hc_test: format!("{:?}", spec.hc).to_lowercase(),
+        adaptive: spec.ovc.adaptive,
+        budget: spec.ovc.budget.unwrap_or(0.0),
+        sampling: spec.ovc.sampling,
         scene: spec.scene.display().to_string(),
         scene_hash: format!("{hi:016x}{lo:016x}"),
         path: spec.path.display().to_string(),

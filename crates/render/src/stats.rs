@@ -24,6 +24,10 @@ pub struct FrameStats {
     pub frustum_culled: u32,
     pub occlusion_culled: u32,
     pub pixel_stops: u32,
+    /// Boxes counted as occluded by adaptive culling, and taken untested once the culling
+    /// budget was spent (ovc: paper 003 eq. 1 and 2).
+    pub adaptive_culled: u32,
+    pub over_budget: u32,
     /// RVG's cluster tests: clusters of the PVS's nodes, and those culled by the frustum, by
     /// the back-face cone and as hidden (osw_cull::cluster).
     pub clusters: u64,
@@ -50,6 +54,13 @@ pub struct Summary {
     pub clusters_occlusion_culled_fraction: f64,
     /// The HC box test `prev` used: exact or pyramid.
     pub hc_test: String,
+    /// ovc's knobs (paper 003): eq. 1's threshold (0: off), eq. 2's factor (0: no budget) and
+    /// the lines sampled; boxes a frame culled adaptively and taken untested over budget.
+    pub adaptive: f64,
+    pub budget: f64,
+    pub sampling: u32,
+    pub adaptive_culled_mean: f64,
+    pub over_budget_mean: f64,
     pub or_ms_median: f64,
     pub hc_ms_median: f64,
     pub rvg_ms_median: f64,
@@ -123,6 +134,8 @@ impl Summary {
             triangles_drawn_mean: mean(frames.iter().map(|f| f.triangles_drawn as f64)),
             pvs_nodes_mean: mean(frames.iter().map(|f| f.pvs_nodes as f64)),
             tests_mean: mean(frames.iter().map(|f| f.tests as f64)),
+            adaptive_culled_mean: mean(frames.iter().map(|f| f.adaptive_culled as f64)),
+            over_budget_mean: mean(frames.iter().map(|f| f.over_budget as f64)),
             clusters_mean: mean(frames.iter().map(|f| f.clusters as f64)),
             clusters_frustum_culled_fraction: share(frames, |f| f.clusters_frustum_culled),
             clusters_cone_culled_fraction: share(frames, |f| f.clusters_cone_culled),

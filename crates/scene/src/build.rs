@@ -190,12 +190,22 @@ pub fn build(
     let mut writer = SceneWriter::create(out).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
     let mut built = Built::new(&tree, &s.chunks, &s.closed_objects, min_error);
     progress.stage("build", subtree_triangles[0]);
-    for roots in &buckets {
-        if progress.cancelled() {
-            return Err(BuildError::Interrupted);
+    // While a bucket is built on both cores, a thread reads the next one's chunks from the spill
+    // (which no longer fits the page cache at 1B triangles, so reads wait for the disk).
+    let read = |k: usize| crate::subtree::read(&tree, &s.chunks, &s.spill, &buckets[k]);
+    std::thread::scope(|scope| -> Result<(), BuildError> {
+        let mut next = Some(scope.spawn(move || read(0)));
+        for k in 0..buckets.len() {
+            let bucket = times.run("spill", || next.take().expect("read ahead").join().expect("the spill reader does not panic"));
+            let bucket = bucket.map_err(|e| BuildError::temp(s.spill.path(), e))?;
+            if progress.cancelled() {
+                return Err(BuildError::Interrupted);
+            }
+            next = (k + 1 < buckets.len()).then(|| scope.spawn(move || read(k + 1)));
+            built.subtrees(bucket, &mut writer, &mut times, progress)?;
         }
-        built.subtrees(roots, &s.spill, &mut writer, &mut times, progress)?;
-    }
+        Ok(())
+    })?;
     // The groups above the subtrees, deepest first.
     let roots: std::collections::HashSet<u32> = buckets.iter().flatten().copied().collect();
     if !roots.contains(&0) {

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 /// Where a chunk lies in the spill file.
 #[derive(Clone, Copy, Debug)]
 pub struct SpillRef {
-    offset: u64,
+    pub(crate) offset: u64,
     vertices: u32,
     indices: u32,
     colored: bool,

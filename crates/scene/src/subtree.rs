@@ -13,6 +13,7 @@ use crate::bvh::BvhNode;
 use crate::format::{BlockRecord, NONE, NodeKind, NodeRecord};
 use crate::hlod::NoHlod;
 use crate::lod::{Level, LodStats};
+use crate::mesh::Mesh;
 use crate::spill::Sealed;
 use crate::stream::Chunk;
 use crate::writer::{Encoded, SceneWriter, encode};
@@ -35,6 +36,28 @@ pub struct Built<'a> {
     lod_stats: LodStats,
     pub not_coarser: u64,
     pub vanished: u64,
+}
+
+/// Subtrees to build together: their nodes layer by layer, their leaves and the leaves' chunks.
+pub struct Bucket {
+    layers: Vec<Vec<u32>>,
+    leaves: Vec<u32>,
+    meshes: Vec<Mesh>,
+}
+
+/// Reads the chunks of the subtrees under `roots` from the spill, in the order they lie in it
+/// (the next bucket is read this way while the current one is built, see [`crate::build`]).
+pub fn read(tree: &[BvhNode], chunks: &[Chunk], spill: &Sealed, roots: &[u32]) -> std::io::Result<Bucket> {
+    let layers = layers(tree, roots, |_| false);
+    let leaves: Vec<u32> = layers.iter().flatten().copied().filter(|&id| tree[id as usize].item.is_some()).collect();
+    let chunk = |k: usize| &chunks[tree[leaves[k] as usize].item.expect("a leaf") as usize];
+    let mut order: Vec<usize> = (0..leaves.len()).collect();
+    order.sort_unstable_by_key(|&k| chunk(k).spill.offset);
+    let mut meshes = vec![Mesh::default(); leaves.len()];
+    for k in order {
+        meshes[k] = spill.read(&chunk(k).spill)?;
+    }
+    Ok(Bucket { layers, leaves, meshes })
 }
 
 /// Breadth-first layers of the subtrees under `roots`, not entering `stop` nodes (which are
@@ -67,23 +90,18 @@ impl<'a> Built<'a> {
     }
 
     /// Builds whole subtrees: their leaves, then their groups deepest first.
-    pub fn subtrees(&mut self, roots: &[u32], spill: &Sealed, w: &mut SceneWriter, times: &mut Times, progress: &dyn Progress) -> Result<(), BuildError> {
-        let layers = layers(self.tree, roots, |_| false);
-        let leaves: Vec<u32> = layers.iter().flatten().copied().filter(|&id| self.tree[id as usize].item.is_some()).collect();
-        self.leaves(&leaves, spill, w, times, progress)?;
-        for layer in layers.iter().rev() {
+    pub fn subtrees(&mut self, bucket: Bucket, w: &mut SceneWriter, times: &mut Times, progress: &dyn Progress) -> Result<(), BuildError> {
+        self.leaves(&bucket.leaves, bucket.meshes, w, times, progress)?;
+        for layer in bucket.layers.iter().rev() {
             let groups: Vec<u32> = layer.iter().copied().filter(|&id| self.tree[id as usize].item.is_none()).collect();
             self.groups(&groups, w, times)?;
         }
         Ok(())
     }
 
-    /// LOD chains of `leaves`, from their chunks in the spill.
-    fn leaves(&mut self, leaves: &[u32], spill: &Sealed, w: &mut SceneWriter, times: &mut Times, progress: &dyn Progress) -> Result<(), BuildError> {
+    /// LOD chains of `leaves`, whose chunks are `meshes`.
+    fn leaves(&mut self, leaves: &[u32], meshes: Vec<Mesh>, w: &mut SceneWriter, times: &mut Times, progress: &dyn Progress) -> Result<(), BuildError> {
         let chunk = |id: u32| &self.chunks[self.tree[id as usize].item.expect("a leaf") as usize];
-        let meshes = times.run("spill", || {
-            leaves.par_iter().map(|&id| spill.read(&chunk(id).spill)).collect::<std::io::Result<Vec<_>>>().map_err(|e| BuildError::temp(spill.path(), e))
-        })?;
         let min_error = self.min_error;
         let chains: Vec<(Vec<Level>, LodStats)> = times.run("lod", || meshes.into_par_iter().map(|m| crate::lod::chain(m, min_error)).collect());
         let encoded: Vec<Vec<Encoded>> = times.run("encode", || {

@@ -2,7 +2,9 @@
 // against the occluder depth buffer (depth test only, no writes). Early depth is forced so
 // that only fragments that pass the test run the shader (without it lavapipe runs the shader
 // for occluded fragments too, and the flags are wrong). count_pixels selects a per-box
-// visible-pixel count (paper 000 sec. 4.7.2) over a plain visible flag.
+// visible-pixel count (paper 000 sec. 4.7.2) over a plain visible flag. A box whose lo.w is
+// S > 1 counts only every S-th pixel line, starting at line hi.w and shifted by S/2 in every
+// second span of 10 pixels: paper 003 sec. 3.3's interleaved reading of the occlusion buffer.
 
 override count_pixels: bool = false;
 
@@ -13,6 +15,7 @@ override count_pixels: bool = false;
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) @interpolate(flat) box: u32,
+    @location(1) @interpolate(flat) sampling: vec2<u32>,
 }
 
 // 12 triangles over the 8 corners (bit 0 = x, bit 1 = y, bit 2 = z), counter-clockwise seen
@@ -35,12 +38,20 @@ fn vs_box(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance:
     var out: VertexOut;
     out.clip = view.view_proj * vec4<f32>(p, 1.0);
     out.box = instance;
+    out.sampling = vec2<u32>(u32(b.lo.w), u32(b.hi.w));
     return out;
 }
 
 @fragment
 @early_depth_test(force)
 fn fs_box(in: VertexOut) {
+    let s = in.sampling.x;
+    if s > 1u {
+        let shift = select(0u, s / 2u, ((u32(in.clip.x) / 10u) & 1u) == 1u);
+        if (u32(in.clip.y) + shift) % s != in.sampling.y {
+            return;
+        }
+    }
     if count_pixels {
         atomicAdd(&results[in.box], 1u);
     } else {

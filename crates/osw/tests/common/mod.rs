@@ -121,8 +121,16 @@ pub fn check_invariants(s: &SceneFile) {
 // Rendering checks shared by the render and numerics tests.
 
 /// Every mode, and prev with each HC box test.
-pub const MODES: [(&str, &str); 7] =
-    [("sw", "exact"), ("chc", "exact"), ("hzb", "exact"), ("prev", "exact"), ("prev", "pyramid"), ("prev", "queries"), ("prev", "hybrid")];
+pub const MODES: [(&str, &str); 8] = [
+    ("sw", "exact"),
+    ("chc", "exact"),
+    ("hzb", "exact"),
+    ("ovc", "exact"),
+    ("prev", "exact"),
+    ("prev", "pyramid"),
+    ("prev", "queries"),
+    ("prev", "hybrid"),
+];
 pub const SIZE: &str = "256x256";
 
 /// Column `name` of a CSV file with a header row.

@@ -1,11 +1,13 @@
 //! Procedural scenes, deterministic for a seed, sized by a triangle budget: the CHC city and
-//! teapot scenes (paper 001 sec. 5) and the power plant of papers 000, 001 and 004.
+//! teapot scenes (paper 001 sec. 5), the power plant of papers 000, 001 and 004 and the forest of
+//! paper 003.
 //!
 //! Units are metres; the ground is at y = 0. Each generator first measures the average cost of
 //! its repeating unit (a building, a teapot, a plant bay) on a sample, then lays out as many
 //! units as the budget pays for, so the result is within a few percent of the budget.
 
 pub mod city;
+pub mod forest;
 pub mod plant;
 pub mod shapes;
 pub mod teapots;
@@ -18,6 +20,7 @@ pub enum GenKind {
     City,
     Teapots,
     Plant,
+    Forest,
 }
 
 impl std::str::FromStr for GenKind {
@@ -27,7 +30,8 @@ impl std::str::FromStr for GenKind {
             "city" => Ok(GenKind::City),
             "teapots" => Ok(GenKind::Teapots),
             "plant" => Ok(GenKind::Plant),
-            _ => Err(format!("unknown generator {s:?}: expected city, teapots or plant")),
+            "forest" => Ok(GenKind::Forest),
+            _ => Err(format!("unknown generator {s:?}: expected city, teapots, plant or forest")),
         }
     }
 }
@@ -45,6 +49,7 @@ pub fn generate(kind: GenKind, triangles: u64, seed: u64) -> Generated {
         GenKind::City => Generated { objects: city::generate(triangles, seed), notes: Vec::new() },
         GenKind::Plant => Generated { objects: plant::generate(triangles, seed), notes: Vec::new() },
         GenKind::Teapots => teapots::generate(triangles, seed),
+        GenKind::Forest => Generated { objects: forest::generate(triangles, seed), notes: Vec::new() },
     }
 }
 
