@@ -62,6 +62,22 @@ pub struct DrawStats {
     pub clusters: ClusterStats,
 }
 
+impl DrawStats {
+    fn add(self, o: DrawStats) -> DrawStats {
+        let (a, b) = (self.clusters, o.clusters);
+        DrawStats {
+            nodes: self.nodes + o.nodes,
+            triangles: self.triangles + o.triangles,
+            clusters: ClusterStats {
+                clusters: a.clusters + b.clusters,
+                frustum_culled: a.frustum_culled + b.frustum_culled,
+                cone_culled: a.cone_culled + b.cone_culled,
+                occlusion_culled: a.occlusion_culled + b.occlusion_culled,
+            },
+        }
+    }
+}
+
 pub struct Renderer {
     pub gpu: Gpu,
     pub scene: Arc<SceneFile>,
@@ -174,9 +190,25 @@ impl Renderer {
     /// that the frustum and cone tests skip (none in the item pass).
     pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.cluster_tests };
-        let mut stats = self.gather(view, ids, tests, |_, _, _| true)?;
-        self.submit(view, pass, clear, &mut stats)?;
-        Ok(stats)
+        let drawn = self.gather(view, ids, tests, |_, _, _| true).and_then(|mut stats| {
+            self.submit(view, pass, clear, &mut stats)?;
+            Ok(stats)
+        });
+        match drawn {
+            // More geometry than the largest GPU buffer holds (a frame at full detail of a
+            // billion triangles): the list in halves, each drawn and submitted in turn.
+            Err(RenderError::Residency(ResidencyError::TooLarge(_)) | RenderError::TooManyTriangles(..)) if ids.len() > 1 => {
+                let (a, b) = ids.split_at(ids.len() / 2);
+                // Nothing of the failed attempt was submitted, and everything submitted before
+                // it precedes any upload on the queue: all of it may make room now.
+                self.residency.next_epoch();
+                let first = self.draw(view, a, pass, clear)?;
+                self.residency.next_epoch();
+                let second = self.draw(view, b, pass, false)?;
+                Ok(first.add(second))
+            }
+            r => r,
+        }
     }
 
     /// RVG's draw of the visible set with occlusion culling of clusters, in two passes as in

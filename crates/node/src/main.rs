@@ -38,6 +38,10 @@ struct Args {
     /// hidden. 0 is conservative.
     #[arg(long, default_value_t = 0.0)]
     adaptive: f64,
+    /// Longest wait for the peer or the display, seconds (a first frame at full detail of a
+    /// huge scene may need more than the default).
+    #[arg(long, default_value_t = switch::WAIT.as_secs_f64(), value_name = "SECS")]
+    frame_timeout: f64,
     /// Write this node's per-frame statistics (CSV) here.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -102,6 +106,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     }
     let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events, gate);
     sw.adaptive = a.adaptive;
+    sw.wait = std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
     let log = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);

@@ -89,6 +89,8 @@ pub struct Switch {
     pub full: bool,
     /// Adaptive culling's threshold in HC's exact tests (paper 003 eq. 1; 0: conservative).
     pub adaptive: f64,
+    /// Longest wait for the peer or the display ([`WAIT`] unless told otherwise).
+    pub wait: Duration,
     pub renderer: Renderer,
     events: Receiver<Event>,
     gate: Arc<CameraGate>,
@@ -143,6 +145,7 @@ impl Switch {
             batch,
             full,
             adaptive: 0.0,
+            wait: WAIT,
             renderer,
             events,
             gate,
@@ -259,7 +262,7 @@ impl Switch {
     /// wait, which events that bring nothing it waits for (a camera flood) do not extend.
     fn next_event(&mut self, what: &str, deadline: Instant) -> anyhow::Result<()> {
         let left = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero());
-        let e = left.and_then(|d| self.events.recv_timeout(d).ok()).ok_or_else(|| anyhow::anyhow!("waited {WAIT:?} for {what}"))?;
+        let e = left.and_then(|d| self.events.recv_timeout(d).ok()).ok_or_else(|| anyhow::anyhow!("waited {:?} for {what} (--frame-timeout)", self.wait))?;
         self.handle(e);
         Ok(())
     }
@@ -268,11 +271,11 @@ impl Switch {
     /// the path (camera 0), this node restarted into a running cluster and rejoins it.
     /// Returns the first frame to run, or `None` when the display said goodbye first.
     pub fn start(&mut self) -> anyhow::Result<Option<u64>> {
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + self.wait;
         while self.display.is_none() || self.peer.is_none() {
             self.next_event("the display and the peer to connect", deadline)?;
         }
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + self.wait;
         while self.cameras.is_empty() {
             if self.done {
                 return Ok(None);
@@ -298,7 +301,7 @@ impl Switch {
     fn rejoin(&mut self, next: u64, running: bool) -> anyhow::Result<Option<u64>> {
         self.send_peer(Message::Rejoin(Rejoin { next }));
         self.rejoin_asked = true;
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + self.wait;
         loop {
             // What the peer sent before the keyframe belongs to frames this node did not follow.
             while let Some((m, _)) = self.peer_queue.pop_front() {
@@ -333,7 +336,7 @@ impl Switch {
     /// other node, also alone while the link between them is cut, sets the display's pace),
     /// and it catches up as sec. 4.8.1's receiver would, with the newest camera.
     fn camera(&mut self, k: u64, newest_wins: bool) -> anyhow::Result<Option<(CameraPacket, u64)>> {
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + self.wait;
         loop {
             if let Some((&f, &c)) = self.cameras.range(k..).next().filter(|(f, _)| **f == k || newest_wins) {
                 // Older cameras are never needed again; camera f is, if this node takes over
@@ -351,7 +354,7 @@ impl Switch {
     /// The peer's next message; `None` when the display said goodbye or the peer is gone
     /// (or, with `in_step`, out of step: a new connection from a restarted peer).
     fn peer_message(&mut self, what: &str, in_step: bool) -> anyhow::Result<Option<(Message, u64)>> {
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + self.wait;
         loop {
             if let Some(m) = self.peer_queue.pop_front() {
                 return Ok(Some(m));
@@ -421,7 +424,7 @@ impl Switch {
         self.peer_in_step = self.peer.is_some();
         self.peer_rejoining = None;
         self.rejoin_asked = false;
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + self.wait;
         while self.cameras.is_empty() {
             self.next_event("the new display's first camera", deadline)?;
         }

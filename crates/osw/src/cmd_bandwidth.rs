@@ -224,7 +224,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::write(a.out.join("bandwidth.json"), serde_json::to_string_pretty(&report)?)?;
 
     let over_frames = |v: &dyn Fn(usize) -> f64| (0..frames).map(|i| (i as f64, v(i))).collect::<Vec<_>>();
-    let series = |name: &str, points| Series { name: name.into(), points, point_labels: vec![] };
+    let series = |name: &str, points| Series { name: name.into(), points, point_labels: vec![], bold: false };
     let mut ids = vec![
         series("incremental (ids added + removed)", over_frames(&|i| inc.ids[i])),
         series("full (visible set)", over_frames(&|i| inc.visible[i])),

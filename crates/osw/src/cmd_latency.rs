@@ -129,11 +129,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         [r] => LINKS
             .iter()
             .zip(&r.per_frame)
-            .map(|((_, what), v)| Series { name: (*what).into(), points: points(v), point_labels: vec![] })
+            .map(|((_, what), v)| Series { name: (*what).into(), points: points(v), point_labels: vec![], bold: false })
             .collect(),
         _ => runs
             .iter()
-            .map(|r| Series { name: format!("{} ({})", r.run, r.links), points: points(&r.per_frame[0]), point_labels: vec![] })
+            .map(|r| Series { name: format!("{} ({})", r.run, r.links), points: points(&r.per_frame[0]), point_labels: vec![], bold: false })
             .collect(),
     };
     crate::plot::write(&Chart { title: "Latency per frame", x: "frame", y: "ms", series }, &a.out.join("latency"))?;

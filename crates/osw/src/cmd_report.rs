@@ -434,13 +434,22 @@ fn at_a_glance(e: &Entry, frames: usize) -> String {
 fn error_chart<'a>(r: &Report) -> Chart<'a> {
     let done: Vec<&Entry> = r.runs.iter().filter(|e| e.error.is_none()).collect();
     let point = |e: &Entry| (e.frame_ms_median, e.differing_fraction_mean * 100.0);
-    let mut labels: Vec<String> = done.iter().map(|e| label(e)).collect();
-    labels.dedup();
+    let mut labels: Vec<String> = Vec::new();
+    for e in &done {
+        if !labels.contains(&label(e)) {
+            labels.push(label(e));
+        }
+    }
     let mut series: Vec<Series> = labels
         .iter()
         .map(|l| {
             let runs: Vec<&&Entry> = done.iter().filter(|e| &label(e) == l).collect();
-            Series { name: l.clone(), points: runs.iter().map(|e| point(e)).collect(), point_labels: runs.iter().map(|e| format!("τ{}", e.tau)).collect() }
+            Series {
+                name: l.clone(),
+                points: runs.iter().map(|e| point(e)).collect(),
+                point_labels: runs.iter().map(|e| format!("τ{}", e.tau)).collect(),
+                bold: false,
+            }
         })
         .collect();
     let front = pareto(&done.iter().map(|e| point(e)).collect::<Vec<_>>());
@@ -448,6 +457,7 @@ fn error_chart<'a>(r: &Report) -> Chart<'a> {
         name: "Pareto front".into(),
         points: front.iter().map(|&k| point(done[k])).collect(),
         point_labels: front.iter().map(|_| String::new()).collect(),
+        bold: true,
     });
     Chart {
         title: "Image error against frame time (one point per tau)",

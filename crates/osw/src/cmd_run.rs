@@ -129,6 +129,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if a.adaptive > 0.0 {
             v.extend(["--adaptive".into(), a.adaptive.to_string()]);
         }
+        if let Some(t) = a.frame_timeout {
+            v.extend(["--frame-timeout".into(), t.to_string()]);
+        }
         v
     };
     let mut args_a = common("a");

@@ -267,6 +267,7 @@ fn charts<'a>(s: &Sweep, a: &Args) -> Vec<Chart<'a>> {
                     name: m.clone(),
                     points: runs.iter().map(|r| (r.triangles as f64, y(r))).collect(),
                     point_labels: runs.iter().map(|r| label(r.triangles)).collect(),
+                    bold: false,
                 }
             })
             .collect()

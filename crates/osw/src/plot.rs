@@ -14,6 +14,8 @@ pub struct Series {
     pub name: String,
     pub points: Vec<(f64, f64)>,
     pub point_labels: Vec<String>,
+    /// Drawn thick and black over the others (e.g. a Pareto front).
+    pub bold: bool,
 }
 
 pub struct Chart<'a> {
@@ -146,12 +148,12 @@ where
     // A series keeps its colour by its place in the list, also when another panel of the
     // same figure has nothing to show for it.
     for (i, s) in c.series.iter().enumerate().filter(|(_, s)| !s.points.is_empty()) {
-        let color = Palette99::pick(i).to_rgba();
+        let (color, width) = if s.bold { (BLACK.to_rgba(), 4) } else { (Palette99::pick(i).to_rgba(), 2) };
         chart
-            .draw_series(LineSeries::new(s.points.iter().copied(), color.stroke_width(2)))
+            .draw_series(LineSeries::new(s.points.iter().copied(), color.stroke_width(width)))
             .map_err(err)?
             .label(&s.name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(width)));
         if !s.point_labels.is_empty() {
             chart
                 .draw_series(s.points.iter().zip(&s.point_labels).map(|(&p, l)| {

@@ -286,3 +286,33 @@ fn a_scene_far_from_the_origin_renders_like_one_at_the_origin() {
         check_conservative(&out, &sc, &p, "run");
     }
 }
+
+#[test]
+fn ovc_budget_and_sampling_take_effect_and_say_so() {
+    // Paper 003 eq. 2: with a tiny budget (F = 0.001 of the last render time) ovc stops testing
+    // early and frustum-culls the rest: fewer tests, boxes counted as over budget, and at tau 0
+    // never a hidden-for-real miss (untested boxes are drawn). Sampling 4 reads a quarter of
+    // each box's lines and is still run and reported.
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "forest", 100_000, 2);
+    let path = camera_path(&scene, "walk", 10);
+    let run = |name: &str, extra: &[&str]| -> serde_json::Value {
+        let out = d.path().join(name);
+        let mut args = vec!["render", "--scene", s(&scene), "--path", s(&path), "--mode", "ovc", "--tau", "0", "--size", SIZE];
+        args.extend_from_slice(extra);
+        args.extend(["--out", s(&out)]);
+        osw_ok(&args);
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    };
+    let full = run("full", &[]);
+    let budget = run("budget", &["--budget", "0.001"]);
+    assert!(budget["over_budget_mean"].as_f64().unwrap() > 0.0, "{budget}");
+    assert!(budget["tests_mean"].as_f64().unwrap() < full["tests_mean"].as_f64().unwrap(), "{budget} vs {full}");
+    assert_eq!(budget["budget"], 0.001);
+    assert!(budget["triangles_drawn_mean"].as_f64().unwrap() >= full["triangles_drawn_mean"].as_f64().unwrap(), "over budget draws more, never less");
+    let sampled = run("sampled", &["--sampling", "4"]);
+    assert_eq!(sampled["sampling"], 4);
+    assert_eq!(full["over_budget_mean"], 0.0);
+    osw_err(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "vfc", "--budget", "1", "--out", "x"], "ovc's");
+    osw_err(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "ovc", "--sampling", "0", "--out", "x"], "--sampling");
+}
