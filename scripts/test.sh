@@ -9,4 +9,11 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 cargo build --release --workspace --locked --bins
 # The criterion benches at least compile (running them is for measurements, not CI).
 cargo bench --workspace --locked --no-run
+# The wire core builds alone, without a runtime or a command line (tokio, clap and toml come
+# with the binaries' features).
+cargo check --release --locked -p osw-wire
+if cargo tree --locked -p osw-wire -e normal --prefix none | grep -E "^(tokio|clap|toml) "; then
+  echo "test: osw-wire's core depends on tokio, clap or toml" >&2
+  exit 1
+fi
 cargo test --release --workspace --locked

@@ -40,10 +40,55 @@ pub fn apply(prev: &[u32], removed: &[u32], added: &[u32]) -> Vec<u32> {
     out
 }
 
+/// V(i) as the messages of frame i build it (paper 000 sec. 3.4), the same for OR and RVG:
+/// batches of deltas against V(i-1), or a keyframe, the whole V(i).
+#[derive(Debug, Default)]
+pub struct Assembly {
+    added: Vec<u32>,
+    removed: Vec<u32>,
+}
+
+impl Assembly {
+    /// A batch of deltas; returns its additions (what OR draws at once).
+    pub fn delta(&mut self, added: Vec<u32>, removed: Vec<u32>) -> &[u32] {
+        let start = self.added.len();
+        self.added.extend(added);
+        self.removed.extend(removed);
+        &self.added[start..]
+    }
+
+    /// A keyframe: V(i) whole, replacing what deltas built so far; returns what it adds to
+    /// `previous`, V(i-1).
+    pub fn keyframe(&mut self, previous: &[u32], all: &[u32]) -> &[u32] {
+        diff(previous, all, &mut self.added, &mut self.removed);
+        &self.added
+    }
+
+    /// V(i) from `previous`, V(i-1).
+    pub fn finish(mut self, previous: &[u32]) -> Vec<u32> {
+        self.added.sort_unstable();
+        self.removed.sort_unstable();
+        apply(previous, &self.removed, &self.added)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn an_assembly_of_batches_or_a_keyframe_gives_the_next_set() {
+        let prev = [1, 2, 5, 7];
+        let mut a = Assembly::default();
+        assert_eq!(a.delta(vec![9], vec![7]), &[9]);
+        assert_eq!(a.delta(vec![3], vec![1]), &[3]);
+        assert_eq!(a.finish(&prev), vec![2, 3, 5, 9]);
+        let mut k = Assembly::default();
+        k.delta(vec![4], vec![]);
+        assert_eq!(k.keyframe(&prev, &[2, 3, 5, 9]), &[3, 9], "a keyframe replaces earlier batches");
+        assert_eq!(k.finish(&prev), vec![2, 3, 5, 9]);
+    }
 
     #[test]
     fn small_example() {

@@ -4,7 +4,7 @@
 
 use crate::links::{self, Cluster, Note};
 use crate::stats::FrameRow;
-use osw_cull::delta::apply;
+use osw_cull::delta::Assembly;
 use osw_wire::messages::{CameraPacket, Message};
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
@@ -69,7 +69,7 @@ impl Frames {
         // Frame i comes from the node that sends its camera first (the HC node, or the one
         // running alone); if that node is lost before its end of frame, from the other.
         let mut source: Option<(usize, CameraPacket)> = None;
-        let (mut added, mut removed, mut keyframe) = (Vec::new(), Vec::new(), None);
+        let mut next = Assembly::default();
         let mut replay: VecDeque<Arrival> = std::mem::take(&mut self.held);
         let max_id = self.max_id;
         let deadline = Instant::now() + self.wait;
@@ -83,9 +83,7 @@ impl Frames {
                         None => {
                             if let Some((lost, _)) = source.filter(|(n, _)| self.cluster.nodes[*n].is_none()) {
                                 tracing::warn!("frame {i}: node {} lost mid-frame; reading the frame from the other", links::NAMES[lost]);
-                                (source, keyframe, row.bytes, row.id_bytes, row.ids_sent) = (None, None, 0, 0, 0);
-                                added.clear();
-                                removed.clear();
+                                (source, next, row.bytes, row.id_bytes, row.ids_sent) = (None, Assembly::default(), 0, 0, 0);
                                 replay = std::mem::take(&mut self.held);
                             }
                             continue;
@@ -110,15 +108,14 @@ impl Frames {
                     let (ad, rm) = (d.added.ids(max_id)?, d.removed.ids(max_id)?);
                     (row.bytes, row.id_bytes) = (row.bytes + bytes, row.id_bytes + bytes);
                     row.ids_sent += (ad.len() + rm.len()) as u64;
-                    added.extend(ad);
-                    removed.extend(rm);
+                    next.delta(ad, rm);
                 }
                 Message::Keyframe(k) if k.frame == i => {
                     // The whole V(i): replaces V(i-1) and what deltas would have built.
                     (row.bytes, row.id_bytes) = (row.bytes + bytes, row.id_bytes + bytes);
                     let all = k.ids.ids(max_id)?;
                     row.ids_sent += all.len() as u64;
-                    keyframe = Some(all);
+                    next.keyframe(&self.visible, &all);
                 }
                 Message::EndOfFrame(e) if e.frame == i => {
                     row.bytes += bytes;
@@ -147,9 +144,7 @@ impl Frames {
             }
         }
         let cam = source.expect("a complete frame has a camera").1;
-        added.sort_unstable();
-        removed.sort_unstable();
-        self.visible = apply(keyframe.as_ref().unwrap_or(&self.visible), &removed, &added);
+        self.visible = next.finish(&self.visible);
         row.ids_full = self.visible.len() as u64;
         Ok((cam, row))
     }

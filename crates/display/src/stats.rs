@@ -114,7 +114,6 @@ pub fn write_outputs(
     let id_bytes: f64 = rows.iter().map(|r| r.id_bytes as f64).sum();
     let clusters = rows.iter().map(|r| r.clusters).sum::<u64>().max(1) as f64;
     let share = |f: fn(&FrameRow) -> u64| rows.iter().map(f).sum::<u64>() as f64 / clusters;
-    let [lo, hi] = scene.content_hash();
     let s = Summary {
         mode: "switch".into(),
         tau: set.tau,
@@ -154,7 +153,7 @@ pub fn write_outputs(
         hc_ms_median: quantile(&col(|r| r.hc_ms), 0.5),
         rvg_ms_median: quantile(&col(|r| r.rvg_ms), 0.5),
         scene: set.scene.display().to_string(),
-        scene_hash: format!("{hi:016x}{lo:016x}"),
+        scene_hash: osw_scene::format::hash_hex(scene.content_hash()),
         path: a.path.as_ref().map_or("(interactive walk)".into(), |p| p.display().to_string()),
         width: w,
         height: h,

@@ -26,7 +26,7 @@
 //! interactively), so the node that is OR and the one that is HC select LODs alike.
 
 use crate::link::{CameraGate, Event, MAX_CAMERAS};
-use osw_cull::delta::{apply, diff};
+use osw_cull::delta::{Assembly, diff};
 use osw_gpu::renderer::{HcTest, Renderer};
 use osw_render::mode::{draw_occluders, hc_pass};
 use osw_scene::{Camera, NodeId};
@@ -546,7 +546,7 @@ impl Switch {
         r.begin_frame();
         let view = r.view(&camera(&cam));
         let mut drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
-        let (mut added, mut removed) = (Vec::new(), Vec::new());
+        let mut next = Assembly::default();
         loop {
             match self.peer_message(&format!("frame {i} from the peer"), true)? {
                 None if self.done || self.display_restarted => return Ok(None),
@@ -556,19 +556,13 @@ impl Switch {
                     return self.hc(i);
                 }
                 Some((Message::Delta(d), _)) if d.frame == i => {
-                    let a = d.added.ids(max_id)?;
-                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false, &mut self.occluders)?.nodes;
-                    added.extend(a);
-                    removed.extend(d.removed.ids(max_id)?);
+                    let a = next.delta(d.added.ids(max_id)?, d.removed.ids(max_id)?);
+                    drawn += draw_occluders(&mut self.renderer, &view, a, cam.tau_px, false, &mut self.occluders)?.nodes;
                 }
                 Some((Message::Keyframe(k), _)) if k.frame == i => {
                     // The whole V(i): draw what V(i-1) lacks, as the deltas would have.
-                    let all = k.ids.ids(max_id)?;
-                    let (mut a, mut rm) = (Vec::new(), Vec::new());
-                    diff(&self.visible, &all, &mut a, &mut rm);
-                    drawn += draw_occluders(&mut self.renderer, &view, &a, cam.tau_px, false, &mut self.occluders)?.nodes;
-                    added.extend(a);
-                    removed.extend(rm);
+                    let a = next.keyframe(&self.visible, &k.ids.ids(max_id)?);
+                    drawn += draw_occluders(&mut self.renderer, &view, a, cam.tau_px, false, &mut self.occluders)?.nodes;
                 }
                 Some((Message::EndOfFrame(e), at)) if e.frame == i => {
                     self.peer_eof_received_us = at;
@@ -577,9 +571,7 @@ impl Switch {
                 Some((m, _)) => anyhow::bail!("frame {i}: unexpected message from the peer: {m:?}"),
             }
         }
-        added.sort_unstable();
-        removed.sort_unstable();
-        self.visible = apply(&self.visible, &removed, &added);
+        self.visible = next.finish(&self.visible);
         self.depth_for = Some(i + 1);
         Ok(Some(NodeFrame {
             frame: i,

@@ -22,9 +22,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let rss_open = osw_render::stats::resident_bytes();
     let h = scene.header();
     let file_bytes = h.file_bytes;
-    let [lo, hi] = h.content_hash;
     out!("scene: {}", a.scene.display());
-    out!("content_hash: {hi:016x}{lo:016x}");
+    out!("content_hash: {}", osw_scene::format::hash_hex(h.content_hash));
     out!(
         "nodes: {} ({} BVH, {} LOD/HLOD), leaves: {}, objects: {}, full-detail triangles: {}",
         h.node_count,

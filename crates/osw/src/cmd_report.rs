@@ -319,13 +319,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bail!("--adaptive: {t} is not a threshold (a finite number ≥ 0)");
     }
     let scene = osw_scene::SceneFile::open(&a.walk.scene)?;
-    let [lo, hi] = scene.content_hash();
     let scene_triangles = scene.header().leaf_triangles as u64;
+    let scene_hash = osw_scene::format::hash_hex(scene.content_hash());
     drop(scene);
     std::fs::create_dir_all(a.out.join("runs"))?;
     let plan = Plan {
         a: &a,
-        scene_hash: format!("{hi:016x}{lo:016x}"),
+        scene_hash,
         exact: a.out.join("exact"),
         reference: a.out.join("runs").join(run_name("vfc", 0.0, 0.0)),
     };

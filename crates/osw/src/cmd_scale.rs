@@ -155,7 +155,7 @@ fn max_rss(csv: &Path) -> anyhow::Result<u64> {
 fn run_one(scene: &Path, walk: &Path, size: &str, mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Value> {
     let summary = dir.join("summary.json");
     let hash = osw_scene::SceneFile::open(scene)?.content_hash();
-    let hash = format!("{:016x}{:016x}", hash[1], hash[0]);
+    let hash = osw_scene::format::hash_hex(hash);
     if let Ok(s) = read_json(&summary)
         && s["scene_hash"] == hash.as_str()
         && s["path"] == walk.display().to_string().as_str()

@@ -59,7 +59,6 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     }
     write(&out.join("stats.csv"), &to_csv(&frames))?;
     write(&out.join("pvs.txt"), &pvs)?;
-    let [lo, hi] = r.scene.content_hash();
     let summary = Summary {
         mode: mode.name().to_owned(),
         tau,
@@ -68,7 +67,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
         budget: spec.ovc.budget.unwrap_or(0.0),
         sampling: spec.ovc.sampling,
         scene: spec.scene.display().to_string(),
-        scene_hash: format!("{hi:016x}{lo:016x}"),
+        scene_hash: osw_scene::format::hash_hex(r.scene.content_hash()),
         path: spec.path.display().to_string(),
         width: r.target.width,
         height: r.target.height,

@@ -227,7 +227,7 @@ pub fn build(
     let (bytes, hash) =
         times.run("write", || writer.finish(fields, &nodes, &blocks)).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
     report.output_bytes = bytes;
-    report.content_hash = format!("{:016x}{:016x}", hash[1], hash[0]);
+    report.content_hash = crate::format::hash_hex(hash);
     report.stage_seconds = times.0;
     report.seconds = started.elapsed().as_secs_f64();
     report.input_triangles_per_second = report.input_triangles as f64 / report.seconds.max(1e-9);

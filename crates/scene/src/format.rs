@@ -65,6 +65,11 @@ pub struct Header {
     pub reserved: [u64; 16],
 }
 
+/// A content hash as the reports and the handshake print it: 32 hex digits, high word first.
+pub fn hash_hex(hash: [u64; 2]) -> String {
+    format!("{:016x}{:016x}", hash[1], hash[0])
+}
+
 /// What a node is. BVH nodes are `Group` (interior) or `Leaf` (one chunk); `Lod` nodes hold
 /// geometry: a level of a leaf's chain or a group's HLOD.
 #[repr(u32)]

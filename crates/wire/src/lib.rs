@@ -1,7 +1,8 @@
 //! osw wire protocol (paper 000 sec. 3.4-3.5): what the switch nodes and the display send each
 //! other over TCP. No GPU and no runtime in the core: [`frame`] turns bytes into [`Message`]s
-//! and back; [`codec`] adapts that to tokio-util and [`net`] makes the connections and the
-//! handshake for the binaries.
+//! and back. With the `net` feature, `codec` adapts that to tokio-util and `net` makes the
+//! connections and the handshake for the binaries; with `config`, `config` reads cluster
+//! configuration files and their command-line flags.
 //!
 //! - [`messages`]: handshake, camera packets, visible-set deltas, end of frame, keyframe,
 //!   goodbye. bincode (2.0.1) is used only inside this crate.
@@ -13,12 +14,15 @@
 //! - [`limits`]: the protocol version and the limits, each with its reason.
 
 pub mod clock;
+#[cfg(feature = "net")]
 pub mod codec;
+#[cfg(feature = "config")]
 pub mod config;
 pub mod frame;
 pub mod ids;
 pub mod limits;
 pub mod messages;
+#[cfg(feature = "net")]
 pub mod net;
 
 pub use frame::{WireError, decode_frame, encode_frame, frame_len};
