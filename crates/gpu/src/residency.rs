@@ -69,6 +69,9 @@ pub struct Residency {
     bytes: u64,
     frame: u64,
     pub stats: ResidencyStats,
+    /// Largest arena, bytes: the device's largest buffer, or less (tests make a frame's
+    /// geometry overflow it without a billion triangles).
+    pub max_arena_bytes: u64,
 }
 
 impl Residency {
@@ -83,6 +86,7 @@ impl Residency {
             bytes: 0,
             frame: 0,
             stats: ResidencyStats::default(),
+            max_arena_bytes: u64::MAX,
         }
     }
 
@@ -138,21 +142,20 @@ impl Residency {
         if let Some(at) = self.free.take(n) {
             return Ok(at);
         }
-        if (self.capacity as u64 + n as u64) * VERTEX_BYTES > self.budget {
-            for id in self.unused_oldest_first() {
-                self.evict(id);
-                if let Some(at) = self.free.take(n) {
-                    return Ok(at);
-                }
-            }
+        let over_budget = (self.capacity as u64 + n as u64) * VERTEX_BYTES > self.budget;
+        if over_budget && let Some(at) = self.evict_for(n) {
+            return Ok(at);
         }
-        self.grow(gpu, n)?;
-        Ok(self.free.take(n).expect("the arena grew by at least n"))
+        match self.grow(gpu, n) {
+            Ok(()) => Ok(self.free.take(n).expect("the arena grew by at least n")),
+            // At the largest arena: what this epoch does not use makes room, if it can.
+            Err(e) => self.evict_for(n).ok_or(e),
+        }
     }
 
     /// Doubles the arena (at least by `n` vertices), copying what it holds.
     fn grow(&mut self, gpu: &Gpu, n: u32) -> Result<(), ResidencyError> {
-        let max = gpu.device.limits().max_buffer_size / VERTEX_BYTES;
+        let max = gpu.device.limits().max_buffer_size.min(self.max_arena_bytes) / VERTEX_BYTES;
         let want = (self.capacity as u64 * 2).max(self.capacity as u64 + n as u64).max(MIN_CAPACITY as u64);
         let capacity = want.min(max).min(u32::MAX as u64);
         if capacity < self.capacity as u64 + n as u64 {
@@ -172,6 +175,17 @@ impl Residency {
         self.free.give(self.capacity, capacity as u32 - self.capacity);
         self.capacity = capacity as u32;
         Ok(())
+    }
+
+    /// Evicts least recently used nodes not used in this epoch until `n` vertices fit.
+    fn evict_for(&mut self, n: u32) -> Option<u32> {
+        for id in self.unused_oldest_first() {
+            self.evict(id);
+            if let Some(at) = self.free.take(n) {
+                return Some(at);
+            }
+        }
+        None
     }
 
     fn unused_oldest_first(&self) -> Vec<NodeId> {
