@@ -34,8 +34,8 @@ pub struct Built<'a> {
     /// Coarsest representations of the nodes whose parent is not built yet.
     coarse: FxHashMap<u32, Vec<Level>>,
     lod_stats: LodStats,
-    pub not_coarser: u64,
-    pub vanished: u64,
+    not_coarser: u64,
+    vanished: u64,
 }
 
 /// Subtrees to build together: their nodes layer by layer, their leaves and the leaves' chunks.
