@@ -24,7 +24,6 @@ use osw_scene::Camera;
 use osw_scene::camera::DVec3;
 use osw_wire::clock::now_us;
 use osw_wire::config::{ClusterArgs, Settings};
-use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{CameraPacket, Goodbye, Hello, Message, Role};
 use receive::Frames;
 use stats::{FrameRow, write_outputs};
@@ -109,14 +108,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let addrs = &node_addresses(a, &set)?;
     let path = a.path.as_deref().map(osw_scene::path::read).transpose()?.unwrap_or_default();
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
-    let me = Hello {
-        version: PROTOCOL_VERSION,
-        scene_hash: scene.content_hash(),
-        name: "display".into(),
-        role: Role::Display,
-        token: set.token.clone(),
-        serving: false,
-    };
+    let me = Hello::new(scene.content_hash(), "display", Role::Display, set.token.clone());
     let (mut ui, gpu) = if a.window || a.interactive {
         let (window, gpu) = window::Window::open("osw walkthrough", w, h, a.cluster.adapter.as_deref())?;
         let controls = a.interactive.then(|| {

@@ -9,7 +9,6 @@ mod switch;
 
 use clap::Parser;
 use osw_wire::config::ClusterArgs;
-use osw_wire::limits::PROTOCOL_VERSION;
 use osw_wire::messages::{Hello, Role};
 use std::io::Write;
 use std::path::PathBuf;
@@ -82,14 +81,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     };
     let (w, h) = set.size;
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
-    let me = Hello {
-        version: PROTOCOL_VERSION,
-        scene_hash: scene.content_hash(),
-        name: a.name.clone(),
-        role: Role::Node,
-        token: set.token.clone(),
-        serving: false,
-    };
+    let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone());
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
 

@@ -351,14 +351,7 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
     let (addr_a, addr_b) = (free_addr(), free_addr());
     let logs = [d.path().join("a.log"), d.path().join("b.log")];
     let mut nodes = [node("a", &scene, &addr_a, None, &logs[0]), node("b", &scene, &addr_b, Some(&addr_a), &logs[1])];
-    let hello = Hello {
-        version: osw_wire::limits::PROTOCOL_VERSION,
-        scene_hash: osw_scene::SceneFile::open(&scene).unwrap().content_hash(),
-        name: "flood".into(),
-        role: Role::Display,
-        token: None,
-        serving: false,
-    };
+    let hello = Hello::new(osw_scene::SceneFile::open(&scene).unwrap().content_hash(), "flood", Role::Display, None);
     let frame = |m: &Message| {
         let mut b = Vec::new();
         encode_frame(m, &mut b);

@@ -31,6 +31,13 @@ pub struct Hello {
     pub serving: bool,
 }
 
+impl Hello {
+    /// This build's greeting for a process holding the scene `scene_hash`: not serving yet.
+    pub fn new(scene_hash: [u64; 2], name: impl Into<String>, role: Role, token: Option<String>) -> Hello {
+        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, token, serving: false }
+    }
+}
+
 /// A camera: 80 bytes of fields (the paper counts 72; we add the sample time for latency).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CameraPacket {
