@@ -20,6 +20,11 @@ impl FreeRanges {
         Some(start)
     }
 
+    /// Whether a range of `len` is free.
+    pub fn fits(&self, len: u32) -> bool {
+        self.free.values().any(|&have| have >= len)
+    }
+
     /// Gives `[start, start + len)` back (it must not be free), merged with free neighbours.
     pub fn give(&mut self, start: u32, len: u32) {
         if len == 0 {

@@ -177,15 +177,19 @@ impl Residency {
         Ok(())
     }
 
-    /// Evicts least recently used nodes not used in this epoch until `n` vertices fit.
+    /// Evicts least recently used nodes not used in this epoch until `n` vertices fit, and
+    /// then on until an eighth of the arena is freed: finding the oldest sorts every resident
+    /// node, which a pass that fills the arena block by block must not do for each block.
     fn evict_for(&mut self, n: u32) -> Option<u32> {
+        let (mut freed, enough) = (0u64, (self.capacity / 8).max(n) as u64);
         for id in self.unused_oldest_first() {
+            freed += self.map[&id].vertices as u64;
             self.evict(id);
-            if let Some(at) = self.free.take(n) {
-                return Some(at);
+            if freed >= enough && self.free.fits(n) {
+                break;
             }
         }
-        None
+        self.free.take(n)
     }
 
     fn unused_oldest_first(&self) -> Vec<NodeId> {
