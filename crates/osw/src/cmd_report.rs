@@ -10,7 +10,7 @@
 
 use crate::columns::{Columns, mean};
 use crate::plot::{Chart, Series};
-use crate::walk_args::WalkArgs;
+use crate::walk_args::{SWITCH, WalkArgs};
 use anyhow::{Context, bail};
 use serde::Serialize;
 use serde_json::Value;
@@ -18,7 +18,6 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-const MODES: [&str; 7] = ["vfc", "sw", "chc", "hzb", "prev", "switch", "ovc"];
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -214,7 +213,7 @@ impl Plan<'_> {
             return Ok(());
         }
         std::fs::create_dir_all(dir)?;
-        let mut args: Vec<String> = if mode == "switch" {
+        let mut args: Vec<String> = if mode == SWITCH {
             // `osw run` takes no --adapter: the nodes choose as `osw render` does by default.
             let mut v = self.walk_args();
             if let Some(k) = v.iter().position(|x| x == "--adapter") {
@@ -289,7 +288,7 @@ fn entry(mode: &str, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entr
         identical_frames: c["identical_frames"].as_u64().unwrap_or(0),
         differing_fraction_mean: f(&c["differing_fraction_mean"]),
         differing_fraction_max: f(&c["differing_fraction_max"]),
-        traffic: (mode == "switch").then(|| Traffic {
+        traffic: (mode == SWITCH).then(|| Traffic {
             ids_sent_mean: f(&s["ids_sent_mean"]),
             ids_full_mean: f(&s["ids_full_mean"]),
             incremental_saved_fraction: f(&s["incremental_saved_fraction"]),
@@ -309,9 +308,7 @@ fn exact_means(dir: &Path) -> anyhow::Result<(usize, f64, f64)> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    if let Some(m) = a.modes.iter().find(|m| !MODES.contains(&m.as_str())) {
-        bail!("--modes: unknown mode {m:?} (modes: {})", MODES.join(", "));
-    }
+    crate::walk_args::check_modes(&a.modes)?;
     if let Some(t) = a.taus.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
         bail!("--taus: {t} is not a pixel error (a finite number ≥ 0)");
     }
@@ -336,7 +333,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .modes
         .iter()
         .flat_map(|m| {
-            let adaptive: &[f64] = if ["ovc", "prev", "switch"].contains(&m.as_str()) { &a.adaptive } else { &conservative };
+            let adaptive: &[f64] = if ["ovc", "prev", SWITCH].contains(&m.as_str()) { &a.adaptive } else { &conservative };
             a.taus.iter().flat_map(move |&t| adaptive.iter().map(move |&ad| (m.clone(), t, ad)))
         })
         .collect();

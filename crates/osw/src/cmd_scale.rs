@@ -9,6 +9,7 @@
 use crate::cmd_report::{osw, read_json};
 use crate::columns::Columns;
 use crate::plot::{Chart, Series};
+use crate::walk_args::SWITCH;
 use anyhow::{Context, bail};
 use serde::Serialize;
 use serde_json::Value;
@@ -17,7 +18,6 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-const MODES: [&str; 6] = ["vfc", "sw", "chc", "hzb", "prev", "switch"];
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -30,7 +30,7 @@ pub struct Args {
     /// Pixels-of-error thresholds to run each mode at.
     #[arg(long, value_delimiter = ',', default_value = "1,5")]
     taus: Vec<f64>,
-    /// Modes: vfc, sw, chc, hzb, prev (single process) and switch (`osw run`).
+    /// Modes: vfc, sw, chc, hzb, prev, ovc (single process) and switch (`osw run`).
     #[arg(long, value_delimiter = ',', default_value = "vfc,chc,hzb,prev,switch")]
     modes: Vec<String>,
     /// Frames of each walk.
@@ -166,7 +166,7 @@ fn run_one(scene: &Path, walk: &Path, size: &str, mode: &str, tau: f64, dir: &Pa
     std::fs::create_dir_all(dir)?;
     let _ = std::fs::remove_file(&summary);
     let mut args = match mode {
-        "switch" => strings(&["run"]),
+        SWITCH => strings(&["run"]),
         m => strings(&["render", "--mode", m]),
     };
     args.extend(strings(&["--scene", &scene.display().to_string(), "--path", &walk.display().to_string(), "--size", size]));
@@ -179,7 +179,7 @@ fn row(triangles: u64, mode: &str, tau: f64, dir: &Path, s: &Value) -> anyhow::R
     let f = |k: &str| s[k].as_f64().unwrap_or(0.0);
     let mut peak = BTreeMap::new();
     // The switch's OR runs on the nodes: the mean of the two nodes' medians.
-    let or_ms = if mode == "switch" {
+    let or_ms = if mode == SWITCH {
         peak.insert("display".into(), max_rss(&dir.join("stats.csv"))?);
         for (k, file) in [("node_a", "node-a.csv"), ("node_b", "node-b.csv")] {
             peak.insert(k.into(), max_rss(&dir.join(file))?);
@@ -207,9 +207,7 @@ fn row(triangles: u64, mode: &str, tau: f64, dir: &Path, s: &Value) -> anyhow::R
 }
 
 pub fn run(mut a: Args) -> anyhow::Result<()> {
-    if let Some(m) = a.modes.iter().find(|m| !MODES.contains(&m.as_str())) {
-        bail!("--modes: unknown mode {m:?} (modes: {})", MODES.join(", "));
-    }
+    crate::walk_args::check_modes(&a.modes)?;
     if let Some(t) = a.taus.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
         bail!("--taus: {t} is not a pixel error (a finite number ≥ 0)");
     }
