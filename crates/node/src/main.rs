@@ -47,10 +47,7 @@ struct Args {
 }
 
 fn main() -> std::process::ExitCode {
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("OSW_LOG").unwrap_or_else(|_| "warn".into()))
-        .init();
+    osw_render::log::init();
     let a = Args::parse();
     match run(&a) {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -72,10 +72,7 @@ enum Cmd {
 }
 
 fn main() -> std::process::ExitCode {
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("OSW_LOG").unwrap_or_else(|_| "warn".into()))
-        .init();
+    osw_render::log::init();
     let cli = Cli::parse();
     let r = match cli.cmd {
         Cmd::Build(a) => cmd_build::run(a),

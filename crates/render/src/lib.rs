@@ -5,8 +5,10 @@
 //! - [`stats`]: per-frame statistics, `stats.csv` and `summary.json`.
 //! - [`output`]: frame PNGs and the per-frame PVS / exact-visibility files.
 //! - [`run`]: the loops over a camera path for `osw render` and `osw exact`.
+//! - [`log`]: the binaries' logging set-up.
 
 pub mod compare;
+pub mod log;
 pub mod mode;
 pub mod output;
 pub mod run;
