@@ -24,7 +24,7 @@ use osw_scene::Camera;
 use osw_scene::camera::DVec3;
 use osw_wire::clock::now_us;
 use osw_wire::config::{ClusterArgs, Settings};
-use osw_wire::messages::{CameraPacket, Goodbye, Hello, Message, Role};
+use osw_wire::messages::{Goodbye, Hello, Message, Role};
 use receive::Frames;
 use stats::{FrameRow, write_outputs};
 use std::io::Write as _;
@@ -135,14 +135,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
             Some(u) if u.quit() => return None,
             _ => (*path.get(k)?, set.tau),
         };
-        Some(Message::Camera(CameraPacket {
-            frame: k as u64,
-            position: c.position.to_array(),
-            orientation: c.orientation.to_array(),
-            fovy_deg: c.fovy_deg,
-            tau_px: tau,
-            sampled_us: now_us(),
-        }))
+        Some(Message::Camera(osw_render::packet::packet(k as u64, &c, tau, now_us())))
     };
     // Cameras sent so far: frames 0..requested are on their way.
     let mut requested = 0;

@@ -29,7 +29,8 @@ use crate::link::{CameraGate, Event, MAX_CAMERAS};
 use osw_cull::delta::{Assembly, diff};
 use osw_gpu::renderer::{HcTest, Renderer};
 use osw_render::mode::{draw_occluders, hc_pass};
-use osw_scene::{Camera, NodeId};
+use osw_render::packet;
+use osw_scene::NodeId;
 use osw_wire::clock::now_us;
 use osw_wire::messages::{CameraPacket, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Rejoin, Role};
 use std::collections::{BTreeMap, VecDeque};
@@ -135,9 +136,6 @@ pub struct Switch {
     old_cameras_dropped: u64,
 }
 
-fn camera(c: &CameraPacket) -> Camera {
-    Camera { position: c.position.into(), orientation: glam::DQuat::from_array(c.orientation).normalize(), fovy_deg: c.fovy_deg }
-}
 
 impl Switch {
     pub fn new(index: u64, batch: usize, full: bool, renderer: Renderer, events: Receiver<Event>, gate: Arc<CameraGate>) -> Switch {
@@ -456,7 +454,7 @@ impl Switch {
         let solo = self.depth_for != Some(i);
         let r = &mut self.renderer;
         r.begin_frame();
-        let view = r.view(&camera(&cam));
+        let view = r.view(&packet::camera(&cam));
         let mut drawn = 0;
         if solo {
             // The OR pass of paper 004 fig. 5 on this GPU: the front of V(i-1) for camera i.
@@ -544,7 +542,7 @@ impl Switch {
         let max_id = self.renderer.scene.header().node_count;
         let r = &mut self.renderer;
         r.begin_frame();
-        let view = r.view(&camera(&cam));
+        let view = r.view(&packet::camera(&cam));
         let mut drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
         let mut next = Assembly::default();
         loop {

@@ -5,12 +5,13 @@
 //! - [`stats`]: per-frame statistics, `stats.csv` and `summary.json`.
 //! - [`output`]: frame PNGs and the per-frame PVS / exact-visibility files.
 //! - [`run`]: the loops over a camera path for `osw render` and `osw exact`.
-//! - [`log`]: the binaries' logging set-up.
+//! - [`log`]: the binaries' logging set-up; [`packet`]: the camera as the wire carries it.
 
 pub mod compare;
 pub mod log;
 pub mod mode;
 pub mod output;
+pub mod packet;
 pub mod run;
 pub mod stats;
 
