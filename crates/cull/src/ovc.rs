@@ -61,7 +61,11 @@ pub fn adapcull(view: &View, b: &Aabb, footprint: f64) -> f64 {
     let area = clip(x0, x1, view.width) * clip(y0, y1, view.height);
     let forward = view.orientation * glam::DVec3::NEG_Z;
     let (lo, hi) = view.test_box(b);
-    let nearest = glam::DVec3::new(if forward.x > 0.0 { lo.x } else { hi.x }, if forward.y > 0.0 { lo.y } else { hi.y }, if forward.z > 0.0 { lo.z } else { hi.z });
+    let nearest = glam::DVec3::new(
+        if forward.x > 0.0 { lo.x } else { hi.x },
+        if forward.y > 0.0 { lo.y } else { hi.y },
+        if forward.z > 0.0 { lo.z } else { hi.z },
+    );
     let dist = nearest.dot(forward).max(0.0);
     footprint / area / ((view.near + dist) / view.near)
 }
@@ -111,7 +115,10 @@ pub fn ovc(
         match select_lod(nodes, id, view.eye, view.focal_px, tau) {
             // Eq. 1 judges objects, what would be drawn now; a node that is refined further is
             // judged by its children.
-            Some(_) if opts.adaptive > 0.0 && pixels.is_some_and(|p| adapcull(view, &b, p as f64 * opts.sampling.max(1) as f64) < opts.adaptive) => {
+            Some(_)
+                if opts.adaptive > 0.0
+                    && pixels.is_some_and(|p| adapcull(view, &b, p as f64 * opts.sampling.max(1) as f64) < opts.adaptive) =>
+            {
                 stats.adaptive_culled += 1;
                 stats.occlusion_culled += 1;
             }
@@ -156,10 +163,19 @@ mod tests {
         let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
         let (mut pvs, mut tests) = (Vec::new(), 0.0);
         // A fake clock: each call after a test has cost 1 ms per test so far.
-        let s = ovc(&scene(), &v, tau, opts, budget_ms, t, &mut || {
-            tests += 1.0;
-            tests - 1.0
-        }, &mut pvs);
+        let s = ovc(
+            &scene(),
+            &v,
+            tau,
+            opts,
+            budget_ms,
+            t,
+            &mut || {
+                tests += 1.0;
+                tests - 1.0
+            },
+            &mut pvs,
+        );
         pvs.sort_unstable();
         (pvs, s)
     }

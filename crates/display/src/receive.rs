@@ -77,7 +77,9 @@ impl Frames {
             let (node, m, bytes, at) = match replay.pop_front() {
                 Some(x) => x,
                 None => {
-                    let note = self.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("frame {i}: not complete after {:?} (--frame-timeout)", self.wait))?;
+                    let note = self
+                        .next_note(deadline, idle)
+                        .map_err(|_| anyhow::anyhow!("frame {i}: not complete after {:?} (--frame-timeout)", self.wait))?;
                     match self.cluster.note(note)? {
                         Some(x) => x,
                         None => {

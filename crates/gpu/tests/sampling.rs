@@ -43,7 +43,12 @@ fn the_phases_of_a_sampled_box_test_add_up_to_the_whole_count() {
         // Each phase reads about 1/S of a large box.
         let big = (0..whole.len()).max_by_key(|&b| whole[b]).unwrap();
         for p in &phases {
-            assert!((p[big] as f64 - whole[big] as f64 / s as f64).abs() <= whole[big] as f64 * 0.2 + 20.0, "{s} lines: {} of {}", p[big], whole[big]);
+            assert!(
+                (p[big] as f64 - whole[big] as f64 / s as f64).abs() <= whole[big] as f64 * 0.2 + 20.0,
+                "{s} lines: {} of {}",
+                p[big],
+                whole[big]
+            );
         }
     }
 }

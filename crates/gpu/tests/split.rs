@@ -16,7 +16,11 @@ fn a_pass_larger_than_the_arena_is_drawn_in_parts_with_the_same_pixels() {
     osw_scene::build_scene(objects, "test", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).unwrap();
     let scene = Arc::new(osw_scene::SceneFile::open(&path).unwrap());
     let root = scene.node(0).aabb();
-    let camera = Camera::look_at(root.center().as_dvec3() + scene.origin() + DVec3::new(0.0, 40.0, -120.0), root.center().as_dvec3() + scene.origin(), 60.0);
+    let camera = Camera::look_at(
+        root.center().as_dvec3() + scene.origin() + DVec3::new(0.0, 40.0, -120.0),
+        root.center().as_dvec3() + scene.origin(),
+        60.0,
+    );
     // Every leaf at full detail: far more vertices than the capped arena holds.
     let lods: Vec<u32> = (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod).collect();
     let frame = |cap: u64| {

@@ -95,7 +95,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     }
     let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events, gate);
     sw.adaptive = a.adaptive;
-    sw.wait = std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
+    sw.wait =
+        std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
     let log = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);

@@ -136,7 +136,6 @@ pub struct Switch {
     old_cameras_dropped: u64,
 }
 
-
 impl Switch {
     pub fn new(index: u64, batch: usize, full: bool, renderer: Renderer, events: Receiver<Event>, gate: Arc<CameraGate>) -> Switch {
         Switch {
@@ -260,7 +259,9 @@ impl Switch {
     /// wait, which events that bring nothing it waits for (a camera flood) do not extend.
     fn next_event(&mut self, what: &str, deadline: Instant) -> anyhow::Result<()> {
         let left = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero());
-        let e = left.and_then(|d| self.events.recv_timeout(d).ok()).ok_or_else(|| anyhow::anyhow!("waited {:?} for {what} (--frame-timeout)", self.wait))?;
+        let e = left
+            .and_then(|d| self.events.recv_timeout(d).ok())
+            .ok_or_else(|| anyhow::anyhow!("waited {:?} for {what} (--frame-timeout)", self.wait))?;
         self.handle(e);
         Ok(())
     }

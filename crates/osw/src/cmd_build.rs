@@ -89,7 +89,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         (None, Some(kind)) => {
             if a.triangles > MOST_TRIANGLES {
-                bail!("--triangles {} is above the {}M a scene file holds (triangle counts are u32)", a.triangles, MOST_TRIANGLES / 1_000_000);
+                bail!(
+                    "--triangles {} is above the {}M a scene file holds (triangle counts are u32)",
+                    a.triangles,
+                    MOST_TRIANGLES / 1_000_000
+                );
             }
             let input = format!("--gen {kind:?} --triangles {} --seed {}", a.triangles, a.seed).to_lowercase();
             let (source, notes): (Box<dyn Source>, _) = match kind {

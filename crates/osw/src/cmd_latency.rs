@@ -133,7 +133,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .collect(),
         _ => runs
             .iter()
-            .map(|r| Series { name: format!("{} ({})", r.run, r.links), points: points(&r.per_frame[0]), point_labels: vec![], bold: false })
+            .map(|r| Series {
+                name: format!("{} ({})", r.run, r.links),
+                points: points(&r.per_frame[0]),
+                point_labels: vec![],
+                bold: false,
+            })
             .collect(),
     };
     crate::plot::write(&Chart { title: "Latency per frame", x: "frame", y: "ms", series }, &a.out.join("latency"))?;

@@ -80,17 +80,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (cams, mut r) = a.walk.open()?;
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, a.mode.name());
-    let spec =
-        RunSpec {
-            scene: &a.walk.scene,
-            path: &a.walk.path,
-            mode: a.mode,
-            tau: a.tau,
-            hc: a.hc,
-            ovc: osw_cull::ovc::OvcOptions { adaptive: a.adaptive, budget: a.budget, sampling: a.sampling },
-            out: &a.out,
-            write_frames: !a.no_frames,
-        };
+    let spec = RunSpec {
+        scene: &a.walk.scene,
+        path: &a.walk.path,
+        mode: a.mode,
+        tau: a.tau,
+        hc: a.hc,
+        ovc: osw_cull::ovc::OvcOptions { adaptive: a.adaptive, budget: a.budget, sampling: a.sampling },
+        out: &a.out,
+        write_frames: !a.no_frames,
+    };
     let s = render_path(&mut r, &cams, &spec, &|| bar.inc(1));
     bar.finish_and_clear();
     let s = s?;

@@ -18,7 +18,6 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
@@ -320,12 +319,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene_hash = osw_scene::format::hash_hex(scene.content_hash());
     drop(scene);
     std::fs::create_dir_all(a.out.join("runs"))?;
-    let plan = Plan {
-        a: &a,
-        scene_hash,
-        exact: a.out.join("exact"),
-        reference: a.out.join("runs").join(run_name("vfc", 0.0, 0.0)),
-    };
+    let plan = Plan { a: &a, scene_hash, exact: a.out.join("exact"), reference: a.out.join("runs").join(run_name("vfc", 0.0, 0.0)) };
 
     // Every mode at every tau; those with adaptive culling also at every threshold.
     let conservative = [0.0];
@@ -402,7 +396,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for e in report.runs.iter().filter(|e| e.mode != "vfc" && e.error.is_none()) {
         out!("{}", at_a_glance(e, frames));
     }
-    out!("report: {} runs ({} modes × {} taus) over {frames} frames → {}", report.runs.len(), a.modes.len(), a.taus.len(), a.out.join("report.md").display());
+    out!(
+        "report: {} runs ({} modes × {} taus) over {frames} frames → {}",
+        report.runs.len(),
+        a.modes.len(),
+        a.taus.len(),
+        a.out.join("report.md").display()
+    );
     Ok(())
 }
 

@@ -18,7 +18,6 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-
 #[derive(clap::Args)]
 pub struct Args {
     /// Plant sizes in triangles (K, M and B suffixes: 2M = 2,000,000).

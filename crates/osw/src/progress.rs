@@ -11,7 +11,9 @@ impl Bar {
         static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
         let bar = ProgressBar::new(0);
         bar.set_style(
-            ProgressStyle::with_template("{msg:>6} [{bar:40}] {pos}/{len} {elapsed} (eta {eta})").expect("valid template").progress_chars("=> "),
+            ProgressStyle::with_template("{msg:>6} [{bar:40}] {pos}/{len} {elapsed} (eta {eta})")
+                .expect("valid template")
+                .progress_chars("=> "),
         );
         // A second Ctrl-C (or a handler already set) ends the process as usual.
         let _ = ctrlc::set_handler(|| {

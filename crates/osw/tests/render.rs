@@ -309,7 +309,10 @@ fn ovc_budget_and_sampling_take_effect_and_say_so() {
     assert!(budget["over_budget_mean"].as_f64().unwrap() > 0.0, "{budget}");
     assert!(budget["tests_mean"].as_f64().unwrap() < full["tests_mean"].as_f64().unwrap(), "{budget} vs {full}");
     assert_eq!(budget["budget"], 0.001);
-    assert!(budget["triangles_drawn_mean"].as_f64().unwrap() >= full["triangles_drawn_mean"].as_f64().unwrap(), "over budget draws more, never less");
+    assert!(
+        budget["triangles_drawn_mean"].as_f64().unwrap() >= full["triangles_drawn_mean"].as_f64().unwrap(),
+        "over budget draws more, never less"
+    );
     let sampled = run("sampled", &["--sampling", "4"]);
     assert_eq!(sampled["sampling"], 4);
     assert_eq!(full["over_budget_mean"], 0.0);

@@ -20,7 +20,8 @@ fn report_covers_every_mode_and_tau_and_resumes() {
     let out = dir.path().join("report");
     // ovc, prev and the switch also with adaptive culling at a threshold that drops every box
     // they test exactly.
-    let args = ["report", "--scene", s(&scene), "--path", s(&path), "--size", "128x128", "--taus", "0,8", "--adaptive", "0,1e9", "--out", s(&out)];
+    let args =
+        ["report", "--scene", s(&scene), "--path", s(&path), "--size", "128x128", "--taus", "0,8", "--adaptive", "0,1e9", "--out", s(&out)];
     osw_ok(&args);
 
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();

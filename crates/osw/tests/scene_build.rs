@@ -173,7 +173,11 @@ fn a_build_in_many_subtrees_makes_the_same_scene_as_in_one() {
         assert!(a.positions == b.positions && a.clusters == b.clusters, "geometry of LOD node {id}");
     }
     // Nothing temporary is left beside the scenes.
-    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).filter(|n| !n.ends_with(".osw") && !n.ends_with(".json")).collect();
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| !n.ends_with(".osw") && !n.ends_with(".json"))
+        .collect();
     assert!(left.is_empty(), "{left:?}");
 }
 

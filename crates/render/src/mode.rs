@@ -208,7 +208,8 @@ fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], adaptive: f64, pvs
     }
     let mut seen = Vec::with_capacity(ids.len());
     r.test_boxes(view, &ids, if adaptive > 0.0 { HcTest::ExactCount } else { HcTest::Exact }, &mut seen)?;
-    let faint = |id: NodeId, px: Option<u32>| px.is_some_and(|p| osw_cull::ovc::adapcull(view, &r.scene.node(id).aabb(), p as f64) < adaptive);
+    let faint =
+        |id: NodeId, px: Option<u32>| px.is_some_and(|p| osw_cull::ovc::adapcull(view, &r.scene.node(id).aabb(), p as f64) < adaptive);
     let mut dropped = (0, 0);
     let hidden: Vec<NodeId> = ids
         .iter()

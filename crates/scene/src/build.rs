@@ -224,8 +224,9 @@ pub fn build(
         leaf_count: report.leaves as u32,
         leaf_triangles: nodes[0].triangles,
     };
-    let (bytes, hash) =
-        times.run("write", || writer.finish(fields, &nodes, &blocks)).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
+    let (bytes, hash) = times
+        .run("write", || writer.finish(fields, &nodes, &blocks))
+        .map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
     report.output_bytes = bytes;
     report.content_hash = crate::format::hash_hex(hash);
     report.stage_seconds = times.0;
@@ -328,7 +329,13 @@ mod tests {
         let mut m = Mesh::default();
         shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
         m.positions[3][0] = f32::INFINITY;
-        let ok = |name: &str| Object::new(name, { let mut m = Mesh::default(); shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE); m });
+        let ok = |name: &str| {
+            Object::new(name, {
+                let mut m = Mesh::default();
+                shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
+                m
+            })
+        };
         let e = node_table(vec![ok("a"), ok("b"), Object::new("boxy", m)], &BuildOptions::default()).unwrap_err();
         assert!(e.to_string().contains("object 2 (boxy)") && e.to_string().contains("non-finite"), "{e}");
     }
@@ -362,7 +369,8 @@ mod tests {
         for most in [1, 30, 100, 400, u64::MAX] {
             let b = buckets(&tree, &triangles, most);
             let roots: Vec<u32> = b.iter().flatten().copied().collect();
-            let mut leaves: Vec<u32> = crate::subtree::layers(&tree, &roots, |_| false).into_iter().flatten().filter_map(|id| tree[id as usize].item).collect();
+            let mut leaves: Vec<u32> =
+                crate::subtree::layers(&tree, &roots, |_| false).into_iter().flatten().filter_map(|id| tree[id as usize].item).collect();
             leaves.sort();
             assert_eq!(leaves, (0..50).collect::<Vec<_>>(), "most {most}");
             for bucket in &b {

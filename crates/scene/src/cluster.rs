@@ -61,7 +61,11 @@ pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRe
         // Along the Morton curve of the triangles' centroids, a cluster ends at MAX_TRIANGLES
         // triangles or MAX_VERTICES vertices (which keeps it compact where the curve jumps).
         order.clear();
-        order.extend(bin.chunks_exact(3).enumerate().map(|(k, t)| (morton(&space, t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0), k as u32)));
+        order.extend(
+            bin.chunks_exact(3)
+                .enumerate()
+                .map(|(k, t)| (morton(&space, t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0), k as u32)),
+        );
         order.sort_unstable();
         let mut first_index = indices.len() as u32;
         let mut vertices = 0;
@@ -92,7 +96,14 @@ pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRe
 
 /// The cluster of `indices[first_index..]`: its bounds and cone (meshopt's), and the box of its
 /// closed parts or object.
-fn cluster(mesh: &Mesh, adapter: &meshopt::VertexDataAdapter, parts: &Parts, object: Option<Aabb>, indices: &[u32], first_index: u32) -> ClusterRecord {
+fn cluster(
+    mesh: &Mesh,
+    adapter: &meshopt::VertexDataAdapter,
+    parts: &Parts,
+    object: Option<Aabb>,
+    indices: &[u32],
+    first_index: u32,
+) -> ClusterRecord {
     let cluster = &indices[first_index as usize..];
     let b = meshopt::compute_cluster_bounds(cluster, adapter);
     let closed = parts.closed_box(cluster).or(object);

@@ -53,7 +53,12 @@ impl Spill {
     }
 
     pub fn append(&mut self, m: &Mesh) -> std::io::Result<SpillRef> {
-        let r = SpillRef { offset: self.at, vertices: m.positions.len() as u32, indices: m.indices.len() as u32, colored: !m.colors.is_empty() };
+        let r = SpillRef {
+            offset: self.at,
+            vertices: m.positions.len() as u32,
+            indices: m.indices.len() as u32,
+            colored: !m.colors.is_empty(),
+        };
         let mut bytes = Vec::with_capacity(r.bytes());
         bytes.extend_from_slice(bytemuck::cast_slice(&m.positions));
         bytes.extend_from_slice(m.colors.as_flattened());

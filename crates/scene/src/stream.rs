@@ -97,10 +97,9 @@ pub fn stream(
         report.left_out.push(format!("the model's colours of {colors_dropped} objects (--colors hashed)"));
     }
     if clean_stats.degenerate_triangles > 0 {
-        report.left_out.push(format!(
-            "{} degenerate triangles (repeated index or zero area): they cover no pixel",
-            clean_stats.degenerate_triangles
-        ));
+        report
+            .left_out
+            .push(format!("{} degenerate triangles (repeated index or zero area): they cover no pixel", clean_stats.degenerate_triangles));
     }
     if !empty.is_empty() {
         let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();

@@ -65,7 +65,8 @@ pub fn read(tree: &[BvhNode], chunks: &[Chunk], spill: &Sealed, roots: &[u32]) -
 pub fn layers(tree: &[BvhNode], roots: &[u32], stop: impl Fn(u32) -> bool) -> Vec<Vec<u32>> {
     let mut layers = vec![roots.to_vec()];
     loop {
-        let next: Vec<u32> = layers.last().expect("roots").iter().flat_map(|&id| tree[id as usize].children.clone()).filter(|&c| !stop(c)).collect();
+        let next: Vec<u32> =
+            layers.last().expect("roots").iter().flat_map(|&id| tree[id as usize].children.clone()).filter(|&c| !stop(c)).collect();
         if next.is_empty() {
             return layers;
         }
@@ -100,10 +101,18 @@ impl<'a> Built<'a> {
     }
 
     /// LOD chains of `leaves`, whose chunks are `meshes`.
-    fn leaves(&mut self, leaves: &[u32], meshes: Vec<Mesh>, w: &mut SceneWriter, times: &mut Times, progress: &dyn Progress) -> Result<(), BuildError> {
+    fn leaves(
+        &mut self,
+        leaves: &[u32],
+        meshes: Vec<Mesh>,
+        w: &mut SceneWriter,
+        times: &mut Times,
+        progress: &dyn Progress,
+    ) -> Result<(), BuildError> {
         let chunk = |id: u32| &self.chunks[self.tree[id as usize].item.expect("a leaf") as usize];
         let min_error = self.min_error;
-        let chains: Vec<(Vec<Level>, LodStats)> = times.run("lod", || meshes.into_par_iter().map(|m| crate::lod::chain(m, min_error)).collect());
+        let chains: Vec<(Vec<Level>, LodStats)> =
+            times.run("lod", || meshes.into_par_iter().map(|m| crate::lod::chain(m, min_error)).collect());
         let encoded: Vec<Vec<Encoded>> = times.run("encode", || {
             chains
                 .par_iter()
@@ -135,7 +144,8 @@ impl<'a> Built<'a> {
         let min_error = self.min_error;
         let hlods: Vec<Result<Level, NoHlod>> =
             times.run("hlod", || parts.par_iter().map(|p| crate::hlod::build(&p.iter().collect::<Vec<_>>(), min_error)).collect());
-        let encoded: Vec<Option<Encoded>> = times.run("encode", || hlods.par_iter().map(|h| h.as_ref().ok().map(|h| encode(&h.mesh, None))).collect());
+        let encoded: Vec<Option<Encoded>> =
+            times.run("encode", || hlods.par_iter().map(|h| h.as_ref().ok().map(|h| encode(&h.mesh, None))).collect());
         for ((&g, (hlod, parts)), e) in groups.iter().zip(hlods.into_iter().zip(parts)).zip(encoded) {
             let coarse = match (hlod, e) {
                 (Ok(h), Some(e)) => {
@@ -154,10 +164,19 @@ impl<'a> Built<'a> {
     }
 
     /// Writes node `id`'s levels and their blocks.
-    fn push(&mut self, id: u32, levels: &[Level], object: u32, blocks: Vec<Encoded>, w: &mut SceneWriter, times: &mut Times) -> Result<(), BuildError> {
+    fn push(
+        &mut self,
+        id: u32,
+        levels: &[Level],
+        object: u32,
+        blocks: Vec<Encoded>,
+        w: &mut SceneWriter,
+        times: &mut Times,
+    ) -> Result<(), BuildError> {
         let start = self.levels.len() as u32;
         for (l, e) in levels.iter().zip(blocks) {
-            let block = times.run("write", || w.block(e)).map_err(|e| BuildError::Write { path: w.path().display().to_string(), error: e })?;
+            let block =
+                times.run("write", || w.block(e)).map_err(|e| BuildError::Write { path: w.path().display().to_string(), error: e })?;
             let b = l.mesh.bounds();
             let record = NodeRecord {
                 bbox_min: b.min.into(),

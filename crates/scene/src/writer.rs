@@ -2,9 +2,9 @@
 //! to the blob as soon as they are encoded, and the node and block tables, known only at the
 //! end, follow the blob. Nothing of the geometry stays in memory once written.
 
+use crate::append::Appender;
 use crate::format::{BLOCK_BYTES, BlockRecord, Header, MAGIC, NONE, NodeKind, NodeRecord, VERSION};
 use crate::limits::BLOCK_ALIGN;
-use crate::append::Appender;
 use crate::mesh::Mesh;
 use rayon::prelude::*;
 use std::io::{Seek, Write};

@@ -57,7 +57,8 @@ impl Site {
     /// A site whose buildings hold at most `building` triangles each.
     fn sized(triangles: u64, seed: u64, building: u64) -> Site {
         // Measure the average bay on a sample, then lay out as many bays as the budget pays for.
-        let sample: u64 = (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed, Vec3::ZERO, Vec3::splat(BAY * 100.0)))).sum::<u64>() / 16;
+        let sample: u64 =
+            (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed, Vec3::ZERO, Vec3::splat(BAY * 100.0)))).sum::<u64>() / 16;
         // Buildings (each about twice as wide as deep) on a full grid about as wide as it is
         // deep: no empty lot, so a walk through the site walks through buildings.
         let at_least = triangles.div_ceil(building).max(1);
@@ -297,7 +298,10 @@ mod tests {
             // The declared bounds are tight: within a pipe's reach of the true ones.
             assert!((lo - min).max_element() < 1.0 && (max - hi).max_element() < 1.0, "{lo}..{hi} vs {min}..{max}");
             let walls = objects.iter().filter(|o| o.name.starts_with("wall 0 floor 0")).count() as u64;
-            assert!(walls >= triangles.div_ceil(building) && walls <= triangles.div_ceil(building) + 2, "{walls} buildings for {building} triangles each");
+            assert!(
+                walls >= triangles.div_ceil(building) && walls <= triangles.div_ceil(building) + 2,
+                "{walls} buildings for {building} triangles each"
+            );
             let total = triangles_of(&objects) as f64;
             assert!((total / triangles as f64 - 1.0).abs() < 0.15, "{total} triangles for a budget of {triangles}");
         }
