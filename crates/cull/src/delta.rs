@@ -40,6 +40,14 @@ pub fn apply(prev: &[u32], removed: &[u32], added: &[u32]) -> Vec<u32> {
     out
 }
 
+/// Frame i's change in batches of at most `b` added and `b` removed ids (sec. 3.5), so that
+/// OR draws the first additions while HC still sends.
+pub fn batches<'a>(added: &'a [u32], removed: &'a [u32], b: usize) -> impl Iterator<Item = (&'a [u32], &'a [u32])> {
+    let part = move |v: &'a [u32], k: usize| &v[(k * b).min(v.len())..((k + 1) * b).min(v.len())];
+    let n = added.len().div_ceil(b).max(removed.len().div_ceil(b));
+    (0..n).map(move |k| (part(added, k), part(removed, k)))
+}
+
 /// V(i) as the messages of frame i build it (paper 000 sec. 3.4), the same for OR and RVG:
 /// batches of deltas against V(i-1), or a keyframe, the whole V(i).
 #[derive(Debug, Default)]
@@ -97,6 +105,15 @@ mod tests {
         diff(&[1, 2, 5], &[2, 3, 5, 9], &mut a, &mut r);
         assert_eq!((a.as_slice(), r.as_slice()), (&[3, 9][..], &[1][..]));
         assert_eq!(apply(&[1, 2, 5], &r, &a), vec![2, 3, 5, 9]);
+    }
+
+    #[test]
+    fn batches_hold_at_most_b_ids_of_each_kind_additions_first() {
+        let (added, removed) = ([1, 2, 3, 4, 5], [8, 9]);
+        let b: Vec<_> = batches(&added, &removed, 2).collect();
+        assert_eq!(b, vec![(&[1, 2][..], &[8, 9][..]), (&[3, 4][..], &[][..]), (&[5][..], &[][..])]);
+        assert_eq!(batches(&[], &[], 2).count(), 0);
+        assert_eq!(batches(&[], &removed, 1).map(|(a, r)| (a.len(), r.len())).collect::<Vec<_>>(), vec![(0, 1), (0, 1)]);
     }
 
     proptest! {

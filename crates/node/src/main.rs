@@ -4,7 +4,9 @@
 //!
 //! Exit codes: 0 after the display's goodbye, 1 on any error (message on stderr).
 
+mod inbox;
 mod link;
+mod roles;
 mod switch;
 
 use clap::Parser;
@@ -39,7 +41,7 @@ struct Args {
     adaptive: f64,
     /// Longest wait for the peer or the display, seconds (a first frame at full detail of a
     /// huge scene may need more than the default).
-    #[arg(long, default_value_t = switch::WAIT.as_secs_f64(), value_name = "SECS")]
+    #[arg(long, default_value_t = inbox::WAIT.as_secs_f64(), value_name = "SECS")]
     frame_timeout: f64,
     /// Write this node's per-frame statistics (CSV) here.
     #[arg(long)]
@@ -93,10 +95,11 @@ fn run(a: &Args) -> anyhow::Result<()> {
     if let Some(peer) = &peer {
         rt.spawn(link::keep_connected(peer.clone(), me.clone(), events_tx, Arc::clone(&gate)));
     }
-    let mut sw = switch::Switch::new(index, set.batch, a.full, renderer, events, gate);
-    sw.adaptive = a.adaptive;
-    sw.wait =
+    let mut io = inbox::Inbox::new(index, events, gate);
+    io.wait =
         std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
+    let mut sw = switch::Switch::new(set.batch, a.full, renderer, io);
+    sw.adaptive = a.adaptive;
     let log = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);
@@ -106,8 +109,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
         Err(e) => Err(e),
     };
     sw.goodbye(if log.is_ok() { "done" } else { "error" });
-    if sw.peer_losses + sw.peer_rejoins > 0 || sw.cameras_dropped() > 0 {
-        tracing::warn!("{} peer losses, {} rejoins, {} cameras dropped", sw.peer_losses, sw.peer_rejoins, sw.cameras_dropped());
+    let (roles, dropped) = (&sw.io.roles, sw.io.cameras_dropped());
+    if roles.peer_losses + roles.peer_rejoins > 0 || dropped > 0 {
+        tracing::warn!("{} peer losses, {} rejoins, {dropped} cameras dropped", roles.peer_losses, roles.peer_rejoins);
     }
     let log = log?;
     if let Some(p) = &a.stats {

@@ -1,0 +1,247 @@
+//! What the frame loop hears and sends: the connections' events, the display's cameras, the
+//! peer's messages, and the [`Roles`] they change. Waits are bounded (`--frame-timeout`).
+
+use crate::link::{CameraGate, Event, MAX_CAMERAS};
+use crate::roles::{self, Display, Forget, Roles};
+use osw_wire::messages::{CameraPacket, Keyframe, Message, Role};
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::Arc;
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+use tokio::sync::mpsc::UnboundedSender;
+
+/// Longest wait for a camera or a peer message before the node gives up.
+pub const WAIT: Duration = Duration::from_secs(30);
+
+/// A connection the frame loop sends on, and which one it is.
+struct Link {
+    id: u64,
+    out: UnboundedSender<Message>,
+}
+
+pub struct Inbox {
+    pub roles: Roles,
+    /// Longest wait for the peer or the display.
+    pub wait: Duration,
+    /// Bytes sent on each link in the current frame: peer, display.
+    pub sent: [u64; 2],
+    events: Receiver<Event>,
+    gate: Arc<CameraGate>,
+    peer: Option<Link>,
+    display: Option<Link>,
+    /// Cameras by frame, with their arrival times.
+    cameras: BTreeMap<u64, (CameraPacket, u64)>,
+    peer_queue: VecDeque<(Message, u64)>,
+    /// Cameras dropped here (the oldest, when more than MAX_CAMERAS are held); the gate
+    /// counts those dropped on arrival.
+    old_cameras_dropped: u64,
+}
+
+impl Inbox {
+    pub fn new(index: u64, events: Receiver<Event>, gate: Arc<CameraGate>) -> Inbox {
+        Inbox {
+            roles: Roles::new(index),
+            wait: WAIT,
+            sent: [0; 2],
+            events,
+            gate,
+            peer: None,
+            display: None,
+            cameras: BTreeMap::new(),
+            peer_queue: VecDeque::new(),
+            old_cameras_dropped: 0,
+        }
+    }
+
+    /// Cameras from the display that were dropped: too many at once (a flood, or cameras
+    /// that piled up while this node was out of the switch).
+    pub fn cameras_dropped(&self) -> u64 {
+        self.old_cameras_dropped + self.gate.dropped()
+    }
+
+    /// Handles what has arrived, without waiting.
+    pub fn drain(&mut self) {
+        while let Ok(e) = self.events.try_recv() {
+            self.handle(e);
+        }
+    }
+
+    fn handle(&mut self, e: Event) {
+        let forget = match e {
+            Event::FromDisplay(Message::Camera(c), at) => {
+                self.gate.taken();
+                self.cameras.insert(c.frame, (c, at));
+                // The newest cameras are kept (sec. 4.8.1: the newest camera wins). Many pile
+                // up only while this node is not taking part: a restarted node waiting for its
+                // keyframe, whose frame is then the display's newest but two.
+                if self.cameras.len() > MAX_CAMERAS {
+                    self.cameras.pop_first();
+                    self.old_cameras_dropped += 1;
+                    if self.old_cameras_dropped == 1 {
+                        tracing::warn!("more than {MAX_CAMERAS} cameras held: dropping the oldest");
+                    }
+                }
+                Forget::default()
+            }
+            Event::FromDisplay(Message::Goodbye(_), _) => self.roles.on(roles::Event::DisplayGoodbye),
+            // The peer's connection ends next: its loss is handled then (the display's goodbye
+            // ends this node, not the peer's, which may have failed).
+            Event::FromPeer(Message::Goodbye(g), _) => {
+                tracing::info!("the peer leaves: {}", g.reason);
+                Forget::default()
+            }
+            Event::FromPeer(Message::Rejoin(r), _) => {
+                tracing::warn!("the peer rejoins: it gets a keyframe at the end of frame {} or later", r.next.saturating_sub(1));
+                self.roles.on(roles::Event::PeerRejoins { next: r.next })
+            }
+            Event::FromPeer(m, at) => {
+                self.peer_queue.push_back((m, at));
+                Forget::default()
+            }
+            Event::FromDisplay(m, _) => {
+                tracing::warn!("unexpected message from the display: {m:?}");
+                Forget::default()
+            }
+            Event::Connected { role, name, serving, id, out } => {
+                tracing::info!("{role:?} {name} connected{}", if role == Role::Node && serving { " (serving)" } else { "" });
+                let link = Some(Link { id, out });
+                match role {
+                    Role::Node => {
+                        self.peer = link;
+                        self.roles.on(roles::Event::PeerConnected { serving })
+                    }
+                    Role::Display => {
+                        self.display = link;
+                        let f = self.roles.on(roles::Event::DisplayConnected);
+                        if self.roles.display == Display::Restarted {
+                            tracing::warn!("a new display connected: starting over with its path");
+                        }
+                        f
+                    }
+                }
+            }
+            Event::Closed { role, id, why } => {
+                let link = match role {
+                    Role::Node => &mut self.peer,
+                    Role::Display => &mut self.display,
+                };
+                if link.as_ref().is_none_or(|l| l.id != id) {
+                    return;
+                }
+                *link = None;
+                if self.roles.display != Display::Done {
+                    tracing::warn!("{role:?} connection lost ({why}){}", if role == Role::Node { ": running both roles" } else { "" });
+                }
+                match role {
+                    Role::Node => self.roles.on(roles::Event::PeerLost),
+                    Role::Display => Forget::default(),
+                }
+            }
+        };
+        self.forget(forget);
+    }
+
+    pub fn forget(&mut self, f: Forget) {
+        if f.peer_messages {
+            self.peer_queue.clear();
+        }
+        if f.cameras {
+            self.cameras.clear();
+        }
+    }
+
+    /// Handles the next event, waiting at most until `deadline`: the end of the caller's whole
+    /// wait, which events that bring nothing it waits for (a camera flood) do not extend.
+    pub fn next_event(&mut self, what: &str, deadline: Instant) -> anyhow::Result<()> {
+        let left = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero());
+        let e = left
+            .and_then(|d| self.events.recv_timeout(d).ok())
+            .ok_or_else(|| anyhow::anyhow!("waited {:?} for {what} (--frame-timeout)", self.wait))?;
+        self.handle(e);
+        Ok(())
+    }
+
+    /// Waits until the display and the peer are connected.
+    pub fn connected(&mut self) -> anyhow::Result<()> {
+        let deadline = Instant::now() + self.wait;
+        while self.display.is_none() || self.peer.is_none() {
+            self.next_event("the display and the peer to connect", deadline)?;
+        }
+        Ok(())
+    }
+
+    /// The frame of the display's first camera, or `None` when it said goodbye first.
+    pub fn first_camera(&mut self, what: &str) -> anyhow::Result<Option<u64>> {
+        let deadline = Instant::now() + self.wait;
+        loop {
+            if let Some(&k) = self.cameras.keys().next() {
+                return Ok(Some(k));
+            }
+            if self.roles.display == Display::Done {
+                return Ok(None);
+            }
+            self.next_event(what, deadline)?;
+        }
+    }
+
+    /// The camera of frame `k` and its arrival time, or `None` when the display said goodbye
+    /// or restarted. With `newest_wins` (this node runs alone), when camera k was dropped, the
+    /// oldest camera after it: cameras arrive in order, so a newer one held means this node
+    /// fell behind (the other node, also alone while the link between them is cut, sets the
+    /// display's pace), and it catches up as sec. 4.8.1's receiver would, with the newest.
+    pub fn camera(&mut self, k: u64, newest_wins: bool) -> anyhow::Result<Option<(CameraPacket, u64)>> {
+        let deadline = Instant::now() + self.wait;
+        loop {
+            if let Some((&f, &c)) = self.cameras.range(k..).next().filter(|(f, _)| **f == k || newest_wins) {
+                // Older cameras are never needed again; camera f is, if this node takes over
+                // frame f after all.
+                self.cameras = self.cameras.split_off(&f.saturating_sub(1));
+                return Ok(Some(c));
+            }
+            if self.roles.display != Display::Playing {
+                return Ok(None);
+            }
+            self.next_event(&format!("camera {k}"), deadline)?;
+        }
+    }
+
+    /// The in-step peer's next message for frame i; `None` when the display said goodbye or
+    /// restarted, or the peer is gone or out of step (a new connection from a restarted peer).
+    pub fn peer_message(&mut self, i: u64) -> anyhow::Result<Option<(Message, u64)>> {
+        let deadline = Instant::now() + self.wait;
+        loop {
+            if let Some(m) = self.peer_queue.pop_front() {
+                return Ok(Some(m));
+            }
+            if self.roles.display != Display::Playing || !self.roles.peer_in_step() {
+                return Ok(None);
+            }
+            self.next_event(&format!("frame {i} from the peer"), deadline)?;
+        }
+    }
+
+    /// The keyframe the peer sent in answer to a rejoin, if it came; what it sent before
+    /// belongs to frames this node did not follow.
+    pub fn keyframe(&mut self) -> Option<Keyframe> {
+        while let Some((m, _)) = self.peer_queue.pop_front() {
+            if let Message::Keyframe(k) = m {
+                return Some(k);
+            }
+        }
+        None
+    }
+
+    pub fn send_peer(&mut self, m: Message) {
+        if let Some(l) = &self.peer {
+            self.sent[0] += osw_wire::frame_len(&m) as u64;
+            let _ = l.out.send(m);
+        }
+    }
+
+    pub fn send_display(&mut self, m: Message) {
+        if let Some(l) = &self.display {
+            self.sent[1] += osw_wire::frame_len(&m) as u64;
+            let _ = l.out.send(m);
+        }
+    }
+}
