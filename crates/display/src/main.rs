@@ -20,13 +20,14 @@ mod window;
 use clap::Parser;
 use osw_gpu::draw::Pass;
 use osw_render::output::{frame_path, push_ids, write_png};
+use osw_render::results::DisplayFrame;
 use osw_scene::Camera;
 use osw_scene::camera::DVec3;
 use osw_wire::clock::now_us;
 use osw_wire::config::{ClusterArgs, Settings};
 use osw_wire::messages::{Goodbye, Hello, Message, Role};
 use receive::Frames;
-use stats::{FrameRow, write_outputs};
+use stats::write_outputs;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -146,7 +147,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         }
         requested = k + 1;
     }
-    let mut rows: Vec<FrameRow> = Vec::with_capacity(path.len());
+    let mut rows: Vec<DisplayFrame> = Vec::with_capacity(path.len());
     let mut pvs_txt = String::new();
     let mut clusters = osw_cull::cluster::ClusterHistory::default();
     let mut last = Instant::now();

@@ -3,8 +3,8 @@
 //! sec. 3.4).
 
 use crate::links::{self, Cluster, Note};
-use crate::stats::FrameRow;
 use osw_cull::delta::Assembly;
+use osw_render::results::DisplayFrame;
 use osw_wire::messages::{CameraPacket, Message};
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
@@ -64,8 +64,13 @@ impl Frames {
     /// Receives frame `i` and updates [`Frames::visible`] to V(i). Returns the frame's camera
     /// and its row with what arrived filled in; `prev` is frame i-1's row (its HC → OR link
     /// time is known only now).
-    pub fn frame(&mut self, i: u64, prev: Option<&mut FrameRow>, idle: &mut dyn FnMut()) -> anyhow::Result<(CameraPacket, FrameRow)> {
-        let mut row = FrameRow { frame: i, ..Default::default() };
+    pub fn frame(
+        &mut self,
+        i: u64,
+        prev: Option<&mut DisplayFrame>,
+        idle: &mut dyn FnMut(),
+    ) -> anyhow::Result<(CameraPacket, DisplayFrame)> {
+        let mut row = DisplayFrame { frame: i, ..Default::default() };
         // Frame i comes from the node that sends its camera first (the HC node, or the one
         // running alone); if that node is lost before its end of frame, from the other.
         let mut source: Option<(usize, CameraPacket)> = None;

@@ -4,12 +4,12 @@
 
 use crate::controls::{Action, Controls};
 use crate::overlay::Overlay;
-use crate::stats::FrameRow;
 use crate::window::{Input, KEYS, Window};
 use osw_cull::View;
 use osw_cull::states::classify;
 use osw_gpu::Renderer;
 use osw_gpu::draw::Pass;
+use osw_render::results::DisplayFrame;
 use osw_scene::Camera;
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -174,7 +174,7 @@ impl Ui {
         visible: &[u32],
         camera: &Camera,
         tau: f64,
-        row: &FrameRow,
+        row: &DisplayFrame,
     ) -> anyhow::Result<()> {
         if let Some(rec) = self.recording.as_mut() {
             rec.from = rec.from.min(row.frame);
@@ -219,7 +219,7 @@ impl Ui {
     }
 
     /// The overlay's text.
-    fn lines(&self, row: &FrameRow, tau: f64) -> Vec<String> {
+    fn lines(&self, row: &DisplayFrame, tau: f64) -> Vec<String> {
         let node = crate::links::NAMES.get(row.hc_node as usize).unwrap_or(&"?");
         let mut l = vec![
             format!("frame {}  {:.1} fps  latency {:.0} ms", row.frame, self.fps, row.latency_ms),

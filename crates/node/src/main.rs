@@ -115,23 +115,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     }
     let log = log?;
     if let Some(p) = &a.stats {
-        let mut csv = String::from("frame,role,ms,nodes_drawn,tests,ids_sent,batches,bytes_to_peer,bytes_to_display,rss_kb\n");
-        for f in &log {
-            csv.push_str(&format!(
-                "{},{},{:.3},{},{},{},{},{},{},{}\n",
-                f.frame,
-                f.duty.name(),
-                f.ms,
-                f.nodes_drawn,
-                f.tests,
-                f.ids_sent,
-                f.batches,
-                f.bytes_to_peer,
-                f.bytes_to_display,
-                f.rss_kb
-            ));
-        }
-        std::fs::write(p, csv)?;
+        osw_render::results::csv::write(p, &log)?;
     }
     // Let the writers flush the goodbye.
     std::thread::sleep(std::time::Duration::from_millis(50));

@@ -12,24 +12,7 @@
 //! stops serving and rejoins node a the same way. Each hello says whether its node has run
 //! frames (`serving`), so that node b does not stop for a peer that was only started anew.
 
-/// What a node does in a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Duty {
-    Hc,
-    Or,
-    /// OR and HC in turn, alone: the first frame, the peer gone, or handing it a keyframe.
-    Solo,
-}
-
-impl Duty {
-    pub fn name(self) -> &'static str {
-        match self {
-            Duty::Hc => "HC",
-            Duty::Or => "OR",
-            Duty::Solo => "SOLO",
-        }
-    }
-}
+pub use osw_render::results::Duty;
 
 /// The peer node, as this node knows it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

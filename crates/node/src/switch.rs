@@ -21,27 +21,11 @@ use osw_cull::delta::{Assembly, batches, diff};
 use osw_gpu::renderer::{HcTest, Renderer};
 use osw_render::mode::{draw_occluders, hc_pass};
 use osw_render::packet;
+use osw_render::results::NodeFrame;
 use osw_scene::NodeId;
 use osw_wire::clock::now_us;
 use osw_wire::messages::{Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Rejoin};
 use std::time::Instant;
-
-/// One frame of this node, for its statistics file.
-#[derive(Clone, Copy, Debug)]
-pub struct NodeFrame {
-    pub frame: u64,
-    pub duty: Duty,
-    pub ms: f64,
-    pub nodes_drawn: u32,
-    pub tests: u32,
-    pub ids_sent: u64,
-    /// Delta batches and bytes (frames as encoded) this node sent as HC, per link.
-    pub batches: u32,
-    pub bytes_to_peer: u64,
-    pub bytes_to_display: u64,
-    /// Resident memory at the end of the frame (a soak shows it flat).
-    pub rss_kb: u64,
-}
 
 pub struct Switch {
     pub batch: usize,
@@ -140,7 +124,7 @@ impl Switch {
         let ms = t.elapsed().as_secs_f64() * 1e3;
         Ok(Some(NodeFrame {
             frame: i,
-            duty,
+            role: duty,
             ms,
             nodes_drawn: drawn,
             tests: hc.tests,
@@ -219,7 +203,7 @@ impl Switch {
         let ms = t.elapsed().as_secs_f64() * 1e3;
         Ok(Some(NodeFrame {
             frame: i,
-            duty: Duty::Or,
+            role: Duty::Or,
             ms,
             nodes_drawn: drawn,
             tests: 0,

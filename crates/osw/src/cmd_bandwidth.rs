@@ -13,9 +13,10 @@
 //! LOD nodes: a leaf that stays visible and changes LOD costs the run two ids and exact
 //! visibility none, so this is what the walk itself changes, not a bound on the run.
 
-use crate::columns::{Columns, mean};
+use crate::columns::mean;
 use crate::plot::{Chart, Series};
-use anyhow::{Context, bail};
+use anyhow::bail;
+use osw_render::results::{self, DisplayFrame, NodeFrame, Summary};
 use osw_wire::{CameraPacket, Delta, IdList, Message};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -56,28 +57,23 @@ struct Traffic {
 
 impl Traffic {
     fn read(dir: &Path) -> anyhow::Result<Traffic> {
-        let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json"))?)
-            .with_context(|| format!("{}: summary.json", dir.display()))?;
-        if summary["mode"] != "switch" {
-            bail!("{} is not a switch run (osw run)", dir.display());
-        }
-        let display = Columns::read(&dir.join("stats.csv"))?;
+        let summary = Summary::read(dir)?;
+        let Some(sw) = summary.switch() else { bail!("{} is not a switch run (osw run): its mode is {}", dir.display(), summary.mode) };
+        let display: Vec<DisplayFrame> = results::csv::read(&dir.join("stats.csv"))?;
         let frames = display.len();
         // Each frame's HC node sent it: the two nodes' rows added by frame.
-        let by_frame = |col: &str| -> anyhow::Result<Vec<f64>> {
-            let mut v = vec![0.0; frames];
-            for node in ["node-a.csv", "node-b.csv"] {
-                let t = Columns::read(&dir.join(node))?;
-                for (f, x) in t.get("frame")?.into_iter().zip(t.get(col)?) {
-                    match v.get_mut(f as usize) {
-                        Some(slot) if f.fract() == 0.0 && f >= 0.0 && x.is_finite() => *slot += x,
-                        _ => bail!("{}: frame {f}, {col} {x}: not a frame of this run", dir.join(node).display()),
-                    }
-                }
+        let (mut batches, mut hc_to_rvg, mut hc_to_or) = (vec![0.0; frames], vec![0.0; frames], vec![0.0; frames]);
+        for node in ["node-a.csv", "node-b.csv"] {
+            let path = dir.join(node);
+            for f in results::csv::read::<NodeFrame>(&path)? {
+                let Some(k) = usize::try_from(f.frame).ok().filter(|&k| k < frames) else {
+                    bail!("{}: frame {}: not a frame of this run ({frames} frames)", path.display(), f.frame)
+                };
+                batches[k] += f.batches as f64;
+                hc_to_rvg[k] += f.bytes_to_display as f64;
+                hc_to_or[k] += f.bytes_to_peer as f64;
             }
-            Ok(v)
-        };
-        let (batches, hc_to_rvg, hc_to_or) = (by_frame("batches")?, by_frame("bytes_to_display")?, by_frame("bytes_to_peer")?);
+        }
         let camera = Message::Camera(CameraPacket {
             frame: frames as u64,
             position: [0.0; 3],
@@ -88,15 +84,15 @@ impl Traffic {
         });
         let empty = Message::Delta(Delta { frame: frames as u64, added: IdList::default(), removed: IdList::default() });
         Ok(Traffic {
-            ids: display.get("ids_sent")?,
-            visible: display.get("ids_full")?,
+            ids: display.iter().map(|f| f.ids_sent as f64).collect(),
+            visible: display.iter().map(|f| f.ids_full as f64).collect(),
             batches,
             hc_to_rvg,
             hc_to_or,
             rvg_cameras: 2.0 * osw_wire::frame_len(&camera) as f64,
             header: osw_wire::frame_len(&empty) as f64,
-            batch: summary["batch"].as_f64().unwrap_or(osw_wire::limits::DEFAULT_BATCH_IDS as f64),
-            frame_ms_median: summary["frame_ms_median"].as_f64().unwrap_or(0.0),
+            batch: sw.batch as f64,
+            frame_ms_median: summary.frame_ms_median,
         })
     }
 

@@ -2,10 +2,10 @@
 //! each run's culling error (false-culled leaves, PVS/exact for leaves and triangles).
 
 use crate::columns::Columns;
-use anyhow::{Context, bail};
+use anyhow::bail;
 use osw_render::compare::{CullError, ImageError, cull_error, image_error};
 use osw_render::output::{frame_path, read_ids, read_png};
-use serde::Serialize;
+use osw_render::results::{self, Compare, Culling, Summary};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -28,7 +28,7 @@ pub struct Args {
     out: PathBuf,
 }
 
-#[derive(Serialize, Default)]
+#[derive(Default)]
 struct FrameRow {
     frame: usize,
     image: Option<ImageError>,
@@ -36,57 +36,14 @@ struct FrameRow {
     b: Option<CullError>,
 }
 
-#[derive(Serialize, Default)]
-struct Side {
-    false_culled_leaves_total: u64,
-    frames_with_false_culling: u64,
-    pvs_exact_leaves_ratio_mean: f64,
-    pvs_exact_triangles_ratio_mean: f64,
-    /// Triangles drawn (stats.csv: after cluster culling inside the PVS's nodes) over exactly
-    /// visible triangles; none for a run without stats.csv.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    drawn_exact_triangles_ratio_mean: Option<f64>,
-    /// Against `--exact-lod`: nodes visible at the runs' tau that the PVS does not draw.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    lod_false_culled_total: Option<u64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    lod_frames_with_false_culling: Option<u64>,
-}
-
-#[derive(Serialize, Default)]
-struct Report {
-    a: String,
-    b: String,
-    exact: Option<String>,
-    frames: usize,
-    identical_frames: usize,
-    psnr_db_min: Option<f64>,
-    psnr_db_median: Option<f64>,
-    differing_fraction_mean: f64,
-    differing_fraction_max: f64,
-    max_channel_diff: u8,
-    /// Run time next to the error: each run's median frame time, and b's over a's.
-    frame_ms_median_a: f64,
-    frame_ms_median_b: f64,
-    speedup_a_over_b: f64,
-    culling_a: Option<Side>,
-    culling_b: Option<Side>,
-}
-
-fn summary(dir: &Path) -> anyhow::Result<serde_json::Value> {
-    let p = dir.join("summary.json");
-    serde_json::from_str(&std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?)
-        .with_context(|| format!("parsing {}", p.display()))
-}
-
-fn side(errors: &[CullError]) -> Side {
+fn side(errors: &[CullError]) -> Culling {
     let n = errors.len().max(1) as f64;
-    Side {
+    Culling {
         false_culled_leaves_total: errors.iter().map(|e| e.false_culled_leaves as u64).sum(),
         frames_with_false_culling: errors.iter().filter(|e| e.false_culled_leaves > 0).count() as u64,
         pvs_exact_leaves_ratio_mean: errors.iter().map(CullError::leaf_ratio).sum::<f64>() / n,
         pvs_exact_triangles_ratio_mean: errors.iter().map(CullError::triangle_ratio).sum::<f64>() / n,
-        ..Side::default()
+        ..Culling::default()
     }
 }
 
@@ -101,11 +58,11 @@ fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<u
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let (sa, sb) = (summary(&a.a)?, summary(&a.b)?);
-    if sa["scene_hash"] != sb["scene_hash"] {
-        bail!("{} and {} were rendered from different scenes ({} vs {})", a.a.display(), a.b.display(), sa["scene_hash"], sb["scene_hash"]);
+    let (sa, sb) = (Summary::read(&a.a)?, Summary::read(&a.b)?);
+    if sa.scene_hash != sb.scene_hash {
+        bail!("{} and {} were rendered from different scenes ({} vs {})", a.a.display(), a.b.display(), sa.scene_hash, sb.scene_hash);
     }
-    let frames = sa["frames"].as_u64().unwrap_or(0).min(sb["frames"].as_u64().unwrap_or(0)) as usize;
+    let frames = sa.frames.min(sb.frames) as usize;
     let mut rows: Vec<FrameRow> = (0..frames).map(|frame| FrameRow { frame, ..Default::default() }).collect();
     let have_frames = frame_path(&a.a, 0).exists() && frame_path(&a.b, 0).exists();
     if have_frames {
@@ -118,11 +75,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             row.image = Some(image_error(&pa, &pb));
         }
     }
-    let ms = |s: &serde_json::Value, dir: &Path| {
-        s["frame_ms_median"].as_f64().with_context(|| format!("{}: summary.json has no frame_ms_median", dir.display()))
-    };
-    let (ms_a, ms_b) = (ms(&sa, &a.a)?, ms(&sb, &a.b)?);
-    let mut report = Report {
+    let (ms_a, ms_b) = (sa.frame_ms_median, sb.frame_ms_median);
+    let mut report = Compare {
         a: a.a.display().to_string(),
         b: a.b.display().to_string(),
         frames,
@@ -132,8 +86,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ..Default::default()
     };
     if let Some(exact) = &a.exact {
-        let scene_path = sa["scene"].as_str().context("summary.json of --a names no scene")?;
-        let scene = osw_scene::SceneFile::open(Path::new(scene_path))?;
+        let scene = osw_scene::SceneFile::open(Path::new(&sa.scene))?;
         let (leaves, tris) = read_exact(exact, frames)?;
         let lod = a.exact_lod.as_deref().map(|d| read_exact(d, frames)).transpose()?;
         for (which, dir) in [(0, &a.a), (1, &a.b)] {
@@ -179,7 +132,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     report.max_channel_diff = images.iter().map(|i| i.max_channel_diff).max().unwrap_or(0);
 
     std::fs::create_dir_all(&a.out)?;
-    std::fs::write(a.out.join("compare.json"), serde_json::to_string_pretty(&report)?)?;
+    results::write_json(&a.out.join("compare.json"), &report)?;
     let mut csv = String::from(
         "frame,psnr_db,differing_fraction,max_channel_diff,a_false_culled,a_leaf_ratio,a_triangle_ratio,b_false_culled,b_leaf_ratio,b_triangle_ratio\n",
     );

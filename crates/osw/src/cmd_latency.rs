@@ -4,9 +4,8 @@
 //! estimated at start-up (NTP-style, `osw_wire::clock`), so they hold across machines too.
 //! Given several runs (e.g. one per link delay), a table over them and one curve per run.
 
-use crate::columns::Columns;
 use crate::plot::{Chart, Series};
-use anyhow::Context;
+use osw_render::results::{self, DisplayFrame, Summary};
 use osw_render::stats::quantile;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -22,12 +21,15 @@ pub struct Args {
     out: PathBuf,
 }
 
+/// A column of the display's frames.
+type Column = fn(&DisplayFrame) -> f64;
+
 /// The display's columns and what each measures.
-const LINKS: [(&str, &str); 4] = [
-    ("latency_ms", "camera sample to displayed frame"),
-    ("camera_link_ms", "RVG → HC (camera)"),
-    ("eof_link_ms", "HC → RVG (end of frame)"),
-    ("peer_link_ms", "HC → OR (end of frame)"),
+const LINKS: [(&str, &str, Column); 4] = [
+    ("latency_ms", "camera sample to displayed frame", |f| f.latency_ms),
+    ("camera_link_ms", "RVG → HC (camera)", |f| f.camera_link_ms),
+    ("eof_link_ms", "HC → RVG (end of frame)", |f| f.eof_link_ms),
+    ("peer_link_ms", "HC → OR (end of frame)", |f| f.peer_link_ms),
 ];
 
 #[derive(Serialize)]
@@ -55,13 +57,13 @@ struct Run {
 }
 
 fn read(dir: &Path) -> anyhow::Result<Run> {
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json"))?)
-        .with_context(|| format!("{}: summary.json", dir.display()))?;
-    let t = Columns::read(&dir.join("stats.csv"))?;
-    let frames = t.len();
+    let summary = Summary::read(dir)?;
+    let Some(sw) = summary.switch() else { anyhow::bail!("{} is not a switch run (osw run): its mode is {}", dir.display(), summary.mode) };
+    let rows: Vec<DisplayFrame> = results::csv::read(&dir.join("stats.csv"))?;
+    let frames = rows.len();
     let (mut latency, mut per_frame) = (Vec::new(), Vec::new());
-    for (column, what) in LINKS {
-        let mut v = t.get(column).with_context(|| format!("{}: stats.csv", dir.display()))?;
+    for (column, what, of) in LINKS {
+        let mut v: Vec<f64> = rows.iter().map(of).collect();
         if column == "peer_link_ms" {
             // The last frame's end of frame reaches no OR.
             v.truncate(frames.saturating_sub(1));
@@ -73,15 +75,14 @@ fn read(dir: &Path) -> anyhow::Result<Run> {
         .ok()
         .and_then(|l| Some(l.lines().next()?.split_once(": ")?.1.to_owned()))
         .unwrap_or_else(|| "loopback".into());
-    let f = |k: &str| summary[k].as_f64().unwrap_or(0.0);
     Ok(Run {
         run: dir.display().to_string(),
         links,
         frames,
-        clock_offset_a_us: f("clock_offset_a_us"),
-        clock_offset_b_us: f("clock_offset_b_us"),
-        clock_rtt_a_us: f("clock_rtt_a_us"),
-        clock_rtt_b_us: f("clock_rtt_b_us"),
+        clock_offset_a_us: sw.clock_offset_a_us,
+        clock_offset_b_us: sw.clock_offset_b_us,
+        clock_rtt_a_us: sw.clock_rtt_a_us,
+        clock_rtt_b_us: sw.clock_rtt_b_us,
         latency,
         per_frame,
     })
@@ -129,7 +130,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         [r] => LINKS
             .iter()
             .zip(&r.per_frame)
-            .map(|((_, what), v)| Series { name: (*what).into(), points: points(v), point_labels: vec![], bold: false })
+            .map(|((_, what, _), v)| Series { name: (*what).into(), points: points(v), point_labels: vec![], bold: false })
             .collect(),
         _ => runs
             .iter()

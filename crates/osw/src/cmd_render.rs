@@ -74,7 +74,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.mode != Mode::Ovc && (a.budget.is_some() || a.sampling > 1) {
         anyhow::bail!("--budget and --sampling are ovc's (paper 003); --mode is {}", a.mode.name());
     }
-    if !matches!(a.mode, Mode::Ovc | Mode::Prev) && a.adaptive > 0.0 {
+    if a.mode == Mode::Switch {
+        anyhow::bail!("--mode switch: the switch runs on two nodes and a display, `osw run` (its algorithm on one GPU is prev)");
+    }
+    if !a.mode.adaptive() && a.adaptive > 0.0 {
         anyhow::bail!("--adaptive is ovc's and prev's (paper 003 eq. 1); --mode is {}", a.mode.name());
     }
     let (cams, mut r) = a.walk.open()?;
@@ -93,12 +96,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let s = render_path(&mut r, &cams, &spec, &|| bar.inc(1));
     bar.finish_and_clear();
     let s = s?;
-    out!(
-        "left out: {} of {} geometry blocks never drawn, never read from the scene file ({:.0}% of its geometry)",
-        s.blocks_never_loaded,
-        s.blocks_total,
-        s.geometry_never_loaded_fraction * 100.0
-    );
+    if let Some(d) = s.render() {
+        out!(
+            "left out: {} of {} geometry blocks never drawn, never read from the scene file ({:.0}% of its geometry)",
+            d.blocks_never_loaded,
+            d.blocks_total,
+            d.geometry_never_loaded_fraction * 100.0
+        );
+    }
     out!(
         "left out: of the PVS's {:.0} clusters a frame, {:.0}% outside the frustum, {:.0}% facing away, {:.0}% hidden",
         s.clusters_mean,

@@ -10,10 +10,10 @@
 
 use crate::columns::{Columns, mean};
 use crate::plot::{Chart, Series};
-use crate::walk_args::{SWITCH, WalkArgs};
+use crate::walk_args::WalkArgs;
 use anyhow::{Context, bail};
-use serde::Serialize;
-use serde_json::Value;
+use osw_render::Mode;
+use osw_render::results::{self, Compare, Entry, Report, Summary, Traffic};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -27,7 +27,7 @@ pub struct Args {
     taus: Vec<f64>,
     /// Modes to run: vfc, sw, chc, hzb, prev, ovc (single process) and switch (`osw run`).
     #[arg(long, value_delimiter = ',', default_value = "vfc,sw,chc,hzb,prev,switch,ovc")]
-    modes: Vec<String>,
+    modes: Vec<Mode>,
     /// Adaptive-culling thresholds (paper 003 eq. 1) to run ovc, prev and the switch at, each a
     /// point of its own (0: conservative).
     #[arg(long, value_delimiter = ',', default_value = "0")]
@@ -41,90 +41,8 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// One run of the report: a mode at a tau, its run time and its error.
-#[derive(Serialize, Default, Clone)]
-struct Entry {
-    mode: String,
-    tau: f64,
-    /// ovc's adaptive-culling threshold (0: conservative).
-    adaptive: f64,
-    frame_ms_median: f64,
-    frame_ms_p95: f64,
-    or_ms_median: f64,
-    hc_ms_median: f64,
-    rvg_ms_median: f64,
-    /// Frame time of `vfc` at the same tau over this run's median.
-    speedup_vs_vfc: Option<f64>,
-    triangles_drawn_mean: f64,
-    pvs_nodes_mean: f64,
-    tests_mean: f64,
-    /// RVG's clusters a frame and the shares culled inside the PVS's nodes (osw_cull::cluster).
-    clusters_mean: f64,
-    clusters_frustum_culled_fraction: f64,
-    clusters_cone_culled_fraction: f64,
-    clusters_occlusion_culled_fraction: f64,
-    pvs_exact_leaves: f64,
-    pvs_exact_triangles: f64,
-    /// Triangles drawn after cluster culling over exactly visible triangles.
-    drawn_exact_triangles: f64,
-    /// Leaves visible at full detail that the method does not draw (at tau > 0 also those
-    /// that coarse LODs hide: LOD error).
-    false_culled_leaves_total: u64,
-    frames_with_false_culling: u64,
-    /// Nodes visible at the run's tau that the method does not draw: culling error alone.
-    false_culled_at_tau_total: u64,
-    /// Image error against `vfc` at tau 0 (full detail, nothing occlusion-culled).
-    psnr_db_median: Option<f64>,
-    psnr_db_min: Option<f64>,
-    identical_frames: u64,
-    differing_fraction_mean: f64,
-    differing_fraction_max: f64,
-    /// The switch's traffic and latency (its display's summary); none for the other modes.
-    traffic: Option<Traffic>,
-    /// Why the run failed, when it did; its other fields are then empty.
-    error: Option<String>,
-}
-
-/// What the switch sends (paper 000 sec. 3.5 and fig. 3) and how late frames are shown.
-#[derive(Serialize, Default, Clone)]
-struct Traffic {
-    ids_sent_mean: f64,
-    ids_full_mean: f64,
-    incremental_saved_fraction: f64,
-    /// All bytes HC sends RVG a frame: camera, deltas, end of frame.
-    bytes_per_frame_mean: f64,
-    /// Bytes of the id-carrying messages per id sent.
-    id_bytes_per_id: f64,
-    latency_ms_median: f64,
-    latency_ms_p95: f64,
-}
-
-#[derive(Serialize)]
-struct Report {
-    scene: String,
-    path: String,
-    width: u32,
-    height: u32,
-    frames: usize,
-    /// Triangles of the scene at full detail.
-    scene_triangles: u64,
-    exact_leaves_mean: f64,
-    exact_triangles_mean: f64,
-    runs: Vec<Entry>,
-}
-
-pub(crate) fn read_json(p: &Path) -> anyhow::Result<Value> {
-    serde_json::from_str(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
-        .with_context(|| format!("parsing {}", p.display()))
-}
-
-fn run_name(mode: &str, tau: f64, adaptive: f64) -> String {
+fn run_name(mode: Mode, tau: f64, adaptive: f64) -> String {
     if adaptive == 0.0 { format!("{mode}-tau{tau}") } else { format!("{mode}-tau{tau}-adaptive{adaptive}") }
-}
-
-/// A run as the tables name it: the mode, and its adaptive threshold when it has one.
-fn label(e: &Entry) -> String {
-    if e.adaptive == 0.0 { e.mode.clone() } else { format!("{} (adaptive {})", e.mode, e.adaptive) }
 }
 
 /// Runs `osw ARGS` with its output in `log`; on failure the error quotes the log's last line.
@@ -169,19 +87,15 @@ impl Plan<'_> {
         v
     }
 
-    /// What a run's summary.json (and the exact run's input.json) says it was made from.
-    fn input(&self) -> Value {
+    /// What a run or exact visibility was made from.
+    fn input(&self) -> Input {
         let w = &self.a.walk;
-        serde_json::json!({ "scene_hash": self.scene_hash, "path": w.path.display().to_string(), "width": w.size.0, "height": w.size.1 })
-    }
-
-    fn same_input(&self, file: &Path) -> bool {
-        read_json(file).is_ok_and(|s| self.input().as_object().is_some_and(|i| i.iter().all(|(k, v)| &s[k] == v)))
+        Input { scene_hash: self.scene_hash.clone(), path: w.path.display().to_string(), width: w.size.0, height: w.size.1 }
     }
 
     /// The run in `dir` is there, compared, from an earlier report on the same input.
     fn done(&self, dir: &Path) -> bool {
-        self.same_input(&dir.join("summary.json")) && dir.join("compare/compare.json").exists()
+        Summary::read(dir).is_ok_and(|s| Input::of(&s) == self.input()) && dir.join("compare/compare.json").exists()
     }
 
     /// Where exact visibility at `tau` goes: exact/ at full detail, exact-tauT/ otherwise.
@@ -193,26 +107,26 @@ impl Plan<'_> {
     fn exact(&self, tau: f64) -> anyhow::Result<()> {
         let dir = self.exact_dir(tau);
         let stamp = dir.join("input.json");
-        if self.same_input(&stamp) {
+        if results::read_json::<Input>(&stamp).is_ok_and(|i| i == self.input()) {
             return Ok(());
         }
         std::fs::create_dir_all(&dir)?;
         let _ = std::fs::remove_file(&stamp);
         let out = vec!["--tau".to_string(), tau.to_string(), "--out".to_string(), dir.display().to_string()];
         osw(&[vec!["exact".to_string()], self.walk_args(), out].concat(), &dir.with_extension("log"))?;
-        std::fs::write(stamp, self.input().to_string())?;
+        results::write_json(&stamp, &self.input())?;
         Ok(())
     }
 
     /// One mode at one tau (and adaptive threshold) into `dir`: the run, then its comparison
     /// with the reference.
-    fn run(&self, mode: &str, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<()> {
+    fn run(&self, mode: Mode, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<()> {
         let frames_kept = dir != self.reference || osw_render::output::frame_path(dir, 0).exists();
         if self.done(dir) && frames_kept {
             return Ok(());
         }
         std::fs::create_dir_all(dir)?;
-        let mut args: Vec<String> = if mode == SWITCH {
+        let mut args: Vec<String> = if mode == Mode::Switch {
             // `osw run` takes no --adapter: the nodes choose as `osw render` does by default.
             let mut v = self.walk_args();
             if let Some(k) = v.iter().position(|x| x == "--adapter") {
@@ -220,7 +134,7 @@ impl Plan<'_> {
             }
             [vec!["run".to_string()], v].concat()
         } else {
-            [vec!["render".to_string(), "--mode".into(), mode.into()], self.walk_args()].concat()
+            [vec!["render".to_string(), "--mode".into(), mode.name().into()], self.walk_args()].concat()
         };
         args.extend(["--tau".into(), tau.to_string(), "--out".into(), dir.display().to_string()]);
         if adaptive > 0.0 {
@@ -249,55 +163,66 @@ impl Plan<'_> {
     }
 }
 
-fn entry(mode: &str, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entry> {
-    let s = read_json(&dir.join("summary.json"))?;
-    let c = read_json(&dir.join("compare/compare.json"))?;
-    let f = |v: &Value| v.as_f64().unwrap_or(0.0);
-    let culling = &c["culling_a"];
-    // The switch's OR runs on the nodes: the mean of the two nodes' medians.
-    let or_ms = match s.get("or_ms_median") {
-        Some(v) => f(v),
-        None => (f(&s["node_a_or_ms_median"]) + f(&s["node_b_or_ms_median"])) / 2.0,
-    };
+fn entry(mode: Mode, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entry> {
+    let s = Summary::read(dir)?;
+    let file = dir.join("compare/compare.json");
+    let c: Compare = results::read_json(&file)?;
+    let missing = |what: &str| anyhow::anyhow!("{}: no {what}", file.display());
+    let culling = c.culling_a.as_ref().ok_or_else(|| missing("culling_a"))?;
     Ok(Entry {
-        mode: mode.into(),
+        mode,
         tau,
         adaptive,
-        frame_ms_median: f(&s["frame_ms_median"]),
-        frame_ms_p95: f(&s["frame_ms_p95"]),
-        or_ms_median: or_ms,
-        hc_ms_median: f(&s["hc_ms_median"]),
-        rvg_ms_median: f(&s["rvg_ms_median"]),
+        frame_ms_median: s.frame_ms_median,
+        frame_ms_p95: s.frame_ms_p95,
+        or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (the nodes wrote no statistics)", dir.display()))?,
+        hc_ms_median: s.hc_ms_median,
+        rvg_ms_median: s.rvg_ms_median,
         speedup_vs_vfc: None,
-        triangles_drawn_mean: f(&s["triangles_drawn_mean"]),
-        pvs_nodes_mean: f(&s["pvs_nodes_mean"]),
-        tests_mean: f(&s["tests_mean"]),
-        clusters_mean: f(&s["clusters_mean"]),
-        clusters_frustum_culled_fraction: f(&s["clusters_frustum_culled_fraction"]),
-        clusters_cone_culled_fraction: f(&s["clusters_cone_culled_fraction"]),
-        clusters_occlusion_culled_fraction: f(&s["clusters_occlusion_culled_fraction"]),
-        pvs_exact_leaves: f(&culling["pvs_exact_leaves_ratio_mean"]),
-        pvs_exact_triangles: f(&culling["pvs_exact_triangles_ratio_mean"]),
-        drawn_exact_triangles: f(&culling["drawn_exact_triangles_ratio_mean"]),
-        false_culled_leaves_total: culling["false_culled_leaves_total"].as_u64().unwrap_or(0),
-        frames_with_false_culling: culling["frames_with_false_culling"].as_u64().unwrap_or(0),
-        false_culled_at_tau_total: culling["lod_false_culled_total"].as_u64().unwrap_or(0),
-        psnr_db_median: c["psnr_db_median"].as_f64(),
-        psnr_db_min: c["psnr_db_min"].as_f64(),
-        identical_frames: c["identical_frames"].as_u64().unwrap_or(0),
-        differing_fraction_mean: f(&c["differing_fraction_mean"]),
-        differing_fraction_max: f(&c["differing_fraction_max"]),
-        traffic: (mode == SWITCH).then(|| Traffic {
-            ids_sent_mean: f(&s["ids_sent_mean"]),
-            ids_full_mean: f(&s["ids_full_mean"]),
-            incremental_saved_fraction: f(&s["incremental_saved_fraction"]),
-            bytes_per_frame_mean: f(&s["bytes_per_frame_mean"]),
-            id_bytes_per_id: f(&s["id_bytes_per_id"]),
-            latency_ms_median: f(&s["latency_ms_median"]),
-            latency_ms_p95: f(&s["latency_ms_p95"]),
+        triangles_drawn_mean: s.triangles_drawn_mean,
+        pvs_nodes_mean: s.pvs_nodes_mean,
+        tests_mean: s.tests_mean,
+        clusters_mean: s.clusters_mean,
+        clusters_frustum_culled_fraction: s.clusters_frustum_culled_fraction,
+        clusters_cone_culled_fraction: s.clusters_cone_culled_fraction,
+        clusters_occlusion_culled_fraction: s.clusters_occlusion_culled_fraction,
+        pvs_exact_leaves: culling.pvs_exact_leaves_ratio_mean,
+        pvs_exact_triangles: culling.pvs_exact_triangles_ratio_mean,
+        drawn_exact_triangles: culling.drawn_exact_triangles_ratio_mean.ok_or_else(|| missing("drawn_exact_triangles_ratio_mean"))?,
+        false_culled_leaves_total: culling.false_culled_leaves_total,
+        frames_with_false_culling: culling.frames_with_false_culling,
+        false_culled_at_tau_total: culling.lod_false_culled_total.ok_or_else(|| missing("lod_false_culled_total"))?,
+        psnr_db_median: c.psnr_db_median,
+        psnr_db_min: c.psnr_db_min,
+        identical_frames: c.identical_frames as u64,
+        differing_fraction_mean: c.differing_fraction_mean,
+        differing_fraction_max: c.differing_fraction_max,
+        traffic: s.switch().map(|t| Traffic {
+            ids_sent_mean: t.ids_sent_mean,
+            ids_full_mean: t.ids_full_mean,
+            incremental_saved_fraction: t.incremental_saved_fraction,
+            bytes_per_frame_mean: t.bytes_per_frame_mean,
+            id_bytes_per_id: t.id_bytes_per_id,
+            latency_ms_median: t.latency_ms_median,
+            latency_ms_p95: t.latency_ms_p95,
         }),
         error: None,
     })
+}
+
+/// What a run's summary.json (and exact visibility's input.json) says it was made from.
+#[derive(PartialEq, serde::Serialize, serde::Deserialize)]
+struct Input {
+    scene_hash: String,
+    path: String,
+    width: u32,
+    height: u32,
+}
+
+impl Input {
+    fn of(s: &Summary) -> Input {
+        Input { scene_hash: s.scene_hash.clone(), path: s.path.clone(), width: s.width, height: s.height }
+    }
 }
 
 /// Frames and means of the `exact.csv` columns visible_leaves and visible_triangles.
@@ -307,7 +232,6 @@ fn exact_means(dir: &Path) -> anyhow::Result<(usize, f64, f64)> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    crate::walk_args::check_modes(&a.modes)?;
     if let Some(t) = a.taus.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
         bail!("--taus: {t} is not a pixel error (a finite number ≥ 0)");
     }
@@ -319,20 +243,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene_hash = osw_scene::format::hash_hex(scene.content_hash());
     drop(scene);
     std::fs::create_dir_all(a.out.join("runs"))?;
-    let plan = Plan { a: &a, scene_hash, exact: a.out.join("exact"), reference: a.out.join("runs").join(run_name("vfc", 0.0, 0.0)) };
+    let plan = Plan { a: &a, scene_hash, exact: a.out.join("exact"), reference: a.out.join("runs").join(run_name(Mode::Vfc, 0.0, 0.0)) };
 
     // Every mode at every tau; those with adaptive culling also at every threshold.
     let conservative = [0.0];
-    let runs: Vec<(String, f64, f64)> = a
+    let runs: Vec<(Mode, f64, f64)> = a
         .modes
         .iter()
-        .flat_map(|m| {
-            let adaptive: &[f64] = if ["ovc", "prev", SWITCH].contains(&m.as_str()) { &a.adaptive } else { &conservative };
-            a.taus.iter().flat_map(move |&t| adaptive.iter().map(move |&ad| (m.clone(), t, ad)))
+        .flat_map(|&m| {
+            let adaptive: &[f64] = if m.adaptive() { &a.adaptive } else { &conservative };
+            a.taus.iter().flat_map(move |&t| adaptive.iter().map(move |&ad| (m, t, ad)))
         })
         .collect();
     let bar = crate::progress::steps(runs.len() as u64 + 1 + a.taus.len().max(1) as u64, "report");
-    let dir = |mode: &str, tau: f64, adaptive: f64| a.out.join("runs").join(run_name(mode, tau, adaptive));
+    let dir = |mode: Mode, tau: f64, adaptive: f64| a.out.join("runs").join(run_name(mode, tau, adaptive));
     // Full detail for PVS/exact, and the scene as drawn at each tau for culling error.
     for tau in std::iter::once(0.0).chain(a.taus.iter().copied().filter(|&t| t > 0.0)) {
         bar.set_message(format!("exact tau {tau}"));
@@ -342,17 +266,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // The reference first, while any run needs it: every run's image error is measured
     // against its frames.
     bar.set_message("vfc tau 0 (reference)");
-    if runs.iter().any(|(m, t, ad)| !plan.done(&dir(m, *t, *ad))) {
-        plan.run("vfc", 0.0, 0.0, &plan.reference).context("the reference run (vfc at tau 0)")?;
+    if runs.iter().any(|&(m, t, ad)| !plan.done(&dir(m, t, ad))) {
+        plan.run(Mode::Vfc, 0.0, 0.0, &plan.reference).context("the reference run (vfc at tau 0)")?;
     }
     bar.inc(1);
     let mut entries = Vec::new();
-    for (mode, tau, adaptive) in &runs {
-        bar.set_message(format!("{} tau {tau}", run_name(mode, *tau, *adaptive)));
-        let dir = dir(mode, *tau, *adaptive);
-        let e = plan.run(mode, *tau, *adaptive, &dir).and_then(|()| entry(mode, *tau, *adaptive, &dir)).unwrap_or_else(|e| {
-            bar.println(format!("osw: {} failed: {e:#}", run_name(mode, *tau, *adaptive)));
-            Entry { mode: mode.clone(), tau: *tau, adaptive: *adaptive, error: Some(format!("{e:#}")), ..Default::default() }
+    for &(mode, tau, adaptive) in &runs {
+        bar.set_message(format!("{} tau {tau}", run_name(mode, tau, adaptive)));
+        let dir = dir(mode, tau, adaptive);
+        let e = plan.run(mode, tau, adaptive, &dir).and_then(|()| entry(mode, tau, adaptive, &dir)).unwrap_or_else(|e| {
+            bar.println(format!("osw: {} failed: {e:#}", run_name(mode, tau, adaptive)));
+            Entry { mode, tau, adaptive, error: Some(format!("{e:#}")), ..Default::default() }
         });
         entries.push(e);
         bar.inc(1);
@@ -362,7 +286,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let _ = std::fs::remove_dir_all(plan.reference.join("frames"));
     }
     let vfc_ms: Vec<(f64, f64)> =
-        entries.iter().filter(|e| e.mode == "vfc" && e.error.is_none()).map(|e| (e.tau, e.frame_ms_median)).collect();
+        entries.iter().filter(|e| e.mode == Mode::Vfc && e.error.is_none()).map(|e| (e.tau, e.frame_ms_median)).collect();
     for e in entries.iter_mut().filter(|e| e.error.is_none() && e.frame_ms_median > 0.0) {
         e.speedup_vs_vfc = vfc_ms.iter().find(|v| v.0 == e.tau).map(|v| v.1 / e.frame_ms_median);
     }
@@ -378,9 +302,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         exact_triangles_mean,
         runs: entries,
     };
-    std::fs::write(a.out.join("report.json"), serde_json::to_string_pretty(&report)?)?;
+    results::write_json(&a.out.join("report.json"), &report)?;
     std::fs::write(a.out.join("report.md"), markdown(&report, &a))?;
-    let failed: Vec<String> = report.runs.iter().filter(|e| e.error.is_some()).map(|e| run_name(&e.mode, e.tau, e.adaptive)).collect();
+    let failed: Vec<String> = report.runs.iter().filter(|e| e.error.is_some()).map(|e| run_name(e.mode, e.tau, e.adaptive)).collect();
     if failed.len() < report.runs.len() {
         crate::plot::write(&error_chart(&report), &a.out.join("error_vs_time"))?;
     }
@@ -393,7 +317,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             a.out.display()
         );
     }
-    for e in report.runs.iter().filter(|e| e.mode != "vfc" && e.error.is_none()) {
+    for e in report.runs.iter().filter(|e| e.mode != Mode::Vfc && e.error.is_none()) {
         out!("{}", at_a_glance(e, frames));
     }
     out!(
@@ -418,7 +342,7 @@ fn at_a_glance(e: &Entry, frames: usize) -> String {
     let psnr = e.psnr_db_median.map_or("∞".to_string(), |db| format!("{db:.1} dB"));
     format!(
         "{} at tau {}: {speed} vfc's speed ({:.1} ms a frame), {}/{frames} frames as full-detail vfc (PSNR median {psnr}), {culling}; {} leaves visible at full detail not drawn ({lod})",
-        label(e),
+        e.label(),
         e.tau,
         e.frame_ms_median,
         e.identical_frames,
@@ -433,14 +357,14 @@ fn error_chart<'a>(r: &Report) -> Chart<'a> {
     let point = |e: &Entry| (e.frame_ms_median, e.differing_fraction_mean * 100.0);
     let mut labels: Vec<String> = Vec::new();
     for e in &done {
-        if !labels.contains(&label(e)) {
-            labels.push(label(e));
+        if !labels.contains(&e.label()) {
+            labels.push(e.label());
         }
     }
     let mut series: Vec<Series> = labels
         .iter()
         .map(|l| {
-            let runs: Vec<&&Entry> = done.iter().filter(|e| &label(e) == l).collect();
+            let runs: Vec<&&Entry> = done.iter().filter(|e| &e.label() == l).collect();
             Series {
                 name: l.clone(),
                 points: runs.iter().map(|e| point(e)).collect(),
@@ -495,8 +419,8 @@ fn table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
 }
 
 fn markdown(r: &Report, a: &Args) -> String {
-    let get = |m: &str, t: f64| r.runs.iter().find(|e| e.mode == m && e.tau == t && e.adaptive == 0.0);
-    let cell = |m: &str, t: f64, f: &dyn Fn(&Entry) -> String| match get(m, t) {
+    let get = |m: Mode, t: f64| r.runs.iter().find(|e| e.mode == m && e.tau == t && e.adaptive == 0.0);
+    let cell = |m: Mode, t: f64, f: &dyn Fn(&Entry) -> String| match get(m, t) {
         Some(e) if e.error.is_none() => f(e),
         Some(_) => "failed".into(),
         None => "–".into(),
@@ -512,7 +436,7 @@ fn markdown(r: &Report, a: &Args) -> String {
             .iter()
             .map(|&t| {
                 let mut row = vec![t.to_string()];
-                row.extend(a.modes.iter().map(|m| cell(m, t, f)));
+                row.extend(a.modes.iter().map(|&m| cell(m, t, f)));
                 if let Some(x) = extra {
                     row.push(x(t));
                 }
@@ -562,12 +486,12 @@ fn markdown(r: &Report, a: &Args) -> String {
         .iter()
         .map(|e| match &e.error {
             Some(err) => {
-                let mut row = vec![label(e), e.tau.to_string(), format!("failed: {}", err.replace('|', "/"))];
+                let mut row = vec![e.label(), e.tau.to_string(), format!("failed: {}", err.replace('|', "/"))];
                 row.resize(header.len(), "–".into());
                 row
             }
             None => vec![
-                label(e),
+                e.label(),
                 e.tau.to_string(),
                 format!("{:.0}", e.tests_mean),
                 format!("{:.1}", e.or_ms_median),
@@ -603,7 +527,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     let pct = |x: f64| format!("{:.1}", x * 100.0);
     let rows = finished_rows(r, |e| {
         vec![
-            label(e),
+            e.label(),
             e.tau.to_string(),
             format!("{:.0}", e.clusters_mean),
             pct(e.clusters_frustum_culled_fraction),
@@ -635,7 +559,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     let db = |v: Option<f64>| v.map_or("∞".to_string(), |x| format!("{x:.1}"));
     let rows = finished_rows(r, |e| {
         vec![
-            label(e),
+            e.label(),
             e.tau.to_string(),
             format!("{:.1}", e.frame_ms_median),
             db(e.psnr_db_median),
@@ -656,7 +580,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     let header: Vec<String> = ["method", "tau", "culled %", "false-culled at tau", "speed-up over vfc"].map(String::from).to_vec();
     let rows = finished_rows(r, |e| {
         vec![
-            label(e),
+            e.label(),
             e.tau.to_string(),
             format!("{:.1}", (1.0 - e.triangles_drawn_mean / r.scene_triangles.max(1) as f64) * 100.0),
             e.false_culled_at_tau_total.to_string(),

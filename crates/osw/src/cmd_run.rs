@@ -5,6 +5,7 @@
 //! `osw play` is `osw run --window`: a path replayed in the window.
 
 use anyhow::{Context, bail};
+use osw_render::results::{self, Details, Duty, NodeFrame, Summary, role_median_ms};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -225,39 +226,39 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let _ = ticker.join();
     bar.finish_and_clear();
-    let mut summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.out.join("summary.json"))?)?;
-    // Per-role stage times from the nodes' own logs.
-    for (name, file) in [("a", "node-a.csv"), ("b", "node-b.csv")] {
-        // A node that was killed wrote no statistics.
-        let Ok(text) = std::fs::read_to_string(a.out.join(file)) else { continue };
-        for role in ["HC", "OR"] {
-            let ms: Vec<f64> = text
-                .lines()
-                .skip(1)
-                .filter(|l| l.split(',').nth(1) == Some(role))
-                .filter_map(|l| l.split(',').nth(2)?.parse().ok())
-                .collect();
-            summary[format!("node_{name}_{}_ms_median", role.to_lowercase())] = osw_render::stats::quantile(&ms, 0.5).into();
+    let mut summary = Summary::read(&a.out)?;
+    // Per-role stage times from the nodes' own statistics; a killed node wrote none.
+    if let Details::Switch(sw) = &mut summary.of {
+        for (file, hc, or) in [
+            ("node-a.csv", &mut sw.node_a_hc_ms_median, &mut sw.node_a_or_ms_median),
+            ("node-b.csv", &mut sw.node_b_hc_ms_median, &mut sw.node_b_or_ms_median),
+        ] {
+            let path = a.out.join(file);
+            if path.exists() {
+                let frames: Vec<NodeFrame> = results::csv::read(&path)?;
+                (*hc, *or) = (role_median_ms(&frames, Duty::Hc), role_median_ms(&frames, Duty::Or));
+            }
         }
     }
-    std::fs::write(a.out.join("summary.json"), serde_json::to_string_pretty(&summary)?)?;
+    summary.write(&a.out)?;
+    let sw = summary.switch().with_context(|| format!("{}: not a switch run ({})", a.out.display(), summary.mode))?;
     if !node_failures.is_empty() {
         bail!(
             "{}; the display got all {} frames, {} of them from one node alone → {}",
             node_failures.join("; "),
-            summary["frames"],
-            summary["degraded_frames"],
+            summary.frames,
+            sw.degraded_frames,
             a.out.display()
         );
     }
     out!(
         "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median → {}",
-        summary["frames"],
-        summary["frame_ms_median"].as_f64().unwrap_or(0.0),
-        summary["bytes_per_frame_mean"].as_f64().unwrap_or(0.0),
-        summary["ids_sent_mean"].as_f64().unwrap_or(0.0),
-        summary["incremental_saved_fraction"].as_f64().unwrap_or(0.0) * 100.0,
-        summary["latency_ms_median"].as_f64().unwrap_or(0.0),
+        summary.frames,
+        summary.frame_ms_median,
+        sw.bytes_per_frame_mean,
+        sw.ids_sent_mean,
+        sw.incremental_saved_fraction * 100.0,
+        sw.latency_ms_median,
         a.out.display()
     );
     Ok(())

@@ -6,13 +6,13 @@
 //! Scenes, walks and runs already in DIR for the same input are used again, so an interrupted
 //! sweep resumes where it stopped.
 
-use crate::cmd_report::{osw, read_json};
-use crate::columns::Columns;
+use crate::cmd_report::osw;
 use crate::plot::{Chart, Series};
-use crate::walk_args::SWITCH;
 use anyhow::{Context, bail};
+use osw_render::Mode;
+use osw_render::results::{self, DisplayFrame, NodeFrame, Summary};
+use osw_scene::build::BuildReport;
 use serde::Serialize;
-use serde_json::Value;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -31,7 +31,7 @@ pub struct Args {
     taus: Vec<f64>,
     /// Modes: vfc, sw, chc, hzb, prev, ovc (single process) and switch (`osw run`).
     #[arg(long, value_delimiter = ',', default_value = "vfc,chc,hzb,prev,switch")]
-    modes: Vec<String>,
+    modes: Vec<Mode>,
     /// Frames of each walk.
     #[arg(long, default_value_t = 100)]
     frames: u32,
@@ -87,7 +87,7 @@ struct Scene {
 #[derive(Serialize, Clone, Default)]
 struct Row {
     triangles: u64,
-    mode: String,
+    mode: Mode,
     tau: f64,
     frame_ms_median: f64,
     frame_ms_p95: f64,
@@ -126,7 +126,7 @@ fn scene(out: &Path, triangles: u64, frames: u32) -> anyhow::Result<(Scene, Path
         osw(&strings(&args), &file.with_extension("build.log"))?;
         std::fs::write(&timing, t.elapsed().as_secs_f64().to_string())?;
     }
-    let r = read_json(&report)?;
+    let r: BuildReport = results::read_json(&report)?;
     let build_seconds = std::fs::read_to_string(&timing)?.trim().parse().with_context(|| format!("{}: not seconds", timing.display()))?;
     let walk = out.join(format!("plant-{name}-walk-{frames}.csv"));
     if !walk.exists() {
@@ -135,78 +135,67 @@ fn scene(out: &Path, triangles: u64, frames: u32) -> anyhow::Result<(Scene, Path
         args.extend(["-o".into(), walk.display().to_string()]);
         osw(&args, &walk.with_extension("log"))?;
     }
-    let s = Scene {
-        triangles,
-        label: name,
-        build_seconds,
-        build_peak_rss_kb: r["peak_rss_kb"].as_u64().unwrap_or(0),
-        file_bytes: std::fs::metadata(&file)?.len(),
-    };
+    let s = Scene { triangles, label: name, build_seconds, build_peak_rss_kb: r.peak_rss_kb, file_bytes: std::fs::metadata(&file)?.len() };
     Ok((s, file, walk))
 }
 
-/// The largest value of column `rss_kb` in a statistics file (the per-frame samples).
-fn max_rss(csv: &Path) -> anyhow::Result<u64> {
-    Ok(Columns::read(csv)?.get("rss_kb")?.into_iter().filter(|x| x.is_finite()).fold(0.0, f64::max) as u64)
-}
-
-/// One mode at one tau into `dir`, unless a run of the same scene and walk is there.
-fn run_one(scene: &Path, walk: &Path, size: &str, mode: &str, tau: f64, dir: &Path) -> anyhow::Result<Value> {
-    let summary = dir.join("summary.json");
-    let hash = osw_scene::SceneFile::open(scene)?.content_hash();
-    let hash = osw_scene::format::hash_hex(hash);
-    if let Ok(s) = read_json(&summary)
-        && s["scene_hash"] == hash.as_str()
-        && s["path"] == walk.display().to_string().as_str()
-        && s["tau"].as_f64() == Some(tau)
+/// One mode at one tau into `dir`, unless a run of the same scene, walk, tau and size is there.
+fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, dir: &Path) -> anyhow::Result<Summary> {
+    let hash = osw_scene::format::hash_hex(osw_scene::SceneFile::open(scene)?.content_hash());
+    if let Ok(s) = Summary::read(dir)
+        && s.scene_hash == hash
+        && s.path == walk.display().to_string()
+        && s.tau == tau
+        && format!("{}x{}", s.width, s.height) == size
     {
         return Ok(s);
     }
     std::fs::create_dir_all(dir)?;
-    let _ = std::fs::remove_file(&summary);
+    let _ = std::fs::remove_file(dir.join("summary.json"));
     let mut args = match mode {
-        SWITCH => strings(&["run"]),
-        m => strings(&["render", "--mode", m]),
+        Mode::Switch => strings(&["run"]),
+        m => strings(&["render", "--mode", m.name()]),
     };
     args.extend(strings(&["--scene", &scene.display().to_string(), "--path", &walk.display().to_string(), "--size", size]));
     args.extend(strings(&["--tau", &tau.to_string(), "--no-frames", "--out", &dir.display().to_string()]));
     osw(&args, &dir.join("run.log"))?;
-    read_json(&summary)
+    Ok(Summary::read(dir)?)
 }
 
-fn row(triangles: u64, mode: &str, tau: f64, dir: &Path, s: &Value) -> anyhow::Result<Row> {
-    let f = |k: &str| s[k].as_f64().unwrap_or(0.0);
+fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row> {
     let mut peak = BTreeMap::new();
-    // The switch's OR runs on the nodes: the mean of the two nodes' medians.
-    let or_ms = if mode == SWITCH {
-        peak.insert("display".into(), max_rss(&dir.join("stats.csv"))?);
-        for (k, file) in [("node_a", "node-a.csv"), ("node_b", "node-b.csv")] {
-            peak.insert(k.into(), max_rss(&dir.join(file))?);
+    match s.render() {
+        Some(r) => {
+            peak.insert("render".into(), r.peak_rss_kb);
         }
-        (f("node_a_or_ms_median") + f("node_b_or_ms_median")) / 2.0
-    } else {
-        peak.insert("render".into(), s["peak_rss_kb"].as_u64().unwrap_or(0));
-        f("or_ms_median")
-    };
+        // The switch's processes: the most each sampled over its frames.
+        None => {
+            let display: Vec<DisplayFrame> = results::csv::read(&dir.join("stats.csv"))?;
+            peak.insert("display".into(), display.iter().map(|f| f.rss_kb).max().unwrap_or(0));
+            for (k, file) in [("node_a", "node-a.csv"), ("node_b", "node-b.csv")] {
+                let node: Vec<NodeFrame> = results::csv::read(&dir.join(file))?;
+                peak.insert(k.into(), node.iter().map(|f| f.rss_kb).max().unwrap_or(0));
+            }
+        }
+    }
     Ok(Row {
         triangles,
-        mode: mode.into(),
+        mode: s.mode,
         tau,
-        frame_ms_median: f("frame_ms_median"),
-        frame_ms_p95: f("frame_ms_p95"),
-        hc_tests_mean: f("tests_mean"),
-        hc_ms_median: f("hc_ms_median"),
-        or_ms_median: or_ms,
-        rvg_ms_median: f("rvg_ms_median"),
-        triangles_drawn_mean: f("triangles_drawn_mean"),
-        pvs_nodes_mean: f("pvs_nodes_mean"),
+        frame_ms_median: s.frame_ms_median,
+        frame_ms_p95: s.frame_ms_p95,
+        hc_tests_mean: s.tests_mean,
+        hc_ms_median: s.hc_ms_median,
+        or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (the nodes wrote no statistics)", dir.display()))?,
+        rvg_ms_median: s.rvg_ms_median,
+        triangles_drawn_mean: s.triangles_drawn_mean,
+        pvs_nodes_mean: s.pvs_nodes_mean,
         peak_rss_kb: peak,
         error: None,
     })
 }
 
 pub fn run(mut a: Args) -> anyhow::Result<()> {
-    crate::walk_args::check_modes(&a.modes)?;
     if let Some(t) = a.taus.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
         bail!("--taus: {t} is not a pixel error (a finite number ≥ 0)");
     }
@@ -226,12 +215,12 @@ pub fn run(mut a: Args) -> anyhow::Result<()> {
         let (s, file, walk) = scene(&a.out, n, a.frames).with_context(|| format!("the {}-triangle plant", label(n)))?;
         bar.inc(1);
         for &tau in &a.taus {
-            for mode in &a.modes {
+            for &mode in &a.modes {
                 bar.set_message(format!("{} {mode} tau {tau}", s.label));
                 let dir = a.out.join("runs").join(&s.label).join(format!("{mode}-tau{tau}"));
-                let r = run_one(&file, &walk, &a.size, mode, tau, &dir).and_then(|v| row(n, mode, tau, &dir, &v)).unwrap_or_else(|e| {
+                let r = run_one(&file, &walk, &a.size, mode, tau, &dir).and_then(|v| row(n, tau, &dir, &v)).unwrap_or_else(|e| {
                     bar.println(format!("osw: {} {mode} at tau {tau} failed: {e:#}", s.label));
-                    Row { triangles: n, mode: mode.clone(), tau, error: Some(format!("{e:#}")), ..Default::default() }
+                    Row { triangles: n, mode, tau, error: Some(format!("{e:#}")), ..Default::default() }
                 });
                 rows.push(r);
                 bar.inc(1);
@@ -259,9 +248,9 @@ fn charts<'a>(s: &Sweep, a: &Args) -> Vec<Chart<'a>> {
         a.modes
             .iter()
             .map(|m| {
-                let runs: Vec<&Row> = s.runs.iter().filter(|r| &r.mode == m && r.tau == tau && r.error.is_none() && y(r) > 0.0).collect();
+                let runs: Vec<&Row> = s.runs.iter().filter(|r| r.mode == *m && r.tau == tau && r.error.is_none() && y(r) > 0.0).collect();
                 Series {
-                    name: m.clone(),
+                    name: m.to_string(),
                     points: runs.iter().map(|r| (r.triangles as f64, y(r))).collect(),
                     point_labels: runs.iter().map(|r| label(r.triangles)).collect(),
                     bold: false,
@@ -317,7 +306,7 @@ fn markdown(s: &Sweep, a: &Args) -> String {
         out.push_str(&" --- |".repeat(columns.len() + 3));
         out.push('\n');
         for sc in &s.scenes {
-            let vfc = s.runs.iter().find(|r| r.triangles == sc.triangles && r.tau == tau && r.mode == "vfc" && r.error.is_none());
+            let vfc = s.runs.iter().find(|r| r.triangles == sc.triangles && r.tau == tau && r.mode == Mode::Vfc && r.error.is_none());
             for r in s.runs.iter().filter(|r| r.triangles == sc.triangles && r.tau == tau) {
                 let cells: Vec<String> = match &r.error {
                     Some(_) => vec!["failed".into(); columns.len()],

@@ -66,16 +66,3 @@ impl WalkArgs {
         Ok((cams, r))
     }
 }
-
-/// The methods a report or a sweep runs, by name: every mode of `osw render` (one enum,
-/// [`osw_render::Mode`]) and the switch (`osw run`). An unknown name is an error naming them.
-pub fn check_modes(names: &[String]) -> anyhow::Result<()> {
-    let known: Vec<&str> = osw_render::Mode::ALL.iter().map(|m| m.name()).chain([SWITCH]).collect();
-    match names.iter().find(|m| !known.contains(&m.as_str())) {
-        Some(m) => anyhow::bail!("--modes: unknown mode {m:?} (modes: {})", known.join(", ")),
-        None => Ok(()),
-    }
-}
-
-/// The switch's name among the methods.
-pub const SWITCH: &str = "switch";

@@ -7,6 +7,7 @@
 
 mod common;
 use common::*;
+use osw_render::results::{self, DisplayFrame, Duty, NodeFrame};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -49,10 +50,6 @@ fn follow(d: &mut Proc, mut at: impl FnMut(u64)) -> std::process::ExitStatus {
         }
     }
     d.0.wait().unwrap()
-}
-
-fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
 }
 
 /// Every frame of `run` equals vfc's and culls no exactly visible leaf.
@@ -159,32 +156,26 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
     });
     relay_back.expect("node a was restarted").join().unwrap();
     assert!(status.success(), "display: {}", std::fs::read_to_string(out.with_extension("log")).unwrap());
-    let sum = summary(&out);
-    assert_eq!(sum["frames"], FRAMES);
-    assert!(sum["node_losses"].as_u64().unwrap() >= 1 && sum["node_rejoins"].as_u64().unwrap() >= 1, "{sum}");
+    let (sum, sw) = switch_summary(&out);
+    assert_eq!(sum.frames, FRAMES);
+    assert!(sw.node_losses >= 1 && sw.node_rejoins >= 1, "{sw:?}");
     if let Some((delay, _)) = impaired {
         // The links were impaired: a camera takes at least the delay to reach its HC.
-        let link_ms = sum["camera_link_ms_median"].as_f64().unwrap();
+        let link_ms = sw.camera_link_ms_median;
         assert!(link_ms >= delay.parse::<f64>().unwrap(), "camera link {link_ms} ms: the relays did not delay");
         eprintln!(
             "impaired links: camera link {link_ms:.1} ms median, latency {} ms median, {} ms max",
-            sum["latency_ms_median"], sum["latency_ms_max"]
+            sw.latency_ms_median, sw.latency_ms_max
         );
     }
     // The degraded span starts at the kill and ends once node a is back.
-    let stats = std::fs::read_to_string(out.join("stats.csv")).unwrap();
-    let degraded: Vec<u64> =
-        stats.lines().skip(1).filter(|l| l.split(',').nth(9) == Some("1")).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    let rows: Vec<DisplayFrame> = results::csv::read(&out.join("stats.csv")).unwrap();
+    let degraded: Vec<u64> = rows.iter().filter(|r| r.degraded == 1).map(|r| r.frame).collect();
     let (first, last) = (*degraded.first().expect("no degraded frame"), *degraded.last().unwrap());
     // `killed_at` is the last frame this test had read from the display's stdout when it killed
     // node a: the display may have run ahead of that (a loaded machine reads the pipe late), so
     // the span is timed against the last frame node a sent as HC, which the kill itself bounds.
-    let hc_of = |l: &str| -> (u64, String) {
-        let f: Vec<&str> = l.split(',').collect();
-        (f[0].parse().unwrap(), f[8].to_string())
-    };
-    let a_last =
-        stats.lines().skip(1).map(hc_of).filter(|(f, hc)| *f < first && hc == "0").map(|(f, _)| f).max().expect("node a sent no frame");
+    let a_last = rows.iter().filter(|r| r.frame < first && r.hc_node == 0).map(|r| r.frame).max().expect("node a sent no frame");
     // The display marks frames degraded once it sees node a's link close, which over a
     // delayed, lossy relay on a loaded host can take a dozen frames; until then node b must
     // already serve every frame alone, and the display must see the loss before a returns.
@@ -192,18 +183,14 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
         first >= killed_at.unwrap() && first <= restarted_at.unwrap(),
         "degraded from {first}, node a last HC at {a_last}, killed at {killed_at:?}, restarted at {restarted_at:?}"
     );
-    let taken_over: Vec<(u64, String)> = stats.lines().skip(1).map(hc_of).filter(|(f, _)| (a_last + 1..first).contains(f)).collect();
-    assert!(taken_over.iter().all(|(_, hc)| hc == "1"), "between node a's last HC ({a_last}) and the loss seen ({first}): {taken_over:?}");
+    let taken_over: Vec<(u64, u32)> =
+        rows.iter().filter(|r| (a_last + 1..first).contains(&r.frame)).map(|r| (r.frame, r.hc_node)).collect();
+    assert!(taken_over.iter().all(|&(_, hc)| hc == 1), "between node a's last HC ({a_last}) and the loss seen ({first}): {taken_over:?}");
     assert!(last >= restarted_at.unwrap() && last < FRAMES - 1, "degraded until {last}, restarted at {restarted_at:?}: never rejoined");
     // After the rejoin both nodes send frames again, in turn: the survivor may send a few more
     // alone (the restarted node connects to the display and to its peer at different times,
     // and the handover takes a frame), then they alternate to the end.
-    let tail: Vec<&str> = stats
-        .lines()
-        .skip(1)
-        .filter(|l| l.split(',').next().unwrap().parse::<u64>().unwrap() > last)
-        .map(|l| l.split(',').nth(8).unwrap())
-        .collect();
+    let tail: Vec<u32> = rows.iter().filter(|r| r.frame > last).map(|r| r.hc_node).collect();
     let resumed = tail.windows(2).rposition(|w| w[0] == w[1]).map_or(0, |p| p + 1);
     assert!(resumed < 30 && tail.len() - resumed > 20, "the switch did not resume: {tail:?}");
     // Node b served on while the restarted node a waited for the display (held off above): a
@@ -242,21 +229,20 @@ fn a_cut_link_between_the_nodes_heals_and_the_switch_resumes() {
     });
     let logs = || ["a", "b"].map(|n| std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap()).join("\n");
     assert!(status.success(), "display: {}\nnodes: {}", std::fs::read_to_string(out.with_extension("log")).unwrap(), logs());
-    assert_eq!(summary(&out)["frames"], FRAMES);
+    assert_eq!(summary(&out).frames, FRAMES);
     for p in [&mut a, &mut b] {
         assert!(p.0.wait().unwrap().success(), "a node failed");
     }
     // Each node's own record: alone during the cut, then OR and HC in turn to the end.
     for n in ["a", "b"] {
         let log = std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap();
-        let stats = std::fs::read_to_string(d.path().join(format!("{n}.csv"))).unwrap_or_else(|_| panic!("node {n} wrote no stats: {log}"));
-        let rows: Vec<(u64, &str)> =
-            stats.lines().skip(1).map(|l| l.split(',').collect::<Vec<_>>()).map(|f| (f[0].parse().unwrap(), f[1])).collect();
-        let solo: Vec<u64> = rows.iter().filter(|(f, r)| *f > 0 && *r == "SOLO").map(|(f, _)| *f).collect();
+        let rows: Vec<NodeFrame> =
+            results::csv::read(&d.path().join(format!("{n}.csv"))).unwrap_or_else(|e| panic!("node {n} wrote no stats ({e}): {log}"));
+        let solo: Vec<u64> = rows.iter().filter(|r| r.frame > 0 && r.role == Duty::Solo).map(|r| r.frame).collect();
         assert!(solo.first().is_some_and(|&f| f >= cut_at.unwrap()), "node {n}: alone at {solo:?}, cut at {cut_at:?}: {log}");
-        let tail: Vec<&str> = rows.iter().filter(|(f, _)| *f > solo[solo.len() - 1]).map(|(_, r)| *r).collect();
+        let tail: Vec<Duty> = rows.iter().filter(|r| r.frame > solo[solo.len() - 1]).map(|r| r.role).collect();
         assert!(
-            tail.len() > 20 && tail.windows(2).all(|w| w[0] != w[1] && w[0] != "SOLO"),
+            tail.len() > 20 && tail.windows(2).all(|w| w[0] != w[1] && w[0] != Duty::Solo),
             "node {n} did not resume the switch: {tail:?}: {log}"
         );
     }
@@ -294,7 +280,7 @@ fn display_restart(impaired: Option<(&str, &str)>) {
     let mut again = display(&scene, &path, &nodes, &second);
     let status = follow(&mut again, |_| {});
     assert!(status.success(), "display: {}", std::fs::read_to_string(second.with_extension("log")).unwrap());
-    assert_eq!(summary(&second)["frames"], FRAMES);
+    assert_eq!(summary(&second).frames, FRAMES);
     // The nodes finish cleanly after the second display's goodbye.
     for (n, p) in [("a", &mut a), ("b", &mut b)] {
         let st = p.0.wait().unwrap();
@@ -330,7 +316,7 @@ fn silent_and_garbage_connections_do_not_stop_the_cluster() {
     let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out);
     let status = follow(&mut disp, |_| {});
     assert!(status.success(), "display: {}", std::fs::read_to_string(out.with_extension("log")).unwrap());
-    assert_eq!(summary(&out)["frames"], 40);
+    assert_eq!(summary(&out).frames, 40);
     assert!(a.0.wait().unwrap().success(), "node a: {}", std::fs::read_to_string(d.path().join("a.log")).unwrap());
     let log = std::fs::read_to_string(d.path().join("a.log")).unwrap();
     assert!(log.contains("over the"), "the oversized frame was not refused by name: {log}");

@@ -240,7 +240,8 @@ fn draco_corrupt_streams_and_out_of_buffer_accessors_are_named() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("s.osw");
     osw_err(&["build", s(&fixture("gltf/draco.glb")), "-o", s(&out)], "KHR_draco_mesh_compression");
-    let cases: [(&str, &str, Box<dyn FnOnce(&mut serde_json::Value)>, &str); 4] = [
+    type Edit = Box<dyn FnOnce(&mut serde_json::Value)>;
+    let cases: [(&str, &str, Edit, &str); 4] = [
         (
             "packed-cc.glb",
             "truncated.glb",

@@ -21,12 +21,7 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
         // occluders and their 2x2-texel tests (sec. 5.3) hide nothing (chc hides 80%); the
         // forest's occluders are porous crowns, whose farthest depth over any 2x2 texels is
         // the sky behind them.
-        let tri = |m: &str| -> f64 {
-            let p = run.join(m).join("summary.json");
-            let v: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))).unwrap();
-            v["triangles_drawn_mean"].as_f64().unwrap()
-        };
+        let tri = |m: &str| -> f64 { summary(&run.join(m)).triangles_drawn_mean };
         for (mode, hc) in MODES.into_iter().filter(|&(mode, _)| !(matches!(kind, "teapots" | "forest") && mode == "hzb")) {
             let m = format!("{mode}-{hc}");
             assert!(tri(&m) < tri("vfc"), "{kind}: {m} draws {} triangles, vfc {}", tri(&m), tri("vfc"));
@@ -35,8 +30,7 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
         // (geometry never drawn is never read or uploaded).
         let pvs = std::fs::read_to_string(run.join("vfc").join("pvs.txt")).unwrap();
         let distinct: std::collections::BTreeSet<&str> = pvs.split_ascii_whitespace().collect();
-        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(run.join("vfc").join("summary.json")).unwrap()).unwrap();
-        assert_eq!(v["uploads"].as_u64().unwrap(), distinct.len() as u64, "{kind}: uploads");
+        assert_eq!(render_summary(&run.join("vfc")).uploads, distinct.len() as u64, "{kind}: uploads");
         // The culling check can fail: a run that draws nothing culls every visible leaf.
         let broken = run.join("broken");
         std::fs::create_dir_all(&broken).unwrap();
@@ -77,14 +71,14 @@ fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
             "--out",
             s(&out),
         ]);
-        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let v = render_summary(&out);
         (out, v)
     };
     let (big, vb) = run("big", "1024");
     let (small, vs) = run("small", "1");
-    assert_eq!(vb["evictions"], 0, "{vb}");
-    assert!(vs["evictions"].as_u64().unwrap() > 0, "a 1 MiB budget must evict: {vs}");
-    assert!(vs["uploads"].as_u64().unwrap() > vb["uploads"].as_u64().unwrap(), "evicted nodes are uploaded again: {vs}");
+    assert_eq!(vb.evictions, 0, "{vb:?}");
+    assert!(vs.evictions > 0, "a 1 MiB budget must evict: {vs:?}");
+    assert!(vs.uploads > vb.uploads, "evicted nodes are uploaded again: {vs:?}");
     let read = |p: &Path| std::fs::read(p).unwrap();
     assert_eq!(read(&big.join("pvs.txt")), read(&small.join("pvs.txt")));
     for i in 0..30 {
@@ -107,10 +101,9 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
         let out = d.path().join(tests.replace(',', "-"));
         let args = ["render", "--scene", s(&scene), "--path", s(&path), "--mode", "prev", "--tau", "0", "--size", SIZE];
         osw_ok(&[&args[..], &["--cluster-tests", tests, "--out", s(&out)]].concat());
-        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-        let f = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{tests}: no {k} in {v}"));
-        let culled = ["frustum", "cone", "occlusion"].map(|t| f(&format!("clusters_{t}_culled_fraction")));
-        (out, culled, f("triangles_drawn_mean"))
+        let v = summary(&out);
+        let culled = [v.clusters_frustum_culled_fraction, v.clusters_cone_culled_fraction, v.clusters_occlusion_culled_fraction];
+        (out, culled, v.triangles_drawn_mean)
     };
     let (all, all_culled, all_t) = run("frustum,cone,occlusion");
     assert!(
@@ -152,11 +145,9 @@ fn image_error_is_reported_at_tau_above_zero() {
     let c = compare(&d.path().join("prev8"), &d.path().join("ref"), &exact, &d.path().join("cmp"));
     // Run time next to the error: each run's median frame time from its summary, and the
     // triangles drawn (stats.csv) over the exactly visible ones.
-    let summary = |run: &str| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(d.path().join(run).join("summary.json")).unwrap()).unwrap()
-    };
-    assert_eq!(c["frame_ms_median_a"], summary("prev8")["frame_ms_median"], "{c}");
-    assert_eq!(c["frame_ms_median_b"], summary("ref")["frame_ms_median"], "{c}");
+    let ms = |run: &str| Some(summary(&d.path().join(run)).frame_ms_median);
+    assert_eq!(c["frame_ms_median_a"].as_f64(), ms("prev8"), "{c}");
+    assert_eq!(c["frame_ms_median_b"].as_f64(), ms("ref"), "{c}");
     let drawn = csv_column(&d.path().join("prev8/stats.csv"), "triangles_drawn");
     let visible = csv_column(&exact.join("exact.csv"), "visible_triangles");
     let ratio = drawn.iter().zip(&visible).map(|(d, v)| d / v.max(1.0)).sum::<f64>() / 6.0;
@@ -296,26 +287,24 @@ fn ovc_budget_and_sampling_take_effect_and_say_so() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "forest", 100_000, 2);
     let path = camera_path(&scene, "walk", 10);
-    let run = |name: &str, extra: &[&str]| -> serde_json::Value {
+    let run = |name: &str, extra: &[&str]| {
         let out = d.path().join(name);
         let mut args = vec!["render", "--scene", s(&scene), "--path", s(&path), "--mode", "ovc", "--tau", "0", "--size", SIZE];
         args.extend_from_slice(extra);
         args.extend(["--out", s(&out)]);
         osw_ok(&args);
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+        let s = summary(&out);
+        (s.clone(), s.render().cloned().unwrap())
     };
-    let full = run("full", &[]);
-    let budget = run("budget", &["--budget", "0.001"]);
-    assert!(budget["over_budget_mean"].as_f64().unwrap() > 0.0, "{budget}");
-    assert!(budget["tests_mean"].as_f64().unwrap() < full["tests_mean"].as_f64().unwrap(), "{budget} vs {full}");
-    assert_eq!(budget["budget"], 0.001);
-    assert!(
-        budget["triangles_drawn_mean"].as_f64().unwrap() >= full["triangles_drawn_mean"].as_f64().unwrap(),
-        "over budget draws more, never less"
-    );
-    let sampled = run("sampled", &["--sampling", "4"]);
-    assert_eq!(sampled["sampling"], 4);
-    assert_eq!(full["over_budget_mean"], 0.0);
+    let (full, full_r) = run("full", &[]);
+    let (budget, budget_r) = run("budget", &["--budget", "0.001"]);
+    assert!(budget_r.over_budget_mean > 0.0, "{budget_r:?}");
+    assert!(budget.tests_mean < full.tests_mean, "{budget:?} vs {full:?}");
+    assert_eq!(budget_r.budget, 0.001);
+    assert!(budget.triangles_drawn_mean >= full.triangles_drawn_mean, "over budget draws more, never less");
+    let (_, sampled) = run("sampled", &["--sampling", "4"]);
+    assert_eq!(sampled.sampling, 4);
+    assert_eq!(full_r.over_budget_mean, 0.0);
     osw_err(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "vfc", "--budget", "1", "--out", "x"], "ovc's");
     osw_err(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "ovc", "--sampling", "0", "--out", "x"], "--sampling");
 }

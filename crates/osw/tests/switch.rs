@@ -5,12 +5,9 @@
 
 mod common;
 use common::*;
+use osw_render::results::{self, Duty, NodeFrame};
 use std::path::Path;
 use std::time::{Duration, Instant};
-
-fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
-}
 
 #[test]
 fn the_switch_is_prev_split_across_processes() {
@@ -37,36 +34,27 @@ fn the_switch_is_prev_split_across_processes() {
     assert_eq!(c["identical_frames"], 16, "{c}");
     assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{c}");
     // The statistics: deltas send fewer ids and bytes than full sets, and say how many fewer.
-    let (sd, sf) = (summary(&run), summary(&full));
-    for key in [
-        "bytes_per_frame_mean",
-        "ids_sent_mean",
-        "ids_full_mean",
-        "incremental_saved_fraction",
-        "latency_ms_median",
-        "latency_ms_p95",
-        "frame_ms_median",
-        "hc_ms_median",
-        "rvg_ms_median",
-    ] {
-        assert!(sd[key].is_number(), "summary lacks {key}: {sd}");
+    let ((sd, d_sw), (_, f_sw)) = (switch_summary(&run), switch_summary(&full));
+    for (key, v) in
+        [("latency_ms_median", d_sw.latency_ms_median), ("frame_ms_median", sd.frame_ms_median), ("rvg_ms_median", sd.rvg_ms_median)]
+    {
+        assert!(v > 0.0, "{key}: {sd:?}");
     }
-    let num = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap();
-    assert_eq!(num(&sd, "ids_full_mean"), num(&sf, "ids_full_mean"));
-    assert_eq!(num(&sf, "ids_sent_mean"), num(&sf, "ids_full_mean"), "--full sends every id");
-    assert!(num(&sd, "ids_sent_mean") < num(&sf, "ids_sent_mean"));
-    assert!(num(&sd, "bytes_per_frame_mean") < num(&sf, "bytes_per_frame_mean"));
-    let saved = num(&sd, "incremental_saved_fraction");
-    assert!((saved - (1.0 - num(&sd, "ids_sent_mean") / num(&sd, "ids_full_mean"))).abs() < 1e-9);
+    assert!(d_sw.node_a_hc_ms_median.is_some() && d_sw.node_b_or_ms_median.is_some(), "osw run merges the nodes' times: {d_sw:?}");
+    assert_eq!(d_sw.ids_full_mean, f_sw.ids_full_mean);
+    assert_eq!(f_sw.ids_sent_mean, f_sw.ids_full_mean, "--full sends every id");
+    assert!(d_sw.ids_sent_mean < f_sw.ids_sent_mean);
+    assert!(d_sw.bytes_per_frame_mean < f_sw.bytes_per_frame_mean);
+    assert!((d_sw.incremental_saved_fraction - (1.0 - d_sw.ids_sent_mean / d_sw.ids_full_mean)).abs() < 1e-9);
     // Each node did both roles, in turn.
-    let roles = std::fs::read_to_string(run.join("node-a.csv")).unwrap();
+    let rows: Vec<NodeFrame> = results::csv::read(&run.join("node-a.csv")).unwrap();
     // Frame 0 has no OR before it: node a runs it alone, then the roles alternate.
-    let expect = |i: usize| match i {
-        0 => "SOLO",
-        _ if i.is_multiple_of(2) => "HC",
-        _ => "OR",
+    let expect = |i: u64| match i {
+        0 => Duty::Solo,
+        _ if i.is_multiple_of(2) => Duty::Hc,
+        _ => Duty::Or,
     };
-    assert!(roles.lines().skip(1).enumerate().all(|(i, l)| l.split(',').nth(1) == Some(expect(i))), "{roles}");
+    assert!(rows.len() >= 15 && rows.iter().enumerate().all(|(i, r)| r.frame == i as u64 && r.role == expect(r.frame)), "{rows:?}");
     check_bandwidth(&run, &full, &exact, &d.path().join("bw"));
     check_latency(&run, &d.path().join("lat"));
 }

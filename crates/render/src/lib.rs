@@ -2,7 +2,8 @@
 //! that every method runs in the same renderer on the same scene and camera path.
 //!
 //! - [`mode`]: the modes and their per-frame algorithms (a list of named, timed passes).
-//! - [`stats`]: per-frame statistics, `stats.csv` and `summary.json`.
+//! - [`stats`]: per-frame statistics of a run on one GPU.
+//! - [`results`]: the run results every tool writes and reads (`summary.json`, the CSVs).
 //! - [`output`]: frame PNGs and the per-frame PVS / exact-visibility files.
 //! - [`run`]: the loops over a camera path for `osw render` and `osw exact`.
 //! - [`log`]: the binaries' logging set-up; [`packet`]: the camera as the wire carries it.
@@ -12,8 +13,10 @@ pub mod log;
 pub mod mode;
 pub mod output;
 pub mod packet;
+pub mod results;
 pub mod run;
 pub mod stats;
 
 pub use mode::Mode;
-pub use stats::{FrameStats, Summary};
+pub use results::Summary;
+pub use stats::FrameStats;

@@ -28,18 +28,24 @@ use osw_gpu::renderer::{DrawStats, GpuTester, HcTest, InterleavedTester, RenderE
 use osw_scene::NodeId;
 use std::time::Instant;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Every method osw runs, by the name runs, reports and results use. All but the switch run
+/// on one GPU ([`ModeState`], `osw render`); the switch runs on two nodes and a display (`osw
+/// run`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Mode {
+    #[default]
     Vfc,
     Sw,
     Chc,
     Hzb,
     Prev,
     Ovc,
+    Switch,
 }
 
 impl Mode {
-    pub const ALL: [Mode; 6] = [Mode::Vfc, Mode::Sw, Mode::Chc, Mode::Hzb, Mode::Prev, Mode::Ovc];
+    pub const ALL: [Mode; 7] = [Mode::Vfc, Mode::Sw, Mode::Chc, Mode::Hzb, Mode::Prev, Mode::Ovc, Mode::Switch];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -49,7 +55,20 @@ impl Mode {
             Mode::Hzb => "hzb",
             Mode::Prev => "prev",
             Mode::Ovc => "ovc",
+            Mode::Switch => "switch",
         }
+    }
+
+    /// The modes with adaptive culling (paper 003 eq. 1): ovc in its traversal, prev and the
+    /// switch in HC's exact tests.
+    pub fn adaptive(self) -> bool {
+        matches!(self, Mode::Ovc | Mode::Prev | Mode::Switch)
+    }
+}
+
+impl std::fmt::Display for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -226,8 +245,12 @@ fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], adaptive: f64, pvs
 }
 
 impl ModeState {
-    pub fn new(mode: Mode, tau: f64, hc: HcTest) -> ModeState {
-        ModeState {
+    /// A mode's state, or why it cannot run on one GPU (the switch).
+    pub fn new(mode: Mode, tau: f64, hc: HcTest) -> Result<ModeState, String> {
+        if mode == Mode::Switch {
+            return Err("the switch runs on two nodes and a display: `osw run` (its algorithm on one GPU is `prev`)".into());
+        }
+        Ok(ModeState {
             mode,
             tau,
             hc,
@@ -241,7 +264,7 @@ impl ModeState {
             ovc: OvcOptions::default(),
             last_render_ms: None,
             frames: 0,
-        }
+        })
     }
 
     /// The visible set of the last frame rendered (LOD ids, sorted).
@@ -298,7 +321,8 @@ impl ModeState {
                 s.hc_ms = ms(t);
                 hc
             }
-            Mode::Prev => {
+            // The switch's algorithm on one GPU (`new` refuses the switch itself).
+            Mode::Prev | Mode::Switch => {
                 let t = Instant::now();
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
                 let front = draw_occluders(r, view, &self.older, self.tau, true, &mut self.occluders)?;
@@ -317,7 +341,7 @@ impl ModeState {
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {
-            Mode::Prev => r.draw_visible(view, &pvs, Pass::Color, &mut self.clusters)?,
+            Mode::Prev | Mode::Switch => r.draw_visible(view, &pvs, Pass::Color, &mut self.clusters)?,
             _ => r.draw(view, &pvs, Pass::Color, true)?,
         };
         s.rvg_ms = ms(t);

@@ -2,7 +2,8 @@
 
 use crate::mode::{Mode, ModeState};
 use crate::output::{frame_path, push_ids, write_png};
-use crate::stats::{FrameStats, Summary, to_csv};
+use crate::results::{self, Details, RenderSummary, Summary};
+use crate::stats::FrameStats;
 use osw_gpu::exact::Reference;
 use osw_gpu::renderer::{HcTest, RenderError, Renderer};
 use osw_scene::Camera;
@@ -42,7 +43,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     if write_frames {
         std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
     }
-    let mut state = ModeState::new(mode, tau, spec.hc);
+    let mut state = ModeState::new(mode, tau, spec.hc).map_err(RunError::Output)?;
     state.ovc = spec.ovc;
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
     let mut pvs = String::new();
@@ -57,31 +58,35 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
         }
         tick();
     }
-    write(&out.join("stats.csv"), &to_csv(&frames))?;
+    results::csv::write(&out.join("stats.csv"), &frames).map_err(|e| RunError::Output(e.to_string()))?;
     write(&out.join("pvs.txt"), &pvs)?;
+    let (header, stats) = (r.scene.header(), &r.residency.stats);
     let summary = Summary {
-        mode: mode.name().to_owned(),
+        mode,
         tau,
-        hc_test: format!("{:?}", spec.hc).to_lowercase(),
-        adaptive: spec.ovc.adaptive,
-        budget: spec.ovc.budget.unwrap_or(0.0),
-        sampling: spec.ovc.sampling,
         scene: spec.scene.display().to_string(),
         scene_hash: osw_scene::format::hash_hex(r.scene.content_hash()),
         path: spec.path.display().to_string(),
         width: r.target.width,
         height: r.target.height,
-        adapter: r.gpu.info.name.clone(),
-        uploads: r.residency.stats.uploads,
-        upload_bytes: r.residency.stats.upload_bytes,
-        evictions: r.residency.stats.evictions,
-        blocks_never_loaded: r.scene.header().block_count as u64 - r.residency.stats.distinct,
-        blocks_total: r.scene.header().block_count as u64,
-        geometry_never_loaded_fraction: 1.0 - r.residency.stats.distinct_bytes as f64 / r.scene.header().blob_bytes.max(1) as f64,
-        peak_rss_kb: crate::stats::peak_resident_kb(),
+        of: Details::Render(RenderSummary {
+            hc_test: format!("{:?}", spec.hc).to_lowercase(),
+            adaptive: spec.ovc.adaptive,
+            budget: spec.ovc.budget.unwrap_or(0.0),
+            sampling: spec.ovc.sampling,
+            adapter: r.gpu.info.name.clone(),
+            uploads: stats.uploads,
+            upload_bytes: stats.upload_bytes,
+            evictions: stats.evictions,
+            blocks_never_loaded: header.block_count as u64 - stats.distinct,
+            blocks_total: header.block_count as u64,
+            geometry_never_loaded_fraction: 1.0 - stats.distinct_bytes as f64 / header.blob_bytes.max(1) as f64,
+            peak_rss_kb: crate::stats::peak_resident_kb(),
+            ..RenderSummary::of(&frames)
+        }),
         ..Summary::of(&frames)
     };
-    write(&out.join("summary.json"), &serde_json::to_string_pretty(&summary).expect("plain data"))?;
+    summary.write(out).map_err(|e| RunError::Output(e.to_string()))?;
     Ok(summary)
 }
 

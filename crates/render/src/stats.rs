@@ -1,10 +1,11 @@
-//! Per-frame statistics: one struct, written to `stats.csv` by one function, summarised into
-//! `summary.json` by another.
+//! Per-frame statistics of a run on one GPU (`stats.csv`, [`crate::results::csv`]) and what
+//! they sum up to in `summary.json` ([`Summary::of`], [`RenderSummary::of`]).
 
-use serde::Serialize;
+use crate::results::{RenderSummary, Summary};
+use serde::{Deserialize, Serialize};
 
 /// One frame. Times in milliseconds.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct FrameStats {
     pub frame: u64,
     /// OR + HC + RVG: the frame's time without writing its PNG.
@@ -34,54 +35,6 @@ pub struct FrameStats {
     pub clusters_frustum_culled: u64,
     pub clusters_cone_culled: u64,
     pub clusters_occlusion_culled: u64,
-}
-
-/// The summary of a run: the keys first.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct Summary {
-    pub mode: String,
-    pub tau: f64,
-    pub frames: u64,
-    pub frame_ms_median: f64,
-    pub frame_ms_p95: f64,
-    pub triangles_drawn_mean: f64,
-    pub pvs_nodes_mean: f64,
-    pub tests_mean: f64,
-    /// RVG's clusters a frame, and the share culled by the frustum, the cone and as hidden.
-    pub clusters_mean: f64,
-    pub clusters_frustum_culled_fraction: f64,
-    pub clusters_cone_culled_fraction: f64,
-    pub clusters_occlusion_culled_fraction: f64,
-    /// The HC box test `prev` used: exact or pyramid.
-    pub hc_test: String,
-    /// ovc's knobs (paper 003): eq. 1's threshold (0: off), eq. 2's factor (0: no budget) and
-    /// the lines sampled; boxes a frame culled adaptively and taken untested over budget.
-    pub adaptive: f64,
-    pub budget: f64,
-    pub sampling: u32,
-    pub adaptive_culled_mean: f64,
-    pub over_budget_mean: f64,
-    pub or_ms_median: f64,
-    pub hc_ms_median: f64,
-    pub rvg_ms_median: f64,
-    /// Box tests per second of HC time (tests / hc_ms), median over frames with tests.
-    pub hc_tests_per_second_median: f64,
-    pub scene: String,
-    pub scene_hash: String,
-    pub path: String,
-    pub width: u32,
-    pub height: u32,
-    pub adapter: String,
-    pub uploads: u64,
-    pub upload_bytes: u64,
-    pub evictions: u64,
-    /// What the run left out: geometry blocks (LOD/HLOD nodes) never drawn, so never read
-    /// from the file nor uploaded, and their share of the scene's geometry.
-    pub blocks_never_loaded: u64,
-    pub blocks_total: u64,
-    pub geometry_never_loaded_fraction: f64,
-    /// Peak resident memory of the process at the end of the run.
-    pub peak_rss_kb: u64,
 }
 
 /// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
@@ -122,11 +75,10 @@ fn share(frames: &[FrameStats], culled: fn(&FrameStats) -> u64) -> f64 {
 }
 
 impl Summary {
-    /// Fills the statistics from `frames`; the caller fills the run's identity.
+    /// The keys every run has, from `frames`; the caller fills the run's identity.
     pub fn of(frames: &[FrameStats]) -> Summary {
         let col = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
         let total = col(|f| f.total_ms);
-        let rates: Vec<f64> = frames.iter().filter(|f| f.tests > 0 && f.hc_ms > 0.0).map(|f| f.tests as f64 / (f.hc_ms / 1e3)).collect();
         Summary {
             frames: frames.len() as u64,
             frame_ms_median: quantile(&total, 0.5),
@@ -134,38 +86,29 @@ impl Summary {
             triangles_drawn_mean: mean(frames.iter().map(|f| f.triangles_drawn as f64)),
             pvs_nodes_mean: mean(frames.iter().map(|f| f.pvs_nodes as f64)),
             tests_mean: mean(frames.iter().map(|f| f.tests as f64)),
-            adaptive_culled_mean: mean(frames.iter().map(|f| f.adaptive_culled as f64)),
-            over_budget_mean: mean(frames.iter().map(|f| f.over_budget as f64)),
             clusters_mean: mean(frames.iter().map(|f| f.clusters as f64)),
             clusters_frustum_culled_fraction: share(frames, |f| f.clusters_frustum_culled),
             clusters_cone_culled_fraction: share(frames, |f| f.clusters_cone_culled),
             clusters_occlusion_culled_fraction: share(frames, |f| f.clusters_occlusion_culled),
-            or_ms_median: quantile(&col(|f| f.or_ms), 0.5),
             hc_ms_median: quantile(&col(|f| f.hc_ms), 0.5),
             rvg_ms_median: quantile(&col(|f| f.rvg_ms), 0.5),
-            hc_tests_per_second_median: quantile(&rates, 0.5),
             ..Summary::default()
         }
     }
 }
 
-/// `stats.csv`: a header from the struct's fields, then one row per frame.
-pub fn to_csv(frames: &[FrameStats]) -> String {
-    let mut out = String::new();
-    let header: Vec<String> = match serde_json::to_value(FrameStats::default()) {
-        Ok(serde_json::Value::Object(m)) => m.keys().cloned().collect(),
-        _ => Vec::new(),
-    };
-    out.push_str(&header.join(","));
-    out.push('\n');
-    for f in frames {
-        if let Ok(serde_json::Value::Object(m)) = serde_json::to_value(f) {
-            let row: Vec<String> = header.iter().map(|k| m[k].to_string()).collect();
-            out.push_str(&row.join(","));
-            out.push('\n');
+impl RenderSummary {
+    /// The keys of one GPU's run, from `frames`; the caller fills the run's knobs and memory.
+    pub fn of(frames: &[FrameStats]) -> RenderSummary {
+        let rates: Vec<f64> = frames.iter().filter(|f| f.tests > 0 && f.hc_ms > 0.0).map(|f| f.tests as f64 / (f.hc_ms / 1e3)).collect();
+        RenderSummary {
+            or_ms_median: quantile(&frames.iter().map(|f| f.or_ms).collect::<Vec<f64>>(), 0.5),
+            adaptive_culled_mean: mean(frames.iter().map(|f| f.adaptive_culled as f64)),
+            over_budget_mean: mean(frames.iter().map(|f| f.over_budget as f64)),
+            hc_tests_per_second_median: quantile(&rates, 0.5),
+            ..RenderSummary::default()
         }
     }
-    out
 }
 
 #[cfg(test)]
@@ -181,13 +124,15 @@ mod tests {
     }
 
     #[test]
-    fn csv_has_a_column_per_field_in_order() {
-        let csv = to_csv(&[FrameStats { frame: 3, tests: 7, ..Default::default() }]);
+    fn csv_has_a_column_per_field_in_order_and_reads_back() {
+        let csv = crate::results::csv::to_string(&[FrameStats { frame: 3, tests: 7, rvg_ms: 1.5, ..Default::default() }]);
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(header[0], "frame");
         let row: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(row.len(), header.len());
         assert_eq!(row[header.iter().position(|h| *h == "tests").unwrap()], "7");
+        let back: Vec<FrameStats> = crate::results::csv::parse(&csv).unwrap();
+        assert_eq!((back[0].frame, back[0].tests, back[0].rvg_ms), (3, 7, 1.5));
     }
 }

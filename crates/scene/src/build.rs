@@ -65,7 +65,7 @@ impl Progress for () {
 }
 
 /// What the build made, written next to the scene as `<scene>.build.json`.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct BuildReport {
     pub input: String,
     pub input_triangles: u64,

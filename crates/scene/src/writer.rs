@@ -109,8 +109,8 @@ impl SceneWriter {
         Ok(record)
     }
 
-    /// The file being written.
-    pub fn path(&self) -> &Path {
+    /// The file being written (renamed into place by `finish`).
+    pub fn partial_path(&self) -> &Path {
         &self.partial
     }
 

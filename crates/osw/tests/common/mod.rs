@@ -22,6 +22,23 @@ impl Drop for Proc {
     }
 }
 
+/// A run's summary.json, through the schema the tools read it with.
+pub fn summary(run: &Path) -> osw_render::Summary {
+    osw_render::Summary::read(run).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The keys of a run on one GPU.
+pub fn render_summary(run: &Path) -> osw_render::results::RenderSummary {
+    summary(run).render().cloned().unwrap_or_else(|| panic!("{}: not a run of osw render", run.display()))
+}
+
+/// The keys of a switch run.
+pub fn switch_summary(run: &Path) -> (osw_render::Summary, osw_render::results::SwitchSummary) {
+    let s = summary(run);
+    let sw = s.switch().cloned().unwrap_or_else(|| panic!("{}: not a switch run", run.display()));
+    (s, sw)
+}
+
 pub fn osw(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_osw")).args(args).env("OSW_MESH_CACHE", "/nonexistent").output().expect("run osw")
 }

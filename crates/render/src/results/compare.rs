@@ -1,0 +1,42 @@
+//! `compare.json` (`osw compare`): run a against run b frame by frame, image error and, given
+//! exact visibility, each run's culling error, with both runs' times.
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Compare {
+    pub a: String,
+    pub b: String,
+    pub exact: Option<String>,
+    pub frames: usize,
+    pub identical_frames: usize,
+    pub psnr_db_min: Option<f64>,
+    pub psnr_db_median: Option<f64>,
+    pub differing_fraction_mean: f64,
+    pub differing_fraction_max: f64,
+    pub max_channel_diff: u8,
+    /// Run time next to the error: each run's median frame time, and b's over a's.
+    pub frame_ms_median_a: f64,
+    pub frame_ms_median_b: f64,
+    pub speedup_a_over_b: f64,
+    pub culling_a: Option<Culling>,
+    pub culling_b: Option<Culling>,
+}
+
+/// One run's culling error against exact visibility.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Culling {
+    pub false_culled_leaves_total: u64,
+    pub frames_with_false_culling: u64,
+    pub pvs_exact_leaves_ratio_mean: f64,
+    pub pvs_exact_triangles_ratio_mean: f64,
+    /// Triangles drawn (stats.csv: after cluster culling inside the PVS's nodes) over exactly
+    /// visible triangles; none for a run without stats.csv.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drawn_exact_triangles_ratio_mean: Option<f64>,
+    /// Against `--exact-lod`: nodes visible at the runs' tau that the PVS does not draw.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lod_false_culled_total: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lod_frames_with_false_culling: Option<u64>,
+}

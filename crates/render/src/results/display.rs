@@ -1,0 +1,39 @@
+//! The display's frames (the switch run's `stats.csv`), written by `osw-display` and read by
+//! `osw bandwidth`, `osw latency` and `osw scale`.
+
+use serde::{Deserialize, Serialize};
+
+/// One displayed frame.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+pub struct DisplayFrame {
+    pub frame: u64,
+    /// Time from the previous displayed frame to this one.
+    pub frame_ms: f64,
+    pub rvg_ms: f64,
+    pub hc_ms: f64,
+    pub latency_ms: f64,
+    /// One-way latency of each link, from wall-clock stamps corrected by the estimated clock
+    /// offsets: RVG → HC (this frame's camera), HC → RVG (its end of frame), HC → OR (its
+    /// end of frame to the peer; filled in once the peer reports it, a frame later).
+    pub camera_link_ms: f64,
+    pub eof_link_ms: f64,
+    pub peer_link_ms: f64,
+    /// The node the frame came from, and 1 when a node was down (the other ran alone).
+    pub hc_node: u32,
+    pub degraded: u32,
+    /// Resident memory once the frame is shown (a soak shows it flat).
+    pub rss_kb: u64,
+    pub bytes: u64,
+    /// Of `bytes`, the messages that carry ids (deltas, keyframes), their headers included.
+    pub id_bytes: u64,
+    pub ids_sent: u64,
+    pub ids_full: u64,
+    pub pvs_nodes: u32,
+    pub triangles_drawn: u64,
+    pub tests: u32,
+    /// RVG's cluster tests (as `osw render`'s stats.csv).
+    pub clusters: u64,
+    pub clusters_frustum_culled: u64,
+    pub clusters_cone_culled: u64,
+    pub clusters_occlusion_culled: u64,
+}

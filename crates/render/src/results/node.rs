@@ -1,0 +1,38 @@
+//! A switch node's frames (`node-a.csv`, `node-b.csv`), written by `osw-node --stats` and read
+//! by `osw run` (stage times), `osw bandwidth` (bytes per link) and `osw scale` (memory).
+
+use serde::{Deserialize, Serialize};
+
+/// What a node does in a frame (paper 000 alg. 4.2; failover is issue 6's).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "UPPERCASE")]
+pub enum Duty {
+    Hc,
+    Or,
+    /// OR and HC in turn, alone: the first frame, the peer gone, or handing it a keyframe.
+    #[default]
+    Solo,
+}
+
+/// One frame of a node.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+pub struct NodeFrame {
+    pub frame: u64,
+    pub role: Duty,
+    pub ms: f64,
+    pub nodes_drawn: u32,
+    pub tests: u32,
+    pub ids_sent: u64,
+    /// Delta batches and bytes (frames as encoded) this node sent as HC, per link.
+    pub batches: u32,
+    pub bytes_to_peer: u64,
+    pub bytes_to_display: u64,
+    /// Resident memory at the end of the frame (a soak shows it flat).
+    pub rss_kb: u64,
+}
+
+/// The median frame time of `frames` in `role`, if it had any.
+pub fn role_median_ms(frames: &[NodeFrame], role: Duty) -> Option<f64> {
+    let ms: Vec<f64> = frames.iter().filter(|f| f.role == role).map(|f| f.ms).collect();
+    (!ms.is_empty()).then(|| crate::stats::quantile(&ms, 0.5))
+}
