@@ -36,6 +36,7 @@ for tau in 1 0; do
   $osw render --scene "$scene" --path "$walk" --mode "$ref" --tau "$tau" --size "$size" --out "$out/$ref-tau$tau" > "$out/$ref-tau$tau.log"
   $osw compare --a "$out/switch-tau$tau" --b "$out/$ref-tau$tau" --out "$out/compare-tau$tau" > /dev/null
   identical=$(sed -n 's/.*"identical_frames": \([0-9]*\).*/\1/p' "$out/compare-tau$tau/compare.json")
+  : "${identical:?$out/compare-tau$tau/compare.json has no identical_frames}"
   echo "huge-check: tau $tau: switch against $ref: $identical of $frames frames identical"
   ((identical == frames)) || fail=1
 done

@@ -27,9 +27,10 @@ $osw build --gen city --triangles 50000 --seed 1 -o "$out/city.osw" >/dev/null
 $osw path --scene "$out/city.osw" --kind orbit --frames "$frames" -o "$out/orbit.csv" >/dev/null
 start=$(date +%s)
 $osw run --scene "$out/city.osw" --path "$out/orbit.csv" --size 128x128 --tau 1 --no-frames --out "$out/run"
-# rss_kb at frame 100 and at the last frame of a CSV (the column named rss_kb).
-rss() { awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) if ($i == "rss_kb") c = i; next }
-                 $1 == 100 { early = $c } { last = $c } END { printf "%.1f MiB at frame 100, %.1f MiB at the end", early / 1024, last / 1024 }' "$1"; }
+# rss_kb at frame 100 and at the last frame of a CSV (its columns frame and rss_kb, by name).
+rss() { awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) { if ($i == "rss_kb") c = i; if ($i == "frame") f = i }
+                           if (!c || !f) { print FILENAME ": no frame or rss_kb column" > "/dev/stderr"; exit 1 }; next }
+                 $f == 100 { early = $c } { last = $c } END { printf "%.1f MiB at frame 100, %.1f MiB at the end", early / 1024, last / 1024 }' "$1"; }
 {
   echo "soak: $frames frames in $(($(date +%s) - start)) s"
   echo "display: $(rss "$out/run/stats.csv")"

@@ -20,7 +20,7 @@ pub fn write_outputs(
     let degraded: Vec<u64> = rows.iter().filter(|r| r.degraded == 1).map(|r| r.frame).collect();
     let (w, h) = set.size;
     let col = |f: fn(&DisplayFrame) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
-    let mean = |f: fn(&DisplayFrame) -> f64| col(f).iter().sum::<f64>() / rows.len().max(1) as f64;
+    let mean = |f: fn(&DisplayFrame) -> f64| osw_render::stats::mean(rows.iter().map(f));
     // The first frame waits for start-up: frame times from the second on.
     let frame_ms: Vec<f64> = rows.iter().skip(1).map(|r| r.frame_ms).collect();
     let ids_sent: f64 = rows.iter().map(|r| r.ids_sent as f64).sum();

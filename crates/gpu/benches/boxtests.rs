@@ -5,7 +5,7 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{HcTest, Renderer};
+use osw_gpu::renderer::{BoxTest, Renderer};
 use osw_scene::Camera;
 use std::sync::Arc;
 
@@ -35,7 +35,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("hc box tests");
     g.sample_size(10);
     g.throughput(Throughput::Elements(boxes.len() as u64));
-    for test in [HcTest::Pyramid, HcTest::Exact, HcTest::Queries] {
+    for test in [BoxTest::Pyramid, BoxTest::Exact, BoxTest::Queries] {
         let mut out = Vec::with_capacity(boxes.len());
         g.bench_function(format!("{test:?}, {} boxes", boxes.len()), |b| {
             b.iter(|| {

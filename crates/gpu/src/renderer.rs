@@ -29,9 +29,9 @@ pub enum RenderError {
     TooManyTriangles(u64, u64),
 }
 
-/// How HC tests boxes (issue 3: both measured, see the closing note).
+/// How the GPU tests boxes against the occluders (issue 3: measured, see its closing note).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum HcTest {
+pub enum BoxTest {
     /// Rasterised boxes against the depth buffer, exact per pixel (forced early depth).
     Exact,
     /// As `Exact`, counting each box's visible pixels (paper 000 sec. 4.7.2).
@@ -41,11 +41,6 @@ pub enum HcTest {
     /// One occlusion query per box (paper 000 sec. 4.7.1: GL_NV_occlusion_query), the
     /// paper-faithful reference. wgpu documents only zero / non-zero results.
     Queries,
-    /// The pyramid on the CPU first (the depth read back once, every traversal round tested
-    /// without a round trip), then the exact test again for the PVS's boxes that are small on
-    /// screen (osw_render's `hc_pass`). Large boxes stay visible: they are nearly always
-    /// visible, cost the most fill, and their children are tested.
-    Hybrid,
 }
 
 /// Background of colour frames: a pale sky, so that what is open to the outside reads as such.
@@ -245,7 +240,7 @@ impl Renderer {
             false
         })?;
         let mut answers = Vec::with_capacity(boxes.len());
-        self.test_raw(view, &mut boxes.into_iter(), HcTest::Exact, &mut answers)?;
+        self.test_raw(view, &mut boxes.into_iter(), BoxTest::Exact, &mut answers)?;
         let mut occluded = 0;
         for (&(id, k), &visible) in candidates.iter().zip(&answers) {
             if visible > 0 {
@@ -366,7 +361,7 @@ impl Renderer {
     }
 
     /// Records the farthest-depth pyramid of the depth buffer as it is now, for
-    /// [`HcTest::Pyramid`] (after the occluders are drawn, before the boxes are tested).
+    /// [`BoxTest::Pyramid`] (after the occluders are drawn, before the boxes are tested).
     pub fn build_pyramid(&mut self) {
         let mut enc = self.gpu.device.create_command_encoder(&Default::default());
         self.pyramid.encode_build(&self.target, &mut enc);
@@ -375,12 +370,11 @@ impl Renderer {
 
     /// Tests the boxes of BVH nodes `ids` against the occluders: the depth buffer as it is now
     /// (exact tests) or the pyramid last built from it. Appends one answer per id.
-    pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: HcTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
-        debug_assert_ne!(test, HcTest::Hybrid, "the hybrid is osw_render's hc_pass: the CPU pyramid, then Exact");
+    pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: BoxTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
         let mut words = Vec::with_capacity(ids.len());
         let scene = Arc::clone(&self.scene);
         self.test_raw(view, &mut ids.iter().map(|&id| scene.node(id).aabb()), test, &mut words)?;
-        let counts = test == HcTest::ExactCount;
+        let counts = test == BoxTest::ExactCount;
         out.extend(words.iter().map(|&w| Visibility { visible: w > 0, pixels: counts.then_some(w) }));
         Ok(())
     }
@@ -391,11 +385,11 @@ impl Renderer {
         &mut self,
         view: &View,
         boxes: &mut dyn Iterator<Item = osw_scene::Aabb>,
-        test: HcTest,
+        test: BoxTest,
         out: &mut Vec<u32>,
     ) -> Result<(), RenderError> {
         self.gpu.queue.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
-        let chunk_len = if test == HcTest::Queries { QUERIES } else { crate::limits::MAX_BOXES };
+        let chunk_len = if test == BoxTest::Queries { QUERIES } else { crate::limits::MAX_BOXES };
         loop {
             self.gpu_boxes.clear();
             for b in (&mut *boxes).take(chunk_len as usize) {
@@ -405,55 +399,70 @@ impl Renderer {
                 self.gpu_boxes.push(GpuBox { lo: lo.extend(lines as f32).to_array(), hi: hi.extend(first as f32).to_array() });
             }
             if self.gpu_boxes.is_empty() {
-                break;
+                return Ok(());
             }
-            let n = self.gpu_boxes.len() as u64;
+            let n = self.gpu_boxes.len() as u32;
             self.gpu.queue.write_buffer(&self.boxes_buf, 0, bytemuck::cast_slice(&self.gpu_boxes));
             let mut enc = self.gpu.device.create_command_encoder(&Default::default());
-            enc.clear_buffer(&self.results_buf, 0, Some(n * 4));
-            let count_pixels = test == HcTest::ExactCount;
-            if test == HcTest::Pyramid {
-                self.pyramid.encode_cull(&self.gpu, &mut enc, n as u32);
-            } else {
-                let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("boxtest"),
-                    color_attachments: &[],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &self.target.depth,
-                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: None,
-                    occlusion_query_set: (test == HcTest::Queries).then_some(&self.queries),
-                    multiview_mask: None,
-                });
-                rp.set_pipeline(if count_pixels { &self.boxtest.count } else { &self.boxtest.flag });
-                rp.set_bind_group(0, &self.box_group, &[]);
-                if test == HcTest::Queries {
-                    for i in 0..n as u32 {
+            match test {
+                BoxTest::Queries => {
+                    let mut rp = self.box_pass(&mut enc, &self.boxtest.flag, Some(&self.queries));
+                    for i in 0..n {
                         rp.begin_occlusion_query(i);
                         rp.draw(0..36, i..i + 1);
                         rp.end_occlusion_query();
                     }
-                } else {
-                    rp.draw(0..36, 0..n as u32);
+                    drop(rp);
+                    enc.resolve_query_set(&self.queries, 0..n, &self.query_resolve, 0);
+                    enc.copy_buffer_to_buffer(&self.query_resolve, 0, &self.query_staging, 0, Some(n as u64 * 8));
+                    self.gpu.queue.submit([enc.finish()]);
+                    crate::readback::read(&self.gpu, &self.query_staging, n as u64 * 8, |bytes| {
+                        let samples: &[u64] = bytemuck::cast_slice(bytes);
+                        out.extend(samples.iter().map(|&q| (q > 0) as u32));
+                    })?;
+                    continue;
+                }
+                BoxTest::Pyramid => {
+                    enc.clear_buffer(&self.results_buf, 0, Some(n as u64 * 4));
+                    self.pyramid.encode_cull(&self.gpu, &mut enc, n);
+                }
+                BoxTest::Exact | BoxTest::ExactCount => {
+                    enc.clear_buffer(&self.results_buf, 0, Some(n as u64 * 4));
+                    let pipeline = if test == BoxTest::ExactCount { &self.boxtest.count } else { &self.boxtest.flag };
+                    self.box_pass(&mut enc, pipeline, None).draw(0..36, 0..n);
                 }
             }
-            if test == HcTest::Queries {
-                enc.resolve_query_set(&self.queries, 0..n as u32, &self.query_resolve, 0);
-                enc.copy_buffer_to_buffer(&self.query_resolve, 0, &self.query_staging, 0, Some(n * 8));
-                self.gpu.queue.submit([enc.finish()]);
-                crate::readback::read(&self.gpu, &self.query_staging, n * 8, |bytes| {
-                    let samples: &[u64] = bytemuck::cast_slice(bytes);
-                    out.extend(samples.iter().map(|&q| (q > 0) as u32));
-                })?;
-                continue;
-            }
-            enc.copy_buffer_to_buffer(&self.results_buf, 0, &self.results_staging, 0, Some(n * 4));
+            enc.copy_buffer_to_buffer(&self.results_buf, 0, &self.results_staging, 0, Some(n as u64 * 4));
             self.gpu.queue.submit([enc.finish()]);
-            crate::readback::read(&self.gpu, &self.results_staging, n * 4, |bytes| out.extend_from_slice(bytemuck::cast_slice(bytes)))?;
+            crate::readback::read(&self.gpu, &self.results_staging, n as u64 * 4, |bytes| {
+                out.extend_from_slice(bytemuck::cast_slice(bytes))
+            })?;
         }
-        Ok(())
+    }
+
+    /// A pass rasterising the boxes with `pipeline` against the depth buffer, counted by
+    /// `queries` when given.
+    fn box_pass<'a>(
+        &'a self,
+        enc: &'a mut wgpu::CommandEncoder,
+        pipeline: &'a wgpu::RenderPipeline,
+        queries: Option<&'a wgpu::QuerySet>,
+    ) -> wgpu::RenderPass<'a> {
+        let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("boxtest"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.target.depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: queries,
+            multiview_mask: None,
+        });
+        rp.set_pipeline(pipeline);
+        rp.set_bind_group(0, &self.box_group, &[]);
+        rp
     }
 
     /// The colour attachment, RGBA8 rows top first.
@@ -466,7 +475,7 @@ impl Renderer {
 /// (conservative) and is kept in `error` for the caller to report.
 pub struct GpuTester<'a> {
     pub renderer: &'a mut Renderer,
-    pub test: HcTest,
+    pub test: BoxTest,
     pub error: Option<RenderError>,
 }
 
@@ -495,7 +504,7 @@ pub struct InterleavedTester<'a> {
 
 impl<'a> InterleavedTester<'a> {
     pub fn new(renderer: &'a mut Renderer) -> InterleavedTester<'a> {
-        InterleavedTester { tester: GpuTester { renderer, test: HcTest::Exact, error: None }, pending: Vec::new() }
+        InterleavedTester { tester: GpuTester { renderer, test: BoxTest::Exact, error: None }, pending: Vec::new() }
     }
 
     /// Draws what is still pending; returns the first error of the traversal.

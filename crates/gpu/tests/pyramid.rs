@@ -10,7 +10,7 @@ use glam::DVec3;
 use osw_cull::VisibilityTester;
 use osw_cull::hzb::{HzbTester, Pyramid};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{HcTest, Renderer};
+use osw_gpu::renderer::{BoxTest, Renderer};
 use osw_scene::Camera;
 use std::sync::Arc;
 
@@ -34,7 +34,7 @@ fn the_gpu_pyramid_answers_as_the_cpu_reference() {
     r.build_pyramid();
     let boxes: Vec<u32> = (0..scene.bvh_count()).collect();
     let mut gpu_answers = Vec::new();
-    r.test_boxes(&view, &boxes, HcTest::Pyramid, &mut gpu_answers).unwrap();
+    r.test_boxes(&view, &boxes, BoxTest::Pyramid, &mut gpu_answers).unwrap();
 
     let cpu_pyramid = Pyramid::new(w, h, r.target.read_depth(&r.gpu).unwrap());
     let mut cpu_answers = Vec::new();

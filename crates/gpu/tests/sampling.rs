@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{HcTest, Renderer};
+use osw_gpu::renderer::{BoxTest, Renderer};
 use osw_scene::Camera;
 use std::sync::Arc;
 
@@ -29,7 +29,7 @@ fn the_phases_of_a_sampled_box_test_add_up_to_the_whole_count() {
     let count = |r: &mut Renderer, sampling: (u32, u32)| {
         r.sampling = sampling;
         let mut out = Vec::new();
-        r.test_boxes(&view, &boxes, HcTest::ExactCount, &mut out).unwrap();
+        r.test_boxes(&view, &boxes, BoxTest::ExactCount, &mut out).unwrap();
         out.iter().map(|v| v.pixels.unwrap()).collect::<Vec<u32>>()
     };
     let whole = count(&mut r, (1, 0));

@@ -205,8 +205,9 @@ impl Inbox {
         }
     }
 
-    /// The in-step peer's next message for frame i; `None` when the display said goodbye or
-    /// restarted, or the peer is gone or out of step (a new connection from a restarted peer).
+    /// The in-step peer's next message (`i` names the frame waited for in a timeout's message);
+    /// `None` when the display said goodbye or restarted, or the peer is gone or out of step
+    /// (a new connection from a restarted peer).
     pub fn peer_message(&mut self, i: u64) -> anyhow::Result<Option<(Message, u64)>> {
         let deadline = Instant::now() + self.wait;
         loop {

@@ -7,7 +7,8 @@
 //! whose peer is gone, or not in step, runs both roles in turn alone (the single-GPU loop of
 //! paper 004 fig. 5) and sends RVG keyframes. A restarted peer asks to rejoin; at the end of
 //! its frame k this node hands it V(k) and runs frame k+1 alone once more (its depth buffer
-//! holds camera k's occluders) while the peer is OR for k+2; the roles alternate from there.
+//! holds camera k's occluders) while the peer is OR in frame k+1 (camera k+2); the roles
+//! alternate from there.
 //! When only the link between the nodes was cut, both ran alone; when it is back, node b
 //! stops serving and rejoins node a the same way. Each hello says whether its node has run
 //! frames (`serving`), so that node b does not stop for a peer that was only started anew.
@@ -79,6 +80,11 @@ pub enum Step {
     Stop,
 }
 
+/// While a node runs alone, RVG may hold another node's V(i-1): it gets the whole set.
+pub fn keyframe_to_display(i: u64, duty: Duty) -> bool {
+    duty == Duty::Solo && i > 0
+}
+
 #[derive(Clone, Debug)]
 pub struct Roles {
     /// Node a (0) or b (1).
@@ -133,14 +139,17 @@ impl Roles {
         forget
     }
 
-    /// The first camera arrived: camera 0 starts the path with the peer (both hold the empty
-    /// set); a later one means this node restarted into a running cluster and must rejoin.
-    pub fn started(&mut self, first_camera: u64) -> Step {
-        if first_camera == 0 && self.peer != Peer::Gone {
-            self.peer = Peer::InStep;
-            return Step::Frame(self.duty(0));
+    /// The first camera arrived: camera 0 starts the path, with the peer when it is there
+    /// (both hold the empty set; a peer that asked for a keyframe meanwhile gets one). A later
+    /// camera means this node restarted into a running cluster and must rejoin: false.
+    pub fn started(&mut self, first_camera: u64) -> bool {
+        if first_camera != 0 {
+            return false;
         }
-        Step::Rejoin
+        if let Peer::OutOfStep { .. } = self.peer {
+            self.peer = Peer::InStep;
+        }
+        true
     }
 
     /// A restarted display: both nodes start over on their own, HC by parity and without
@@ -186,14 +195,9 @@ impl Roles {
         self.peer == Peer::InStep
     }
 
-    /// While this node runs alone, RVG may hold another node's V(i-1): it gets the whole set.
-    pub fn keyframe_to_display(&self, i: u64, duty: Duty) -> bool {
-        duty == Duty::Solo && i > 0
-    }
-
     /// This node asked the peer for a keyframe.
     pub fn asked(&mut self) {
-        if let Peer::OutOfStep { .. } | Peer::InStep = self.peer {
+        if let Peer::OutOfStep { .. } = self.peer {
             self.peer = Peer::Asked;
         }
     }
@@ -204,7 +208,8 @@ impl Roles {
         self.display == Display::Playing && matches!((self.peer, running), (Peer::Asked, _) | (Peer::Rejoining { .. }, false))
     }
 
-    /// The peer's keyframe of V(k) arrived: this node is OR for frame k+1, and returns it.
+    /// The peer's keyframe of V(k) arrived: this node is OR in frame k+1 (with camera k+2),
+    /// and returns k+1.
     pub fn rejoined(&mut self, k: u64) -> u64 {
         self.peer = Peer::InStep;
         self.hc_parity = k % 2;
@@ -214,7 +219,7 @@ impl Roles {
     }
 
     /// HC (alone or not) finished frame i, its depth buffer holding camera i's occluders.
-    /// Returns whether to hand the rejoining peer V(i) now: it is OR for frame i+1 (with
+    /// Returns whether to hand the rejoining peer V(i) now: it is OR in frame i+1 (with
     /// camera i+2), this node alone once more. Not before the frames the peer served (both
     /// alone while the link was cut): the display holds those from the peer's visible set,
     /// and must not get deltas against them from this node.
@@ -231,7 +236,7 @@ impl Roles {
         }
     }
 
-    /// OR finished frame i: the depth buffer holds camera i+1's occluders.
+    /// OR finished in frame i: the depth buffer holds camera i+1's occluders.
     pub fn or_done(&mut self, i: u64) {
         self.depth_for = Some(i + 1);
     }
@@ -265,7 +270,8 @@ mod tests {
             for (x, first) in n.iter_mut().zip([Duty::Solo, Duty::Or]) {
                 x.roles.on(Event::DisplayConnected);
                 x.roles.on(Event::PeerConnected { serving: false });
-                assert_eq!(x.roles.started(0), Step::Frame(first));
+                assert!(x.roles.started(0));
+                assert_eq!(x.roles.step(0), Step::Frame(first));
             }
             Cluster { n, served: Vec::new() }
         }
@@ -335,7 +341,7 @@ mod tests {
         b.on(Event::DisplayConnected);
         b.on(Event::PeerConnected { serving: true });
         c.n[0].roles.on(Event::PeerConnected { serving: false });
-        assert_eq!(b.started(7), Step::Rejoin);
+        assert!(!b.started(7));
         b.asked();
         assert!(b.awaiting_keyframe(false));
         // a keeps serving alone: a peer started anew is not one to rejoin.
@@ -348,7 +354,7 @@ mod tests {
         // Frame 7: a alone once more (its depth holds camera 6), b OR for frame 8.
         assert_eq!(c.n[0].roles.duty(7), Solo);
         assert_eq!(c.n[1].roles.duty(7), Or);
-        assert!(c.n[0].roles.keyframe_to_display(7, Solo));
+        assert!(keyframe_to_display(7, Solo));
         assert_eq!(c.run(7..11), vec![[Solo, Or], [Or, Hc], [Hc, Or], [Or, Hc]]);
         assert_eq!((c.n[0].roles.peer_losses, c.n[0].roles.peer_rejoins, c.n[1].roles.peer_rejoins), (1, 1, 1));
     }
@@ -377,7 +383,7 @@ mod tests {
         }
         // Both serve the display alone (a's frame 4 on the occluders it drew as OR).
         assert_eq!(c.run(4..7), vec![[Hc, Solo], [Solo, Solo], [Solo, Solo]]);
-        assert!(c.n.iter().all(|x| x.roles.keyframe_to_display(5, Solo)));
+        assert!(keyframe_to_display(5, Solo) && !keyframe_to_display(0, Solo) && !keyframe_to_display(5, Hc));
         // The link is back: both have served frames.
         for x in &mut c.n {
             x.roles.on(Event::PeerConnected { serving: true });
@@ -458,6 +464,20 @@ mod tests {
         a.started_over();
         assert_eq!(a.peer, Peer::Gone);
         assert_eq!((a.step(0), a.step(1)), (Step::Frame(Solo), Step::Frame(Solo)));
+    }
+
+    #[test]
+    fn camera_zero_starts_alone_without_a_peer_and_keeps_a_rejoin_asked_before_it() {
+        let mut a = Roles::new(0);
+        a.on(Event::DisplayConnected);
+        assert!(a.started(0));
+        assert_eq!(a.step(0), Step::Frame(Solo));
+        let mut a = Roles::new(0);
+        a.on(Event::DisplayConnected);
+        a.on(Event::PeerConnected { serving: false });
+        a.on(Event::PeerRejoins { next: 0 });
+        assert!(a.started(0));
+        assert!(a.hc_done(0), "the peer that asked gets V(0)");
     }
 
     #[test]

@@ -3,8 +3,9 @@
 //!
 //! - HC for frame i: send camera i to RVG first (alg. 4.2 line 6), test the hierarchy against
 //!   the depth buffer this node built as OR in frame i-1, stream the visible-set change to the
-//!   peer and RVG in batches of b ids (sec. 3.5), then end of frame with the statistics.
-//! - OR for frame i+1 (while the peer is HC for frame i): take camera i+1, draw the front of
+//!   peer and RVG in batches of at most b added and b removed ids (sec. 3.5), then end of
+//!   frame with the statistics.
+//! - OR in frame i (while the peer is HC for frame i): take camera i+1, draw the front of
 //!   V(i-1) updated for it (sec. 4.6) into the depth buffer at once, then each batch of
 //!   additions (updated for it too) as it arrives, until end of frame; then V(i) =
 //!   (V(i-1) - removed) ∪ added (sec. 3.4).
@@ -16,10 +17,10 @@
 //! interactively), so the node that is OR and the one that is HC select LODs alike.
 
 use crate::inbox::Inbox;
-use crate::roles::{Display, Duty, Step};
+use crate::roles::{Display, Duty, Peer, Step, keyframe_to_display};
 use osw_cull::delta::{Assembly, batches, diff};
-use osw_gpu::renderer::{HcTest, Renderer};
-use osw_render::mode::{draw_occluders, hc_pass};
+use osw_gpu::renderer::Renderer;
+use osw_render::mode::{HcTest, draw_occluders, hc_pass};
 use osw_render::packet;
 use osw_render::results::NodeFrame;
 use osw_scene::NodeId;
@@ -49,17 +50,22 @@ impl Switch {
     }
 
     /// Waits for the display, the peer and the first camera. Camera 0 starts the path; a
-    /// later one means this node restarted into a running cluster and rejoins it. Returns
-    /// the first frame to run, or `None` when the display said goodbye first.
+    /// later one means this node restarted into a running cluster and rejoins it (asking
+    /// again on a new connection of the peer). Returns the first frame to run, or `None` when
+    /// the display said goodbye first.
     pub fn start(&mut self) -> anyhow::Result<Option<u64>> {
         self.io.connected()?;
         let Some(first) = self.io.first_camera("the first camera")? else { return Ok(None) };
-        match self.io.roles.started(first) {
-            Step::Frame(_) => Ok(Some(0)),
-            _ => match self.rejoin(0, false)? {
-                None if self.io.roles.display != Display::Done => anyhow::bail!("the peer left before this node could rejoin"),
-                first => Ok(first),
-            },
+        if self.io.roles.started(first) {
+            return Ok(Some(0));
+        }
+        loop {
+            match self.rejoin(0, false)? {
+                Some(first) => return Ok(Some(first)),
+                None if self.io.roles.display == Display::Done => return Ok(None),
+                None if matches!(self.io.roles.peer, Peer::OutOfStep { .. }) => tracing::warn!("the peer connected anew: asking it again"),
+                None => anyhow::bail!("the peer left before this node could rejoin"),
+            }
         }
     }
 
@@ -70,10 +76,13 @@ impl Switch {
             self.io.drain();
             let f = match self.io.roles.step(i) {
                 Step::Stop => return Ok(log),
-                Step::StartOver => {
-                    i = self.start_over()?;
-                    continue;
-                }
+                Step::StartOver => match self.start_over()? {
+                    Some(first) => {
+                        i = first;
+                        continue;
+                    }
+                    None => return Ok(log),
+                },
                 Step::Rejoin => {
                     tracing::warn!("the link to the peer is back: rejoining it");
                     i = self.rejoin(i, true)?.unwrap_or(i);
@@ -107,8 +116,7 @@ impl Switch {
         let mut pvs = Vec::new();
         let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, self.adaptive, &self.visible, &mut pvs)?;
         let (batches, ids_sent) = self.send_visible_set(i, duty, &pvs);
-        let stats =
-            HcWireStats { tests: hc.tests, levels: hc.levels, hc_us: t.elapsed().as_micros() as u64, or_us: 0, pvs: pvs.len() as u32 };
+        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us: t.elapsed().as_micros() as u64, pvs: pvs.len() as u32 };
         let clock = LinkStamps { sent_us: now_us(), camera_received_us, peer_eof_received_us: self.peer_eof_received_us };
         let eof = Message::EndOfFrame(EndOfFrame { frame: i, stats, clock });
         if self.io.roles.peer_in_step() {
@@ -124,7 +132,7 @@ impl Switch {
         let ms = t.elapsed().as_secs_f64() * 1e3;
         Ok(Some(NodeFrame {
             frame: i,
-            role: duty,
+            duty,
             ms,
             nodes_drawn: drawn,
             tests: hc.tests,
@@ -141,7 +149,7 @@ impl Switch {
     /// node's V(i-1). Returns the batches and the ids sent to RVG.
     fn send_visible_set(&mut self, i: u64, duty: Duty, pvs: &[NodeId]) -> (u32, u64) {
         let to_peer = self.io.roles.peer_in_step();
-        let keyframe_to_display = self.full || self.io.roles.keyframe_to_display(i, duty);
+        let keyframe_to_display = self.full || keyframe_to_display(i, duty);
         if keyframe_to_display {
             self.io.send_display(keyframe_of(i, pvs));
         }
@@ -168,8 +176,8 @@ impl Switch {
         (n, ids)
     }
 
-    /// OR for frame i+1 while the peer is HC for frame i. When the peer is lost before its
-    /// end of frame, this node runs frame i alone instead.
+    /// OR in frame i (camera i+1) while the peer is HC for frame i. When the peer is lost
+    /// before its end of frame, this node runs frame i alone instead.
     fn or(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
         let Some((cam, _)) = self.io.camera(i + 1, false)? else { return Ok(None) };
         let t = Instant::now();
@@ -203,7 +211,7 @@ impl Switch {
         let ms = t.elapsed().as_secs_f64() * 1e3;
         Ok(Some(NodeFrame {
             frame: i,
-            role: Duty::Or,
+            duty: Duty::Or,
             ms,
             nodes_drawn: drawn,
             tests: 0,
@@ -245,13 +253,12 @@ impl Switch {
     }
 
     /// A restarted display: forget the visible set (the display holds none) and run from its
-    /// first camera.
-    fn start_over(&mut self) -> anyhow::Result<u64> {
+    /// first camera; `None` when it said goodbye first.
+    fn start_over(&mut self) -> anyhow::Result<Option<u64>> {
         let forget = self.io.roles.started_over();
         self.io.forget(forget);
         self.visible.clear();
-        let first = self.io.first_camera("the new display's first camera")?;
-        Ok(first.unwrap_or(0))
+        self.io.first_camera("the new display's first camera")
     }
 
     /// Tells everyone this node is leaving.

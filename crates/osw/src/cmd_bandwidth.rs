@@ -13,10 +13,10 @@
 //! LOD nodes: a leaf that stays visible and changes LOD costs the run two ids and exact
 //! visibility none, so this is what the walk itself changes, not a bound on the run.
 
-use crate::columns::mean;
 use crate::plot::{Chart, Series};
 use anyhow::bail;
 use osw_render::results::{self, DisplayFrame, NodeFrame, Summary};
+use osw_render::stats::mean;
 use osw_wire::{CameraPacket, Delta, IdList, Message};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -124,15 +124,15 @@ struct Side {
 fn side(t: &Traffic) -> Side {
     let n = t.ids.len();
     let total: Vec<f64> = (0..n).map(|i| t.total(i)).collect();
-    let ids = mean(&t.ids);
-    let bytes = mean(&total);
+    let ids = mean(t.ids.iter().copied());
+    let bytes = mean(total.iter().copied());
     Side {
         ids_sent_mean: ids,
         bytes_per_frame_mean: bytes,
-        hc_to_rvg_bytes_mean: mean(&t.hc_to_rvg),
-        hc_to_or_bytes_mean: mean(&t.hc_to_or),
+        hc_to_rvg_bytes_mean: mean(t.hc_to_rvg.iter().copied()),
+        hc_to_or_bytes_mean: mean(t.hc_to_or.iter().copied()),
         rvg_camera_bytes: t.rvg_cameras,
-        model_bytes_per_frame_mean: mean(&(0..n).map(|i| t.model(i)).collect::<Vec<_>>()),
+        model_bytes_per_frame_mean: mean((0..n).map(|i| t.model(i))),
         header_bytes: t.header,
         batch: t.batch,
         megabits_per_second: if t.frame_ms_median > 0.0 { bytes * 8.0 / 1e6 * (1000.0 / t.frame_ms_median) } else { 0.0 },
@@ -208,10 +208,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::write(a.out.join("bandwidth.csv"), csv)?;
     let report = Report {
         frames,
-        saved_fraction_bytes: full.as_ref().map(|f| {
-            1.0 - mean(&(0..frames).map(|i| inc.total(i)).collect::<Vec<_>>())
-                / mean(&(0..frames).map(|i| f.total(i)).collect::<Vec<_>>()).max(1.0)
-        }),
+        saved_fraction_bytes: full
+            .as_ref()
+            .map(|f| 1.0 - mean((0..frames).map(|i| inc.total(i))) / mean((0..frames).map(|i| f.total(i))).max(1.0)),
         saved_fraction_ids: 1.0 - inc.ids.iter().sum::<f64>() / inc.visible.iter().sum::<f64>().max(1.0),
         exact_saved_fraction_ids: exact.as_ref().map(|(churn, size)| 1.0 - churn.iter().sum::<f64>() / size.iter().sum::<f64>().max(1.0)),
         incremental: side(&inc),

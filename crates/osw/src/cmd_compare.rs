@@ -1,11 +1,11 @@
 //! `osw compare`: image error between two runs frame by frame and, given `osw exact` output,
 //! each run's culling error (false-culled leaves, PVS/exact for leaves and triangles).
 
-use crate::columns::Columns;
 use anyhow::bail;
 use osw_render::compare::{CullError, ImageError, cull_error, image_error};
 use osw_render::output::{frame_path, read_ids, read_png};
-use osw_render::results::{self, Compare, Culling, Summary};
+use osw_render::results::{self, Compare, Culling, DisplayFrame, ExactFrame, Summary};
+use osw_render::{FrameStats, Mode};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -47,10 +47,24 @@ fn side(errors: &[CullError]) -> Culling {
     }
 }
 
+/// The triangles a run drew each frame (its stats.csv: the display's for the switch), if it
+/// wrote them.
+fn triangles_drawn(dir: &Path, s: &Summary) -> anyhow::Result<Option<Vec<u64>>> {
+    let path = dir.join("stats.csv");
+    if !path.exists() {
+        return Ok(None);
+    }
+    Ok(Some(match s.mode {
+        Mode::Switch => results::csv::read::<DisplayFrame>(&path)?.iter().map(|f| f.triangles_drawn).collect(),
+        _ => results::csv::read::<FrameStats>(&path)?.iter().map(|f| f.triangles_drawn).collect(),
+    }))
+}
+
 /// `osw exact` output: the visible nodes and triangles of each of `frames` frames.
 fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<u64>)> {
     let leaves = read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
-    let tris: Vec<u64> = Columns::read(&dir.join("exact.csv"))?.get("visible_triangles")?.into_iter().map(|t| t as u64).collect();
+    let rows: Vec<ExactFrame> = results::csv::read(&dir.join("exact.csv"))?;
+    let tris: Vec<u64> = rows.iter().map(|r| r.visible_triangles).collect();
     if leaves.len() < frames || tris.len() < frames {
         bail!("{} has {} frames, the runs have {frames}", dir.display(), leaves.len());
     }
@@ -101,11 +115,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 if which == 0 { row.a = Some(e) } else { row.b = Some(e) }
             }
             let mut s = side(&errs);
-            let stats = dir.join("stats.csv");
-            if stats.exists() {
-                let drawn = Columns::read(&stats)?.get("triangles_drawn")?;
-                s.drawn_exact_triangles_ratio_mean =
-                    Some(drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64);
+            if let Some(drawn) = triangles_drawn(dir, if which == 0 { &sa } else { &sb })? {
+                s.drawn_exact_triangles_ratio_mean = Some(
+                    drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d as f64 / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64,
+                );
             }
             if let Some((lod_leaves, lod_tris)) = &lod {
                 let mut missed = Vec::with_capacity(frames);

@@ -21,15 +21,20 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// A column of the display's frames.
-type Column = fn(&DisplayFrame) -> f64;
+/// A column of the display's frames: its name, what it measures, and whether the last frame
+/// has it (the last end of frame reaches no OR).
+struct Link {
+    column: &'static str,
+    what: &'static str,
+    of: fn(&DisplayFrame) -> f64,
+    last_frame: bool,
+}
 
-/// The display's columns and what each measures.
-const LINKS: [(&str, &str, Column); 4] = [
-    ("latency_ms", "camera sample to displayed frame", |f| f.latency_ms),
-    ("camera_link_ms", "RVG → HC (camera)", |f| f.camera_link_ms),
-    ("eof_link_ms", "HC → RVG (end of frame)", |f| f.eof_link_ms),
-    ("peer_link_ms", "HC → OR (end of frame)", |f| f.peer_link_ms),
+const LINKS: [Link; 4] = [
+    Link { column: "latency_ms", what: "camera sample to displayed frame", of: |f| f.latency_ms, last_frame: true },
+    Link { column: "camera_link_ms", what: "RVG → HC (camera)", of: |f| f.camera_link_ms, last_frame: true },
+    Link { column: "eof_link_ms", what: "HC → RVG (end of frame)", of: |f| f.eof_link_ms, last_frame: true },
+    Link { column: "peer_link_ms", what: "HC → OR (end of frame)", of: |f| f.peer_link_ms, last_frame: false },
 ];
 
 #[derive(Serialize)]
@@ -62,12 +67,10 @@ fn read(dir: &Path) -> anyhow::Result<Run> {
     let rows: Vec<DisplayFrame> = results::csv::read(&dir.join("stats.csv"))?;
     let frames = rows.len();
     let (mut latency, mut per_frame) = (Vec::new(), Vec::new());
-    for (column, what, of) in LINKS {
-        let mut v: Vec<f64> = rows.iter().map(of).collect();
-        if column == "peer_link_ms" {
-            // The last frame's end of frame reaches no OR.
-            v.truncate(frames.saturating_sub(1));
-        }
+    for link in &LINKS {
+        let n = if link.last_frame { frames } else { frames.saturating_sub(1) };
+        let v: Vec<f64> = rows[..n].iter().map(link.of).collect();
+        let (column, what) = (link.column, link.what);
         latency.push(Stat { column, what, median_ms: quantile(&v, 0.5), p95_ms: quantile(&v, 0.95), max_ms: quantile(&v, 1.0) });
         per_frame.push(v);
     }
@@ -130,7 +133,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         [r] => LINKS
             .iter()
             .zip(&r.per_frame)
-            .map(|((_, what, _), v)| Series { name: (*what).into(), points: points(v), point_labels: vec![], bold: false })
+            .map(|(link, v)| Series { name: link.what.into(), points: points(v), point_labels: vec![], bold: false })
             .collect(),
         _ => runs
             .iter()

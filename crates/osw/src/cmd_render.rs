@@ -1,8 +1,8 @@
 //! `osw render`: one culling mode over a camera path, single process.
 
 use crate::walk_args::WalkArgs;
-use osw_gpu::renderer::HcTest;
 use osw_render::Mode;
+use osw_render::mode::HcTest;
 use osw_render::run::{RunSpec, render_path};
 use std::path::PathBuf;
 
@@ -25,7 +25,7 @@ pub struct Args {
     /// exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
     /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0) or queries (one occlusion query
     /// per box, as the paper; the slow reference).
-    #[arg(long, default_value = "hybrid", value_parser = parse_hc)]
+    #[arg(long, default_value = "hybrid")]
     hc: HcTest,
     /// ovc and prev: adaptive culling's threshold (paper 003 eq. 1): a box whose visible
     /// pixels, as a share of its screen rectangle and discounted by its depth, fall below it
@@ -48,16 +48,6 @@ pub struct Args {
     out: PathBuf,
 }
 
-fn parse_hc(s: &str) -> Result<HcTest, String> {
-    match s {
-        "exact" => Ok(HcTest::Exact),
-        "pyramid" => Ok(HcTest::Pyramid),
-        "queries" => Ok(HcTest::Queries),
-        "hybrid" => Ok(HcTest::Hybrid),
-        _ => Err(format!("unknown HC test {s:?}: expected hybrid, pyramid, exact or queries")),
-    }
-}
-
 pub fn run(a: Args) -> anyhow::Result<()> {
     if !(a.tau >= 0.0 && a.tau.is_finite()) {
         anyhow::bail!("--tau must be a finite number >= 0, got {}", a.tau);
@@ -74,9 +64,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.mode != Mode::Ovc && (a.budget.is_some() || a.sampling > 1) {
         anyhow::bail!("--budget and --sampling are ovc's (paper 003); --mode is {}", a.mode.name());
     }
-    if a.mode == Mode::Switch {
-        anyhow::bail!("--mode switch: the switch runs on two nodes and a display, `osw run` (its algorithm on one GPU is prev)");
-    }
+    a.mode.on_one_gpu().map_err(anyhow::Error::msg)?;
     if !a.mode.adaptive() && a.adaptive > 0.0 {
         anyhow::bail!("--adaptive is ovc's and prev's (paper 003 eq. 1); --mode is {}", a.mode.name());
     }

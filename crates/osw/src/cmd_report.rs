@@ -8,12 +8,12 @@
 //! Every run keeps its own directory under DIR/runs; a run whose results are there for the
 //! same scene, path and size is not repeated, so an interrupted report resumes where it stopped.
 
-use crate::columns::{Columns, mean};
 use crate::plot::{Chart, Series};
 use crate::walk_args::WalkArgs;
 use anyhow::{Context, bail};
 use osw_render::Mode;
-use osw_render::results::{self, Compare, Entry, Report, Summary, Traffic};
+use osw_render::results::{self, Compare, Entry, ExactFrame, Input, Report, Summary, Traffic};
+use osw_render::stats::mean;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -71,7 +71,9 @@ struct Plan<'a> {
 }
 
 impl Plan<'_> {
-    fn walk_args(&self) -> Vec<String> {
+    /// The walk's arguments of a child `osw`; `adapter` for those that take `--adapter` (`osw
+    /// run` does not: the nodes choose as `osw render` does by default).
+    fn walk_args(&self, adapter: bool) -> Vec<String> {
         let w = &self.a.walk;
         let mut v = vec![
             "--scene".into(),
@@ -81,7 +83,7 @@ impl Plan<'_> {
             "--size".into(),
             format!("{}x{}", w.size.0, w.size.1),
         ];
-        if let Some(ad) = &w.adapter {
+        if let Some(ad) = w.adapter.as_ref().filter(|_| adapter) {
             v.extend(["--adapter".into(), ad.clone()]);
         }
         v
@@ -113,7 +115,7 @@ impl Plan<'_> {
         std::fs::create_dir_all(&dir)?;
         let _ = std::fs::remove_file(&stamp);
         let out = vec!["--tau".to_string(), tau.to_string(), "--out".to_string(), dir.display().to_string()];
-        osw(&[vec!["exact".to_string()], self.walk_args(), out].concat(), &dir.with_extension("log"))?;
+        osw(&[vec!["exact".to_string()], self.walk_args(true), out].concat(), &dir.with_extension("log"))?;
         results::write_json(&stamp, &self.input())?;
         Ok(())
     }
@@ -126,15 +128,9 @@ impl Plan<'_> {
             return Ok(());
         }
         std::fs::create_dir_all(dir)?;
-        let mut args: Vec<String> = if mode == Mode::Switch {
-            // `osw run` takes no --adapter: the nodes choose as `osw render` does by default.
-            let mut v = self.walk_args();
-            if let Some(k) = v.iter().position(|x| x == "--adapter") {
-                v.drain(k..k + 2);
-            }
-            [vec!["run".to_string()], v].concat()
-        } else {
-            [vec!["render".to_string(), "--mode".into(), mode.name().into()], self.walk_args()].concat()
+        let mut args: Vec<String> = match mode {
+            Mode::Switch => [vec!["run".to_string()], self.walk_args(false)].concat(),
+            _ => [vec!["render".to_string(), "--mode".into(), mode.name().into()], self.walk_args(true)].concat(),
         };
         args.extend(["--tau".into(), tau.to_string(), "--out".into(), dir.display().to_string()]);
         if adaptive > 0.0 {
@@ -175,7 +171,7 @@ fn entry(mode: Mode, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entr
         adaptive,
         frame_ms_median: s.frame_ms_median,
         frame_ms_p95: s.frame_ms_p95,
-        or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (the nodes wrote no statistics)", dir.display()))?,
+        or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (no node statistics with OR frames)", dir.display()))?,
         hc_ms_median: s.hc_ms_median,
         rvg_ms_median: s.rvg_ms_median,
         speedup_vs_vfc: None,
@@ -197,38 +193,15 @@ fn entry(mode: Mode, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entr
         identical_frames: c.identical_frames as u64,
         differing_fraction_mean: c.differing_fraction_mean,
         differing_fraction_max: c.differing_fraction_max,
-        traffic: s.switch().map(|t| Traffic {
-            ids_sent_mean: t.ids_sent_mean,
-            ids_full_mean: t.ids_full_mean,
-            incremental_saved_fraction: t.incremental_saved_fraction,
-            bytes_per_frame_mean: t.bytes_per_frame_mean,
-            id_bytes_per_id: t.id_bytes_per_id,
-            latency_ms_median: t.latency_ms_median,
-            latency_ms_p95: t.latency_ms_p95,
-        }),
+        traffic: s.switch().map(Traffic::from),
         error: None,
     })
 }
 
-/// What a run's summary.json (and exact visibility's input.json) says it was made from.
-#[derive(PartialEq, serde::Serialize, serde::Deserialize)]
-struct Input {
-    scene_hash: String,
-    path: String,
-    width: u32,
-    height: u32,
-}
-
-impl Input {
-    fn of(s: &Summary) -> Input {
-        Input { scene_hash: s.scene_hash.clone(), path: s.path.clone(), width: s.width, height: s.height }
-    }
-}
-
 /// Frames and means of the `exact.csv` columns visible_leaves and visible_triangles.
 fn exact_means(dir: &Path) -> anyhow::Result<(usize, f64, f64)> {
-    let t = Columns::read(&dir.join("exact.csv"))?;
-    Ok((t.len(), mean(&t.get("visible_leaves")?), mean(&t.get("visible_triangles")?)))
+    let rows: Vec<ExactFrame> = results::csv::read(&dir.join("exact.csv"))?;
+    Ok((rows.len(), mean(rows.iter().map(|r| r.visible_leaves as f64)), mean(rows.iter().map(|r| r.visible_triangles as f64))))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -404,12 +377,12 @@ fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
         .collect()
 }
 
-/// A Markdown table: rows of cells under a header.
 /// One row per run that finished, in order.
 fn finished_rows(r: &Report, row: impl Fn(&Entry) -> Vec<String>) -> Vec<Vec<String>> {
     r.runs.iter().filter(|e| e.error.is_none()).map(row).collect()
 }
 
+/// A Markdown table: rows of cells under a header.
 fn table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
     let line = |cells: &[String]| format!("| {} |\n", cells.join(" | "));
     out.push_str(&line(header));

@@ -5,7 +5,8 @@
 //! `osw play` is `osw run --window`: a path replayed in the window.
 
 use anyhow::{Context, bail};
-use osw_render::results::{self, Details, Duty, NodeFrame, Summary, role_median_ms};
+use osw_render::Mode;
+use osw_render::results::{self, Details, Duty, NodeFrame, Summary, duty_median_ms};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -169,7 +170,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut pd = spawn("display", &display, &args_d, &a.out)?;
     // A walk has no length: no bar, only what the display says (recordings, screenshots).
     let bar = match &a.path {
-        Some(p) if !a.interactive => crate::progress::frames(osw_scene::path::read(p)?.len() as u64, "switch"),
+        Some(p) if !a.interactive => crate::progress::frames(osw_scene::path::read(p)?.len() as u64, Mode::Switch.name()),
         _ => indicatif::ProgressBar::hidden(),
     };
     let display_out = pd.child.stdout.take().context("display stdout")?;
@@ -236,7 +237,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let path = a.out.join(file);
             if path.exists() {
                 let frames: Vec<NodeFrame> = results::csv::read(&path)?;
-                (*hc, *or) = (role_median_ms(&frames, Duty::Hc), role_median_ms(&frames, Duty::Or));
+                (*hc, *or) = (duty_median_ms(&frames, Duty::Hc), duty_median_ms(&frames, Duty::Or));
             }
         }
     }

@@ -10,7 +10,7 @@ use crate::cmd_report::osw;
 use crate::plot::{Chart, Series};
 use anyhow::{Context, bail};
 use osw_render::Mode;
-use osw_render::results::{self, DisplayFrame, NodeFrame, Summary};
+use osw_render::results::{self, DisplayFrame, Input, NodeFrame, Summary};
 use osw_scene::build::BuildReport;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -142,11 +142,11 @@ fn scene(out: &Path, triangles: u64, frames: u32) -> anyhow::Result<(Scene, Path
 /// One mode at one tau into `dir`, unless a run of the same scene, walk, tau and size is there.
 fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, dir: &Path) -> anyhow::Result<Summary> {
     let hash = osw_scene::format::hash_hex(osw_scene::SceneFile::open(scene)?.content_hash());
+    let (w, h) = crate::walk_args::parse_size(size).map_err(anyhow::Error::msg)?;
+    let input = Input { scene_hash: hash, path: walk.display().to_string(), width: w, height: h };
     if let Ok(s) = Summary::read(dir)
-        && s.scene_hash == hash
-        && s.path == walk.display().to_string()
+        && Input::of(&s) == input
         && s.tau == tau
-        && format!("{}x{}", s.width, s.height) == size
     {
         return Ok(s);
     }
@@ -170,11 +170,12 @@ fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row>
         }
         // The switch's processes: the most each sampled over its frames.
         None => {
+            let most = |rss: Option<u64>, file: &str| rss.with_context(|| format!("{}: no frames", dir.join(file).display()));
             let display: Vec<DisplayFrame> = results::csv::read(&dir.join("stats.csv"))?;
-            peak.insert("display".into(), display.iter().map(|f| f.rss_kb).max().unwrap_or(0));
+            peak.insert("display".into(), most(display.iter().map(|f| f.rss_kb).max(), "stats.csv")?);
             for (k, file) in [("node_a", "node-a.csv"), ("node_b", "node-b.csv")] {
                 let node: Vec<NodeFrame> = results::csv::read(&dir.join(file))?;
-                peak.insert(k.into(), node.iter().map(|f| f.rss_kb).max().unwrap_or(0));
+                peak.insert(k.into(), most(node.iter().map(|f| f.rss_kb).max(), file)?);
             }
         }
     }
@@ -186,7 +187,7 @@ fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row>
         frame_ms_p95: s.frame_ms_p95,
         hc_tests_mean: s.tests_mean,
         hc_ms_median: s.hc_ms_median,
-        or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (the nodes wrote no statistics)", dir.display()))?,
+        or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (no node statistics with OR frames)", dir.display()))?,
         rvg_ms_median: s.rvg_ms_median,
         triangles_drawn_mean: s.triangles_drawn_mean,
         pvs_nodes_mean: s.pvs_nodes_mean,

@@ -23,7 +23,6 @@ mod cmd_render;
 mod cmd_report;
 mod cmd_run;
 mod cmd_scale;
-mod columns;
 mod plot;
 mod progress;
 mod walk_args;

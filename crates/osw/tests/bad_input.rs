@@ -283,3 +283,37 @@ fn ctrl_c_stops_a_build_and_removes_its_partial_and_temporary_files() {
     let left: Vec<_> = std::fs::read_dir(d.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert!(left.is_empty(), "left behind: {left:?}");
 }
+
+/// Every tool reads run results through one schema: a renamed key in a run's summary.json is
+/// an error naming the file and the key, for a run on one GPU and for a switch run, never a
+/// default in a report.
+#[test]
+fn a_renamed_key_in_a_summary_is_named_by_the_tools_that_read_it() {
+    use osw_render::results::{Details, SwitchSummary};
+    use osw_render::{Mode, Summary};
+    let d = tempfile::tempdir().unwrap();
+    let render = Summary { mode: Mode::Prev, frames: 2, ..Default::default() };
+    let switch = Summary { mode: Mode::Switch, frames: 2, of: Details::Switch(SwitchSummary::default()), ..Default::default() };
+    for (name, summary, key, tools) in [
+        ("prev", &render, "frame_ms_median", &["compare"][..]),
+        ("switch", &switch, "latency_ms_median", &["compare", "latency", "bandwidth"][..]),
+    ] {
+        let (run, good) = (d.path().join(name), d.path().join(format!("{name}-good")));
+        for dir in [&run, &good] {
+            std::fs::create_dir_all(dir).unwrap();
+            summary.write(dir).unwrap();
+        }
+        let file = run.join("summary.json");
+        let text = std::fs::read_to_string(&file).unwrap().replace(&format!("\"{key}\""), &format!("\"{key}_old\""));
+        std::fs::write(&file, text).unwrap();
+        for tool in tools {
+            let out = d.path().join(format!("{tool}-out"));
+            let args = match *tool {
+                "compare" => vec!["compare", "--a", s(&run), "--b", s(&good), "--out", s(&out)],
+                t => vec![t, "--run", s(&run), "--out", s(&out)],
+            };
+            let err = osw_err(&args, &format!("missing field `{key}`"));
+            assert!(err.contains(s(&file)), "{tool}: {err}");
+        }
+    }
+}

@@ -238,9 +238,9 @@ fn a_cut_link_between_the_nodes_heals_and_the_switch_resumes() {
         let log = std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap();
         let rows: Vec<NodeFrame> =
             results::csv::read(&d.path().join(format!("{n}.csv"))).unwrap_or_else(|e| panic!("node {n} wrote no stats ({e}): {log}"));
-        let solo: Vec<u64> = rows.iter().filter(|r| r.frame > 0 && r.role == Duty::Solo).map(|r| r.frame).collect();
+        let solo: Vec<u64> = rows.iter().filter(|r| r.frame > 0 && r.duty == Duty::Solo).map(|r| r.frame).collect();
         assert!(solo.first().is_some_and(|&f| f >= cut_at.unwrap()), "node {n}: alone at {solo:?}, cut at {cut_at:?}: {log}");
-        let tail: Vec<Duty> = rows.iter().filter(|r| r.frame > solo[solo.len() - 1]).map(|r| r.role).collect();
+        let tail: Vec<Duty> = rows.iter().filter(|r| r.frame > solo[solo.len() - 1]).map(|r| r.duty).collect();
         assert!(
             tail.len() > 20 && tail.windows(2).all(|w| w[0] != w[1] && w[0] != Duty::Solo),
             "node {n} did not resume the switch: {tail:?}: {log}"

@@ -54,7 +54,7 @@ fn the_switch_is_prev_split_across_processes() {
         _ if i.is_multiple_of(2) => Duty::Hc,
         _ => Duty::Or,
     };
-    assert!(rows.len() >= 15 && rows.iter().enumerate().all(|(i, r)| r.frame == i as u64 && r.role == expect(r.frame)), "{rows:?}");
+    assert!(rows.len() >= 15 && rows.iter().enumerate().all(|(i, r)| r.frame == i as u64 && r.duty == expect(r.frame)), "{rows:?}");
     check_bandwidth(&run, &full, &exact, &d.path().join("bw"));
     check_latency(&run, &d.path().join("lat"));
 }

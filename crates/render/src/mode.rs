@@ -14,6 +14,8 @@
 //!   i-1 is still streaming, so it draws the front of V(i-2) updated for camera i (sec. 4.6),
 //!   then the additions of frame i-1 as they arrive, into the depth buffer; HC tests the
 //!   hierarchy against it (alg. 4.1); RVG draws V(i).
+//! - `switch`: the same on two nodes and a display (`osw run`, crates/node); not a mode of
+//!   [`ModeState`], named here so that runs, reports and results share one enum.
 
 use crate::stats::FrameStats;
 use osw_cull::chc::ChcState;
@@ -24,7 +26,7 @@ use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occl
 use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{DrawStats, GpuTester, HcTest, InterleavedTester, RenderError, Renderer};
+use osw_gpu::renderer::{BoxTest, DrawStats, GpuTester, InterleavedTester, RenderError, Renderer};
 use osw_scene::NodeId;
 use std::time::Instant;
 
@@ -59,6 +61,16 @@ impl Mode {
         }
     }
 
+    /// Whether the mode runs on one GPU (`osw render`), or why not.
+    pub fn on_one_gpu(self) -> Result<(), String> {
+        match self {
+            Mode::Switch => {
+                Err("--mode switch: the switch runs on two nodes and a display, `osw run` (its algorithm on one GPU is prev)".into())
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The modes with adaptive culling (paper 003 eq. 1): ovc in its traversal, prev and the
     /// switch in HC's exact tests.
     pub fn adaptive(self) -> bool {
@@ -79,6 +91,46 @@ impl std::str::FromStr for Mode {
             let names: Vec<&str> = Mode::ALL.iter().map(|m| m.name()).collect();
             format!("unknown mode {s:?}: expected one of {}", names.join(", "))
         })
+    }
+}
+
+/// How prev's HC tests boxes (`osw render --hc`); the switch's nodes use the hybrid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HcTest {
+    /// The depth read back once and a farthest-depth pyramid on the CPU (every traversal
+    /// round tested without a round trip), then the exact test again for the PVS's boxes that
+    /// are small on screen. Large boxes stay visible: they are nearly always visible, cost the
+    /// most fill, and their children are tested.
+    #[default]
+    Hybrid,
+    /// [`BoxTest::Exact`], with pixel counts when tau > 0 (the LOD stop of sec. 4.7.2).
+    Exact,
+    /// [`BoxTest::Pyramid`]: the pyramid in compute, a GPU round trip per round.
+    Pyramid,
+    /// [`BoxTest::Queries`]: one occlusion query per box, the paper's; the slow reference.
+    Queries,
+}
+
+impl HcTest {
+    pub const ALL: [HcTest; 4] = [HcTest::Hybrid, HcTest::Exact, HcTest::Pyramid, HcTest::Queries];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            HcTest::Hybrid => "hybrid",
+            HcTest::Exact => "exact",
+            HcTest::Pyramid => "pyramid",
+            HcTest::Queries => "queries",
+        }
+    }
+}
+
+impl std::str::FromStr for HcTest {
+    type Err = String;
+    fn from_str(s: &str) -> Result<HcTest, String> {
+        HcTest::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| format!("unknown HC test {s:?}: expected hybrid, pyramid, exact or queries"))
     }
 }
 
@@ -177,12 +229,12 @@ pub fn hc_pass(
         let test = match hc {
             HcTest::Pyramid => {
                 r.build_pyramid();
-                HcTest::Pyramid
+                BoxTest::Pyramid
             }
-            HcTest::Queries => HcTest::Queries,
+            HcTest::Queries => BoxTest::Queries,
             // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
-            _ if tau > 0.0 => HcTest::ExactCount,
-            _ => HcTest::Exact,
+            _ if tau > 0.0 => BoxTest::ExactCount,
+            _ => BoxTest::Exact,
         };
         let mut tester = GpuTester { renderer: r, test, error: None };
         let stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
@@ -226,7 +278,7 @@ fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], adaptive: f64, pvs
         return Ok((0, 0));
     }
     let mut seen = Vec::with_capacity(ids.len());
-    r.test_boxes(view, &ids, if adaptive > 0.0 { HcTest::ExactCount } else { HcTest::Exact }, &mut seen)?;
+    r.test_boxes(view, &ids, if adaptive > 0.0 { BoxTest::ExactCount } else { BoxTest::Exact }, &mut seen)?;
     let faint =
         |id: NodeId, px: Option<u32>| px.is_some_and(|p| osw_cull::ovc::adapcull(view, &r.scene.node(id).aabb(), p as f64) < adaptive);
     let mut dropped = (0, 0);
@@ -247,9 +299,7 @@ fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], adaptive: f64, pvs
 impl ModeState {
     /// A mode's state, or why it cannot run on one GPU (the switch).
     pub fn new(mode: Mode, tau: f64, hc: HcTest) -> Result<ModeState, String> {
-        if mode == Mode::Switch {
-            return Err("the switch runs on two nodes and a display: `osw run` (its algorithm on one GPU is `prev`)".into());
-        }
+        mode.on_one_gpu()?;
         Ok(ModeState {
             mode,
             tau,
@@ -296,7 +346,7 @@ impl ModeState {
                 r.sampling = (opts.sampling.max(1), self.frames % opts.sampling.max(1));
                 let mut occ = InterleavedTester::new(r);
                 if opts.adaptive > 0.0 {
-                    occ.tester.test = HcTest::ExactCount;
+                    occ.tester.test = BoxTest::ExactCount;
                 }
                 let hc = match self.mode {
                     Mode::Chc => chc.frame(nodes, view, self.tau, &mut occ, &mut pvs),

@@ -1,11 +1,12 @@
 //! Loops over a camera path: `osw render` (one mode) and `osw exact` (item buffer).
 
+use crate::mode::HcTest;
 use crate::mode::{Mode, ModeState};
 use crate::output::{frame_path, push_ids, write_png};
-use crate::results::{self, Details, RenderSummary, Summary};
+use crate::results::{self, Details, ExactFrame, RenderSummary, Summary};
 use crate::stats::FrameStats;
 use osw_gpu::exact::Reference;
-use osw_gpu::renderer::{HcTest, RenderError, Renderer};
+use osw_gpu::renderer::{RenderError, Renderer};
 use osw_scene::Camera;
 use std::path::Path;
 
@@ -15,6 +16,8 @@ pub enum RunError {
     Render(#[from] RenderError),
     #[error("{0}")]
     Output(String),
+    #[error("{0}")]
+    Mode(String),
 }
 
 fn write(path: &Path, text: &str) -> Result<(), RunError> {
@@ -43,7 +46,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     if write_frames {
         std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
     }
-    let mut state = ModeState::new(mode, tau, spec.hc).map_err(RunError::Output)?;
+    let mut state = ModeState::new(mode, tau, spec.hc).map_err(RunError::Mode)?;
     state.ovc = spec.ovc;
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
     let mut pvs = String::new();
@@ -70,7 +73,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
         width: r.target.width,
         height: r.target.height,
         of: Details::Render(RenderSummary {
-            hc_test: format!("{:?}", spec.hc).to_lowercase(),
+            hc_test: spec.hc.name().to_owned(),
             adaptive: spec.ovc.adaptive,
             budget: spec.ovc.budget.unwrap_or(0.0),
             sampling: spec.ovc.sampling,
@@ -94,17 +97,22 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
 /// triangles drawn into the item buffer) and `exact_leaves.txt` (the visible leaves of each
 /// frame).
 pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, reference: Reference, out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
-    let mut csv = String::from("frame,visible_leaves,visible_triangles,drawn_triangles\n");
+    let mut rows = Vec::with_capacity(cams.len());
     let mut leaves = String::new();
     for (i, cam) in cams.iter().enumerate() {
         r.begin_frame();
         let view = r.view(cam);
         let e = r.exact(&view, tau, reference)?;
-        csv.push_str(&format!("{i},{},{},{}\n", e.leaves.len(), e.triangles, e.drawn_triangles));
+        rows.push(ExactFrame {
+            frame: i as u64,
+            visible_leaves: e.leaves.len() as u64,
+            visible_triangles: e.triangles,
+            drawn_triangles: e.drawn_triangles,
+        });
         push_ids(&mut leaves, &e.leaves);
         tick();
     }
-    write(&out.join("exact.csv"), &csv)?;
+    results::csv::write(&out.join("exact.csv"), &rows).map_err(|e| RunError::Output(e.to_string()))?;
     write(&out.join("exact_leaves.txt"), &leaves)?;
     Ok(())
 }

@@ -175,8 +175,9 @@ impl<'a> Built<'a> {
     ) -> Result<(), BuildError> {
         let start = self.levels.len() as u32;
         for (l, e) in levels.iter().zip(blocks) {
-            let block =
-                times.run("write", || w.block(e)).map_err(|e| BuildError::Write { path: w.partial_path().display().to_string(), error: e })?;
+            let block = times
+                .run("write", || w.block(e))
+                .map_err(|e| BuildError::Write { path: w.partial_path().display().to_string(), error: e })?;
             let b = l.mesh.bounds();
             let record = NodeRecord {
                 bbox_min: b.min.into(),

@@ -85,7 +85,6 @@ pub struct HcWireStats {
     pub tests: u32,
     pub levels: u32,
     pub hc_us: u64,
-    pub or_us: u64,
     pub pvs: u32,
 }
 

@@ -1,16 +1,21 @@
 //! `compare.json` (`osw compare`): run a against run b frame by frame, image error and, given
 //! exact visibility, each run's culling error, with both runs' times.
 
+use super::required;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Compare {
     pub a: String,
     pub b: String,
+    #[serde(deserialize_with = "required")]
     pub exact: Option<String>,
     pub frames: usize,
     pub identical_frames: usize,
+    /// None when every frame is identical (infinite PSNR).
+    #[serde(deserialize_with = "required")]
     pub psnr_db_min: Option<f64>,
+    #[serde(deserialize_with = "required")]
     pub psnr_db_median: Option<f64>,
     pub differing_fraction_mean: f64,
     pub differing_fraction_max: f64,
@@ -19,7 +24,10 @@ pub struct Compare {
     pub frame_ms_median_a: f64,
     pub frame_ms_median_b: f64,
     pub speedup_a_over_b: f64,
+    /// None without exact visibility (`--exact`).
+    #[serde(deserialize_with = "required")]
     pub culling_a: Option<Culling>,
+    #[serde(deserialize_with = "required")]
     pub culling_b: Option<Culling>,
 }
 

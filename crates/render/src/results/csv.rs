@@ -81,8 +81,8 @@ mod tests {
     #[test]
     fn rows_read_back_as_written() {
         let rows = [
-            NodeFrame { frame: 0, role: Duty::Solo, ms: 12.25, bytes_to_peer: 90, ..Default::default() },
-            NodeFrame { frame: 1, role: Duty::Or, ms: 3.0, rss_kb: 1 << 40, ..Default::default() },
+            NodeFrame { frame: 0, duty: Duty::Solo, ms: 12.25, bytes_to_peer: 90, ..Default::default() },
+            NodeFrame { frame: 1, duty: Duty::Or, ms: 3.0, rss_kb: 1 << 40, ..Default::default() },
         ];
         let text = to_string(&rows);
         assert!(text.starts_with("frame,role,ms,"), "{text}");

@@ -1,5 +1,5 @@
 //! The display's frames (the switch run's `stats.csv`), written by `osw-display` and read by
-//! `osw bandwidth`, `osw latency` and `osw scale`.
+//! `osw bandwidth`, `osw latency`, `osw scale` and `osw compare`.
 
 use serde::{Deserialize, Serialize};
 

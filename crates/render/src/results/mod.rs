@@ -6,19 +6,24 @@
 //!   (the switch: the display's statistics, the nodes' stage times merged in by `osw run`).
 //! - [`DisplayFrame`], [`NodeFrame`]: the frames of a switch run as its display and its nodes
 //!   saw them (`stats.csv`, `node-a.csv`, `node-b.csv`).
+//! - [`ExactFrame`]: exact visibility (`exact.csv`); [`Input`]: what a run was made from.
 //! - [`Compare`]: `compare.json` (`osw compare`); [`Report`]: `report.json` (`osw report`).
 //! - [`csv`]: per-frame rows as CSV, a column per field.
 
 mod compare;
 pub mod csv;
 mod display;
+mod exact;
+mod input;
 mod node;
 mod report;
 mod summary;
 
 pub use compare::{Compare, Culling};
 pub use display::DisplayFrame;
-pub use node::{Duty, NodeFrame, role_median_ms};
+pub use exact::ExactFrame;
+pub use input::Input;
+pub use node::{Duty, NodeFrame, duty_median_ms};
 pub use report::{Entry, Report, Traffic};
 pub use summary::{Details, RenderSummary, Summary, SwitchSummary};
 

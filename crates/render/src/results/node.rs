@@ -18,7 +18,8 @@ pub enum Duty {
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct NodeFrame {
     pub frame: u64,
-    pub role: Duty,
+    #[serde(rename = "role")]
+    pub duty: Duty,
     pub ms: f64,
     pub nodes_drawn: u32,
     pub tests: u32,
@@ -31,8 +32,8 @@ pub struct NodeFrame {
     pub rss_kb: u64,
 }
 
-/// The median frame time of `frames` in `role`, if it had any.
-pub fn role_median_ms(frames: &[NodeFrame], role: Duty) -> Option<f64> {
-    let ms: Vec<f64> = frames.iter().filter(|f| f.role == role).map(|f| f.ms).collect();
+/// The median frame time of `frames` with `duty`, if there are any.
+pub fn duty_median_ms(frames: &[NodeFrame], duty: Duty) -> Option<f64> {
+    let ms: Vec<f64> = frames.iter().filter(|f| f.duty == duty).map(|f| f.ms).collect();
     (!ms.is_empty()).then(|| crate::stats::quantile(&ms, 0.5))
 }

@@ -62,7 +62,7 @@ pub struct Entry {
     /// The switch's traffic and latency (its display's summary); none for the other modes.
     #[serde(deserialize_with = "required")]
     pub traffic: Option<Traffic>,
-    /// Why the run failed, when it did; its other fields are then empty.
+    /// Why the run failed, when it did; its other fields are then zero.
     #[serde(deserialize_with = "required")]
     pub error: Option<String>,
 }
@@ -79,6 +79,20 @@ pub struct Traffic {
     pub id_bytes_per_id: f64,
     pub latency_ms_median: f64,
     pub latency_ms_p95: f64,
+}
+
+impl From<&super::SwitchSummary> for Traffic {
+    fn from(s: &super::SwitchSummary) -> Traffic {
+        Traffic {
+            ids_sent_mean: s.ids_sent_mean,
+            ids_full_mean: s.ids_full_mean,
+            incremental_saved_fraction: s.incremental_saved_fraction,
+            bytes_per_frame_mean: s.bytes_per_frame_mean,
+            id_bytes_per_id: s.id_bytes_per_id,
+            latency_ms_median: s.latency_ms_median,
+            latency_ms_p95: s.latency_ms_p95,
+        }
+    }
 }
 
 impl Entry {

@@ -134,6 +134,9 @@ impl Summary {
 
     pub fn write(&self, dir: &Path) -> Result<(), ResultsError> {
         let path = dir.join("summary.json");
+        if (self.mode == Mode::Switch) != matches!(self.of, Details::Switch(_)) {
+            return Err(ResultsError::new(&path, format!("mode {} with the keys of another kind of run", self.mode)));
+        }
         let mut v = serde_json::to_value(self).map_err(|e| ResultsError::new(&path, e))?;
         let details = match &self.of {
             Details::Render(r) => serde_json::to_value(r),
