@@ -209,18 +209,7 @@ impl Switch {
         self.visible = next.finish(&self.visible);
         self.io.roles.or_done(i);
         let ms = t.elapsed().as_secs_f64() * 1e3;
-        Ok(Some(NodeFrame {
-            frame: i,
-            duty: Duty::Or,
-            ms,
-            nodes_drawn: drawn,
-            tests: 0,
-            ids_sent: 0,
-            batches: 0,
-            bytes_to_peer: 0,
-            bytes_to_display: 0,
-            rss_kb: rss_kb(),
-        }))
+        Ok(Some(NodeFrame { frame: i, duty: Duty::Or, ms, nodes_drawn: drawn, rss_kb: rss_kb(), ..NodeFrame::default() }))
     }
 
     /// Asks the peer for its visible set and waits for it (issue 6); `next` is the first frame
