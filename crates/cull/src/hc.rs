@@ -32,6 +32,9 @@ pub struct HcStats {
     pub levels: u32,
     /// Boxes sent to the tester.
     pub tests: u32,
+    /// Of `tests`, those made again after the traversal (osw_render's `hc_pass`: the exact
+    /// test of small boxes and of additions drawn as occluders).
+    pub retests: u32,
     /// Boxes accepted without a test (eye inside, crossing the near plane, above V(i-1)).
     pub untested: u32,
     pub frustum_culled: u32,
@@ -65,13 +68,18 @@ pub fn hardware_cull_from(
     traverse(nodes, view, tau, &above(nodes, previous), tester, pvs)
 }
 
+/// The BVH node that owns LOD or HLOD `id`: a leaf for its LODs, a group for its HLOD.
+pub(crate) fn owner(nodes: &[NodeRecord], id: NodeId) -> Option<NodeId> {
+    let n = nodes.get(id as usize)?;
+    Some(if n.kind() == NodeKind::Lod { n.parent } else { id })
+}
+
 /// The proper BVH ancestors of the nodes owning the LODs `ids`: O(nodes visited), each chain
 /// stops where it meets one already walked.
-fn above(nodes: &[NodeRecord], ids: &[NodeId]) -> HashSet<NodeId> {
+pub(crate) fn above(nodes: &[NodeRecord], ids: &[NodeId]) -> HashSet<NodeId> {
     let mut set = HashSet::new();
     for &id in ids {
-        let Some(n) = nodes.get(id as usize) else { continue };
-        let owner = if n.kind() == NodeKind::Lod { n.parent } else { id };
+        let Some(owner) = owner(nodes, id) else { continue };
         let mut up = nodes.get(owner as usize).map_or(u32::MAX, |o| o.parent);
         while let Some(p) = nodes.get(up as usize) {
             if !set.insert(up) {

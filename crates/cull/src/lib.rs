@@ -24,6 +24,7 @@ pub mod frustum;
 pub mod hc;
 pub mod hzb;
 pub mod ovc;
+pub mod retest;
 pub mod states;
 pub mod tester;
 pub mod view;

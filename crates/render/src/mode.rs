@@ -24,6 +24,7 @@ use osw_cull::delta::diff;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
+use osw_cull::retest::retest_additions;
 use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{BoxTest, DrawStats, GpuTester, InterleavedTester, RenderError, Renderer};
@@ -187,6 +188,10 @@ const HYBRID_FINER: u32 = 3;
 /// boxes are nearly always visible and cost the most fill.
 const HYBRID_EXACT_PX: f64 = 512.0;
 
+/// Additions from which `hc_pass` tests them again through the hierarchy
+/// ([`retest_additions`], a GPU round trip per level) rather than box by box (one round trip).
+const RETEST_HIERARCHY_MIN: usize = 128;
+
 /// The HC pass of the switch (paper 000 alg. 4.1) against the depth buffer as the OR pass left
 /// it, shared by `prev` and the switch node: appends the PVS, sorted and without duplicates.
 /// `previous` is V(i-1) (sorted), which OR drew as occluders; the nodes above it are taken as
@@ -257,13 +262,30 @@ pub fn hc_pass(
         let d = drop_hidden(r, view, &small, adaptive, pvs)?;
         (tests, hidden) = (tests + small.len() as u32, (hidden.0 + d.0, hidden.1 + d.1));
     }
-    let added: Vec<NodeId> = pvs.iter().copied().filter(|id| previous.binary_search(id).is_err()).collect();
+    let (added, kept): (Vec<NodeId>, Vec<NodeId>) = pvs.iter().partition(|id| previous.binary_search(id).is_err());
     if !added.is_empty() {
         r.draw(view, &added, Pass::Depth, false)?;
-        let d = drop_hidden(r, view, &added, adaptive, pvs)?;
-        (tests, hidden) = (tests + added.len() as u32, (hidden.0 + d.0, hidden.1 + d.1));
+        // Box by box when few (one round trip), or where paper 003's eq. 1 scores each
+        // addition's own pixels; through the hierarchy when many (a region came into view).
+        if adaptive > 0.0 || added.len() < RETEST_HIERARCHY_MIN {
+            let d = drop_hidden(r, view, &added, adaptive, pvs)?;
+            (tests, hidden) = (tests + added.len() as u32, (hidden.0 + d.0, hidden.1 + d.1));
+        } else {
+            let mut tester = GpuTester { renderer: r, test: BoxTest::Exact, error: None };
+            let mut still = Vec::new();
+            let s = retest_additions(nodes, view, &kept, &added, &mut tester, &mut still);
+            if let Some(e) = tester.error {
+                return Err(e);
+            }
+            tests += s.tests;
+            hidden.0 += (added.len() - still.len()) as u32;
+            *pvs = kept;
+            pvs.extend(still);
+            pvs.sort_unstable();
+        }
     }
-    Ok(HcStats { tests, occlusion_culled: stats.occlusion_culled + hidden.0, adaptive_culled: hidden.1, ..stats })
+    let retests = tests - stats.tests;
+    Ok(HcStats { tests, retests, occlusion_culled: stats.occlusion_culled + hidden.0, adaptive_culled: hidden.1, ..stats })
 }
 
 /// Tests the boxes of `ids` (sorted, in `pvs`) exactly against the depth buffer as it is and
@@ -401,8 +423,8 @@ impl ModeState {
         let c = drawn.clusters;
         (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled, s.clusters_occlusion_culled) =
             (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
-        (s.tests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
-            (hc.tests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
+        (s.tests, s.retests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
+            (hc.tests, hc.retests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
         (s.adaptive_culled, s.over_budget) = (hc.adaptive_culled, hc.over_budget);
         self.older = std::mem::replace(&mut self.visible, pvs);
         Ok(s)

@@ -21,6 +21,8 @@ pub struct FrameStats {
     pub or_triangles: u64,
     /// Box tests HC issued, levels (batches), and what it culled.
     pub tests: u32,
+    /// Of `tests`, those HC made again after its traversal (small boxes and additions).
+    pub retests: u32,
     pub levels: u32,
     pub frustum_culled: u32,
     pub occlusion_culled: u32,
