@@ -16,6 +16,11 @@
 //! (one whose LOD meets tau is tested first), and a node whose subtree left V(i-1) is tested
 //! again, so an occluded region is culled as high as it can be. The tests are then the front: V(i-1)'s nodes, their occluded siblings
 //! and what came into view, in about one round.
+//!
+//! What came into view has no occluder in OR's depth buffer (drawn from V(i-1)), so every box
+//! in it passes and the traversal would go down to its LOD cut box by box. After each round
+//! the tester is offered the PVS's new LODs as occluders for the next rounds, as CHC (paper
+//! 001) draws what it finds while it traverses.
 
 use crate::frustum::Containment;
 use crate::tester::VisibilityTester;
@@ -51,7 +56,7 @@ pub struct HcStats {
 /// frustum above the LOD cut. Appends the PVS (LOD and HLOD node ids, in the order found) to
 /// `pvs`.
 pub fn hardware_cull(nodes: &[NodeRecord], view: &View, tau: f64, tester: &mut dyn VisibilityTester, pvs: &mut Vec<NodeId>) -> HcStats {
-    traverse(nodes, view, tau, &HashSet::new(), tester, pvs)
+    traverse(nodes, view, tau, &[], &HashSet::new(), tester, pvs)
 }
 
 /// HC as [`hardware_cull`], taking the BVH nodes above `previous` (V(i-1): LOD and HLOD ids)
@@ -65,7 +70,7 @@ pub fn hardware_cull_from(
     tester: &mut dyn VisibilityTester,
     pvs: &mut Vec<NodeId>,
 ) -> HcStats {
-    traverse(nodes, view, tau, &above(nodes, previous), tester, pvs)
+    traverse(nodes, view, tau, previous, &above(nodes, previous), tester, pvs)
 }
 
 /// The BVH node that owns LOD or HLOD `id`: a leaf for its LODs, a group for its HLOD.
@@ -95,12 +100,14 @@ fn traverse(
     nodes: &[NodeRecord],
     view: &View,
     tau: f64,
+    previous: &[NodeId],
     above: &HashSet<NodeId>,
     tester: &mut dyn VisibilityTester,
     pvs: &mut Vec<NodeId>,
 ) -> HcStats {
     let mut stats = HcStats::default();
     let (mut open, mut batch, mut answers) = (vec![0u32], Vec::new(), Vec::new());
+    let mut new_from = pvs.len();
     while !open.is_empty() {
         batch.clear();
         while let Some(id) = open.pop() {
@@ -136,6 +143,13 @@ fn traverse(
                 refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
             } else {
                 stats.occlusion_culled += 1;
+            }
+        }
+        // Occluders where OR drew none (a region came into view): the PVS's new LODs.
+        if !previous.is_empty() {
+            let new: Vec<NodeId> = pvs[new_from..].iter().copied().filter(|id| previous.binary_search(id).is_err()).collect();
+            if !new.is_empty() && tester.add_occluders(view, &new) {
+                new_from = pvs.len();
             }
         }
     }
@@ -218,6 +232,36 @@ pub(crate) mod tests {
             self.batches.push(ids.to_vec());
             out.extend(ids.iter().map(|id| Visibility { visible: self.visible.contains(id), pixels: self.pixels }));
         }
+    }
+
+    /// Every box visible; records the occluders offered.
+    #[derive(Default)]
+    struct Offered(Vec<Vec<NodeId>>);
+
+    impl VisibilityTester for Offered {
+        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+            out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
+        }
+
+        fn add_occluders(&mut self, _: &View, lods: &[NodeId]) -> bool {
+            self.0.push(lods.to_vec());
+            true
+        }
+    }
+
+    #[test]
+    fn the_new_lods_are_offered_as_occluders_and_the_old_ones_not() {
+        let n = scene();
+        let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
+        // Leaf 1's level 0 was visible: leaf 2's (6) is new.
+        let (mut t, mut pvs) = (Offered::default(), Vec::new());
+        hardware_cull_from(&n, &v, 0.0, &[4], &mut t, &mut pvs);
+        pvs.sort();
+        assert_eq!((pvs, t.0), (vec![4, 6], vec![vec![6]]));
+        // Without V(i-1), OR drew nothing and the whole PVS is new: nothing is offered.
+        let (mut t, mut pvs) = (Offered::default(), Vec::new());
+        hardware_cull(&n, &v, 0.0, &mut t, &mut pvs);
+        assert!(t.0.is_empty());
     }
 
     #[test]

@@ -25,7 +25,7 @@ use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::retest::retest_additions;
-use osw_cull::{AllVisible, HcStats, View, hardware_cull, hardware_cull_from};
+use osw_cull::{AllVisible, HcStats, View, VisibilityTester, hardware_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{BoxTest, DrawStats, GpuTester, InterleavedTester, RenderError, Renderer};
 use osw_scene::NodeId;
@@ -188,6 +188,43 @@ const HYBRID_FINER: u32 = 3;
 /// boxes are nearly always visible and cost the most fill.
 const HYBRID_EXACT_PX: f64 = 512.0;
 
+/// `--hc hybrid`'s tester: boxes against the CPU pyramid of the depth buffer, which new
+/// occluders found by the traversal join, at least [`NEW_OCCLUDERS_MIN`] at a time (drawn,
+/// the depth read back and the pyramid rebuilt: about as much as drawing them costs again).
+struct HybridTester<'a> {
+    r: &'a mut Renderer,
+    pyramid: Pyramid,
+    /// The new occluders drawn so far (HC's second pass need not draw them again).
+    drawn: Vec<NodeId>,
+    error: Option<RenderError>,
+}
+
+/// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]). Measured on
+/// the plant walks of `scripts/scale.sh` (2M, 20M, 100M): 64 and 128 halve HC's tests at
+/// 100M but read back on most frames (HC 13 → 23 ms at 20M); 256 reads back only where a
+/// region comes into view, and 512 leaves most of those frames' tests.
+const NEW_OCCLUDERS_MIN: usize = 256;
+
+impl VisibilityTester for HybridTester<'_> {
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) {
+        let scene = std::sync::Arc::clone(&self.r.scene);
+        HzbTester { nodes: scene.nodes(), pyramid: &self.pyramid, finer: HYBRID_FINER }.test(view, ids, out);
+    }
+
+    fn add_occluders(&mut self, view: &View, lods: &[NodeId]) -> bool {
+        if self.error.is_some() || lods.len() < NEW_OCCLUDERS_MIN {
+            return false;
+        }
+        let depth = self.r.draw(view, lods, Pass::Depth, false).and_then(|_| Ok(self.r.target.read_depth(&self.r.gpu)?));
+        match depth {
+            Ok(d) => self.pyramid = Pyramid::new(view.width, view.height, d),
+            Err(e) => self.error = Some(e),
+        }
+        self.drawn.extend_from_slice(lods);
+        true
+    }
+}
+
 /// Additions from which `hc_pass` tests them again through the hierarchy
 /// ([`retest_additions`], a GPU round trip per level) rather than box by box (one round trip).
 const RETEST_HIERARCHY_MIN: usize = 128;
@@ -225,11 +262,20 @@ pub fn hc_pass(
     // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing): every
     // test would pass, so none is made.
     let occluders = !previous.is_empty();
+    // New occluders the traversal drew (the hybrid's).
+    let mut drawn = Vec::new();
     let stats = if !occluders {
         hardware_cull(nodes, view, tau, &mut AllVisible, pvs)
     } else if hc == HcTest::Hybrid {
         let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
-        hardware_cull_from(nodes, view, tau, previous, &mut HzbTester { nodes, pyramid: &pyramid, finer: HYBRID_FINER }, pvs)
+        let mut tester = HybridTester { r, pyramid, drawn: Vec::new(), error: None };
+        let stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
+        if let Some(e) = tester.error {
+            return Err(e);
+        }
+        drawn = tester.drawn;
+        drawn.sort_unstable();
+        stats
     } else {
         let test = match hc {
             HcTest::Pyramid => {
@@ -264,7 +310,10 @@ pub fn hc_pass(
     }
     let (added, kept): (Vec<NodeId>, Vec<NodeId>) = pvs.iter().partition(|id| previous.binary_search(id).is_err());
     if !added.is_empty() {
-        r.draw(view, &added, Pass::Depth, false)?;
+        let undrawn: Vec<NodeId> = added.iter().copied().filter(|id| drawn.binary_search(id).is_err()).collect();
+        if !undrawn.is_empty() {
+            r.draw(view, &undrawn, Pass::Depth, false)?;
+        }
         // Box by box when few (one round trip), or where paper 003's eq. 1 scores each
         // addition's own pixels; through the hierarchy when many (a region came into view).
         if adaptive > 0.0 || added.len() < RETEST_HIERARCHY_MIN {
