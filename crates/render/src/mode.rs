@@ -189,11 +189,12 @@ const HYBRID_FINER: u32 = 3;
 const HYBRID_EXACT_PX: f64 = 512.0;
 
 /// `--hc hybrid`'s tester: boxes against the CPU pyramid of the depth buffer, which new
-/// occluders found by the traversal join, at least [`NEW_OCCLUDERS_MIN`] at a time (drawn,
-/// the depth read back and the pyramid rebuilt: about as much as drawing them costs again).
+/// occluders found by the traversal join, at least `min` at a time (drawn, the depth read
+/// back and the pyramid rebuilt: about as much as drawing them costs again).
 struct HybridTester<'a> {
     r: &'a mut Renderer,
     pyramid: Pyramid,
+    min: usize,
     /// The new occluders drawn so far (HC's second pass need not draw them again).
     drawn: Vec<NodeId>,
     error: Option<RenderError>,
@@ -203,7 +204,7 @@ struct HybridTester<'a> {
 /// the plant walks of `scripts/scale.sh` (2M, 20M, 100M): 64 and 128 halve HC's tests at
 /// 100M but read back on most frames (HC 13 → 23 ms at 20M); 256 reads back only where a
 /// region comes into view, and 512 leaves most of those frames' tests.
-const NEW_OCCLUDERS_MIN: usize = 256;
+pub const NEW_OCCLUDERS_MIN: usize = 256;
 
 impl VisibilityTester for HybridTester<'_> {
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) {
@@ -212,7 +213,7 @@ impl VisibilityTester for HybridTester<'_> {
     }
 
     fn add_occluders(&mut self, view: &View, lods: &[NodeId]) -> bool {
-        if self.error.is_some() || lods.len() < NEW_OCCLUDERS_MIN {
+        if self.error.is_some() || lods.len() < self.min {
             return false;
         }
         let depth = self.r.draw(view, lods, Pass::Depth, false).and_then(|_| Ok(self.r.target.read_depth(&self.r.gpu)?));
@@ -257,6 +258,21 @@ pub fn hc_pass(
     previous: &[NodeId],
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, RenderError> {
+    hc_pass_with(r, view, tau, hc, adaptive, previous, pvs, NEW_OCCLUDERS_MIN)
+}
+
+/// [`hc_pass`], the hybrid taking new occluders `new_occluders_min` at a time.
+#[allow(clippy::too_many_arguments)]
+pub fn hc_pass_with(
+    r: &mut Renderer,
+    view: &View,
+    tau: f64,
+    hc: HcTest,
+    adaptive: f64,
+    previous: &[NodeId],
+    pvs: &mut Vec<NodeId>,
+    new_occluders_min: usize,
+) -> Result<HcStats, RenderError> {
     let scene = std::sync::Arc::clone(&r.scene);
     let nodes = scene.nodes();
     // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing): every
@@ -268,7 +284,7 @@ pub fn hc_pass(
         hardware_cull(nodes, view, tau, &mut AllVisible, pvs)
     } else if hc == HcTest::Hybrid {
         let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
-        let mut tester = HybridTester { r, pyramid, drawn: Vec::new(), error: None };
+        let mut tester = HybridTester { r, pyramid, min: new_occluders_min, drawn: Vec::new(), error: None };
         let stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
         if let Some(e) = tester.error {
             return Err(e);
