@@ -59,9 +59,10 @@ pub fn hardware_cull(nodes: &[NodeRecord], view: &View, tau: f64, tester: &mut d
     traverse(nodes, view, tau, &[], &HashSet::new(), tester, pvs)
 }
 
-/// HC as [`hardware_cull`], taking the BVH nodes above `previous` (V(i-1): LOD and HLOD ids)
-/// as visible without a test. Same PVS for a tester whose answers are consistent (a box is
-/// visible when one inside it is), fewer tests the more coherent the frames.
+/// HC as [`hardware_cull`], taking the BVH nodes above `previous` (V(i-1): LOD and HLOD ids,
+/// sorted) as visible without a test. Same PVS for a tester whose answers are consistent (a
+/// box is visible when one inside it is) and that takes no occluders, fewer tests the more
+/// coherent the frames.
 pub fn hardware_cull_from(
     nodes: &[NodeRecord],
     view: &View,
@@ -107,7 +108,9 @@ fn traverse(
 ) -> HcStats {
     let mut stats = HcStats::default();
     let (mut open, mut batch, mut answers) = (vec![0u32], Vec::new(), Vec::new());
-    let mut new_from = pvs.len();
+    // The PVS's LODs not in V(i-1) found since the tester last took some, and where this
+    // round's start in `pvs`.
+    let (mut new, mut new_from) = (Vec::new(), pvs.len());
     while !open.is_empty() {
         batch.clear();
         while let Some(id) = open.pop() {
@@ -145,11 +148,13 @@ fn traverse(
                 stats.occlusion_culled += 1;
             }
         }
-        // Occluders where OR drew none (a region came into view): the PVS's new LODs.
+        // Occluders where OR drew none (a region came into view): the PVS's new LODs, for
+        // the rounds still to come.
         if !previous.is_empty() {
-            let new: Vec<NodeId> = pvs[new_from..].iter().copied().filter(|id| previous.binary_search(id).is_err()).collect();
-            if !new.is_empty() && tester.add_occluders(view, &new) {
-                new_from = pvs.len();
+            new.extend(pvs[new_from..].iter().copied().filter(|id| previous.binary_search(id).is_err()));
+            new_from = pvs.len();
+            if !new.is_empty() && !open.is_empty() && tester.add_occluders(view, &new) {
+                new.clear();
             }
         }
     }
@@ -216,6 +221,41 @@ pub(crate) mod tests {
         ]
     }
 
+    /// A deeper scene: root group 0 over leaf 1 and group 2; group 2 over leaf 3 and group 4;
+    /// group 4 over leaf 5 and group 6; group 6 over leaves 11 and 12. Leaves' level 0: 7
+    /// (leaf 1), 8 (3), 9 (5), 13 (11), 14 (12); node 10 is unused. Boxes along x, 10 apart.
+    fn deep_scene() -> Vec<NodeRecord> {
+        let node = |kind: NodeKind, x0: f32, x1: f32, parent: u32, children: (u32, u32), lods: (u32, u32)| NodeRecord {
+            bbox_min: [x0, 0.0, 0.0],
+            bbox_max: [x1, 1.0, 1.0],
+            kind: kind as u32,
+            parent,
+            first_child: children.0,
+            child_count: children.1,
+            first_lod: lods.0,
+            lod_count: lods.1,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let (g, l, lod) = (NodeKind::Group, NodeKind::Leaf, NodeKind::Lod);
+        vec![
+            node(g, 0.0, 41.0, u32::MAX, (1, 2), (0, 0)),
+            node(l, 0.0, 1.0, 0, (0, 0), (7, 1)),
+            node(g, 10.0, 41.0, 0, (3, 2), (0, 0)),
+            node(l, 10.0, 11.0, 2, (0, 0), (8, 1)),
+            node(g, 20.0, 41.0, 2, (5, 2), (0, 0)),
+            node(l, 20.0, 21.0, 4, (0, 0), (9, 1)),
+            node(g, 30.0, 41.0, 4, (11, 2), (0, 0)),
+            node(lod, 0.0, 1.0, 1, (0, 0), (0, 0)),
+            node(lod, 10.0, 11.0, 3, (0, 0), (0, 0)),
+            node(lod, 20.0, 21.0, 5, (0, 0), (0, 0)),
+            node(lod, 0.0, 0.0, 0, (0, 0), (0, 0)),
+            node(l, 30.0, 31.0, 6, (0, 0), (13, 1)),
+            node(l, 40.0, 41.0, 6, (0, 0), (14, 1)),
+            node(lod, 30.0, 31.0, 11, (0, 0), (0, 0)),
+            node(lod, 40.0, 41.0, 12, (0, 0), (0, 0)),
+        ]
+    }
+
     pub(crate) fn view_from(eye: DVec3, target: DVec3) -> View {
         View::new(&Camera::look_at(eye, target, 60.0), DVec3::ZERO, 100, 100, 0.01)
     }
@@ -234,9 +274,9 @@ pub(crate) mod tests {
         }
     }
 
-    /// Every box visible; records the occluders offered.
+    /// Every box visible; records the occluders offered, taking them from the `take`-th offer.
     #[derive(Default)]
-    struct Offered(Vec<Vec<NodeId>>);
+    struct Offered(Vec<Vec<NodeId>>, usize);
 
     impl VisibilityTester for Offered {
         fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
@@ -245,19 +285,25 @@ pub(crate) mod tests {
 
         fn add_occluders(&mut self, _: &View, lods: &[NodeId]) -> bool {
             self.0.push(lods.to_vec());
-            true
+            self.0.len() > self.1
         }
     }
 
     #[test]
     fn the_new_lods_are_offered_as_occluders_and_the_old_ones_not() {
-        let n = scene();
-        let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
-        // Leaf 1's level 0 was visible: leaf 2's (6) is new.
-        let (mut t, mut pvs) = (Offered::default(), Vec::new());
-        hardware_cull_from(&n, &v, 0.0, &[4], &mut t, &mut pvs);
+        // Leaf 8's level 0 was visible (V(i-1)): round 1 finds 7 (new) and 8, round 2 finds 9,
+        // round 3 finds 13 and 14, after which nothing is left to test and nothing is offered.
+        let (deep, mut pvs) = (deep_scene(), Vec::new());
+        let wide = view_from(DVec3::new(20.5, 0.5, 80.0), DVec3::new(20.5, 0.5, 0.0));
+        let mut t = Offered(Vec::new(), 0);
+        hardware_cull_from(&deep, &wide, 0.0, &[8], &mut t, &mut pvs);
         pvs.sort();
-        assert_eq!((pvs, t.0), (vec![4, 6], vec![vec![6]]));
+        assert_eq!((pvs, t.0), (vec![7, 8, 9, 13, 14], vec![vec![7], vec![9]]));
+        // A tester that declines is offered the same LODs again with the next round's.
+        let mut t = Offered(Vec::new(), 1);
+        hardware_cull_from(&deep, &wide, 0.0, &[8], &mut t, &mut Vec::new());
+        assert_eq!(t.0, vec![vec![7], vec![7, 9]]);
+        let (n, v) = (scene(), view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0)));
         // Without V(i-1), OR drew nothing and the whole PVS is new: nothing is offered.
         let (mut t, mut pvs) = (Offered::default(), Vec::new());
         hardware_cull(&n, &v, 0.0, &mut t, &mut pvs);

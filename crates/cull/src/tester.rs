@@ -19,11 +19,11 @@ pub trait VisibilityTester {
     /// order. One call is one batch: paper 000 sec. 4.7.1 issues a whole level at once.
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>);
 
-    /// Offered after each round: LODs of this frame's PVS that the depth tested against lacks
-    /// (not in V(i-1)), found since the last ones taken. A tester may add them as occluders
-    /// for the rest of the traversal (conservative: visible geometry of this frame hides only
-    /// what is behind it) and returns whether it did; else they are offered again with the
-    /// next ones.
+    /// Offered after each round but the last: LODs of this frame's PVS not in V(i-1) (OR drew
+    /// nothing of them), found since the last ones taken. A tester may add them as occluders
+    /// for the rest of the traversal and returns whether it did; else they are offered again
+    /// with the next ones. Conservative: they are the scene's geometry at tau for this view,
+    /// and hide only what is behind them.
     fn add_occluders(&mut self, _view: &View, _lods: &[NodeId]) -> bool {
         false
     }

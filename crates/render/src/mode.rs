@@ -246,9 +246,10 @@ const RETEST_HIERARCHY_MIN: usize = 128;
 /// one frame and gone the next, sent to RVG and the peer twice. Those additions are drawn into
 /// the depth buffer and tested again, exactly; the ones hidden behind others are dropped.
 /// Conservative: only geometry of this frame's PVS is added as occluder. The hybrid first
-/// tests every small box of the PVS exactly against OR's depth (the pyramid's rectangles are
-/// coarser than a box's silhouette, and what it lets through would otherwise be drawn as an
-/// addition, dropped, and found again the next frame).
+/// tests every small box of the PVS exactly against the depth buffer as its traversal left it
+/// (OR's, and the new occluders it took; the pyramid's rectangles are coarser than a box's
+/// silhouette, and what they let through would otherwise be drawn as an addition, dropped,
+/// and found again the next frame). `pvs` comes in empty.
 pub fn hc_pass(
     r: &mut Renderer,
     view: &View,
@@ -315,8 +316,8 @@ pub fn hc_pass_with(
     let mut tests = stats.tests;
     // Hidden boxes, and of those the ones only adaptive culling dropped.
     let mut hidden = (0, 0);
-    // The hybrid's exact test: every small box of the PVS against OR's depth, before any is
-    // drawn (what the pyramid's rectangles let through, coarser than a box's silhouette).
+    // The hybrid's exact test: every small box of the PVS against the depth buffer, before the
+    // additions are drawn (what the pyramid's rectangles let through).
     if hc == HcTest::Hybrid && occluders {
         let vp = view.view_proj().as_dmat4();
         let small: Vec<NodeId> =
@@ -343,7 +344,7 @@ pub fn hc_pass_with(
                 return Err(e);
             }
             tests += s.tests;
-            hidden.0 += (added.len() - still.len()) as u32;
+            hidden.0 += added.len().saturating_sub(still.len()) as u32;
             *pvs = kept;
             pvs.extend(still);
             pvs.sort_unstable();

@@ -28,6 +28,7 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     r.begin_frame();
     let mut previous = Vec::new();
     hc_pass(&mut r, &before, 0.0, HcTest::Hybrid, 0.0, &[], &mut previous).unwrap();
+    assert!(!previous.is_empty(), "nothing visible before the turn: OR would draw nothing");
     // Frame i turns to the plant: OR draws V(i-1) for it, then HC.
     let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0));
     let mut run = |min: usize| {
