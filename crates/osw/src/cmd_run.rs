@@ -3,6 +3,13 @@
 //! display to finish the path, collects the statistics into DIR, and shuts everything down.
 //! When a process fails, the others are stopped and the error names it and its last words.
 //! `osw play` is `osw run --window`: a path replayed in the window.
+//!
+//! Three processes on one host share its cores: unless `LP_NUM_THREADS` is set, each runs
+//! Mesa lavapipe without raster threads (`LP_NUM_THREADS=0`; ignored by other drivers). Each
+//! process's own threads would compete for the cores the other two need: on the 100M plant
+//! walk at tau 1, three pairs of runs took 42.8 / 40.5, 44.7 / 42.3 and 41.4 / 39.1 ms a frame
+//! (default / 0). A single process is the other way round (chc: 53.6 against 74.1 ms), so
+//! `osw render` keeps lavapipe's default.
 
 use anyhow::{Context, bail};
 use osw_render::Mode;
@@ -86,7 +93,11 @@ fn sibling(name: &str) -> anyhow::Result<PathBuf> {
 
 fn spawn(name: &'static str, bin: &Path, args: &[String], out: &Path) -> anyhow::Result<Proc> {
     let stderr = out.join(format!("{}.log", name.replace(' ', "-")));
-    let child = Command::new(bin)
+    let mut cmd = Command::new(bin);
+    if std::env::var_os("LP_NUM_THREADS").is_none() {
+        cmd.env("LP_NUM_THREADS", "0");
+    }
+    let child = cmd
         .args(args)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
