@@ -133,14 +133,7 @@ fn traverse(
         if batch.is_empty() {
             break;
         }
-        batch.sort_unstable();
-        stats.levels += 1;
-        answers.clear();
-        tester.test(view, &batch, &mut answers);
-        assert_eq!(answers.len(), batch.len(), "tester must answer every box");
-        if tester.tests() {
-            stats.tests += batch.len() as u32;
-        }
+        test_round(tester, view, &mut batch, &mut answers, &mut stats);
         for (&id, vis) in batch.iter().zip(&answers) {
             if vis.visible {
                 refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
@@ -159,6 +152,25 @@ fn traverse(
         }
     }
     stats
+}
+
+/// One round of tests (sec. 4.7.1: a batch per round trip): sorts `batch` and answers it into
+/// `answers`, counting the round and its tests.
+pub(crate) fn test_round(
+    tester: &mut dyn VisibilityTester,
+    view: &View,
+    batch: &mut [NodeId],
+    answers: &mut Vec<crate::tester::Visibility>,
+    stats: &mut HcStats,
+) {
+    batch.sort_unstable();
+    stats.levels += 1;
+    answers.clear();
+    tester.test(view, batch, answers);
+    assert_eq!(answers.len(), batch.len(), "tester must answer every box");
+    if tester.tests() {
+        stats.tests += batch.len() as u32;
+    }
 }
 
 /// A visible BVH node: its LOD into the PVS, its HLOD when few of its `pixels` show, or its
@@ -194,22 +206,27 @@ pub(crate) mod tests {
     use glam::DVec3;
     use osw_scene::Camera;
 
-    /// A hand-built scene: root group 0 over leaves 1 (x in [0,1]) and 2 (x in [10,11]);
-    /// node 3 is the root's HLOD (error 0.5); 4 and 5 are leaf 1's levels 0 and 1 (error 0.1);
-    /// 6 is leaf 2's level 0. All boxes span y, z in [0, 1].
-    pub(crate) fn scene() -> Vec<NodeRecord> {
-        let node = |kind: NodeKind, x0: f32, x1: f32, error: f32, parent: u32, children: (u32, u32), lods: (u32, u32)| NodeRecord {
+    /// A node of a hand-built scene: a box spanning x in [x0, x1] and y, z in [0, 1], its
+    /// parent, its children and its LODs (first, count), error 0.
+    fn record(kind: NodeKind, x0: f32, x1: f32, parent: u32, children: (u32, u32), lods: (u32, u32)) -> NodeRecord {
+        NodeRecord {
             bbox_min: [x0, 0.0, 0.0],
             bbox_max: [x1, 1.0, 1.0],
             kind: kind as u32,
-            error,
             parent,
             first_child: children.0,
             child_count: children.1,
             first_lod: lods.0,
             lod_count: lods.1,
             ..bytemuck::Zeroable::zeroed()
-        };
+        }
+    }
+
+    /// A hand-built scene: root group 0 over leaves 1 (x in [0,1]) and 2 (x in [10,11]);
+    /// node 3 is the root's HLOD (error 0.5); 4 and 5 are leaf 1's levels 0 and 1 (error 0.1);
+    /// 6 is leaf 2's level 0. All boxes span y, z in [0, 1].
+    pub(crate) fn scene() -> Vec<NodeRecord> {
+        let node = |kind, x0, x1, error, parent, children, lods| NodeRecord { error, ..record(kind, x0, x1, parent, children, lods) };
         vec![
             node(NodeKind::Group, 0.0, 11.0, 0.5, u32::MAX, (1, 2), (3, 1)),
             node(NodeKind::Leaf, 0.0, 1.0, 0.0, 0, (0, 0), (4, 2)),
@@ -225,17 +242,7 @@ pub(crate) mod tests {
     /// group 4 over leaf 5 and group 6; group 6 over leaves 11 and 12. Leaves' level 0: 7
     /// (leaf 1), 8 (3), 9 (5), 13 (11), 14 (12); node 10 is unused. Boxes along x, 10 apart.
     fn deep_scene() -> Vec<NodeRecord> {
-        let node = |kind: NodeKind, x0: f32, x1: f32, parent: u32, children: (u32, u32), lods: (u32, u32)| NodeRecord {
-            bbox_min: [x0, 0.0, 0.0],
-            bbox_max: [x1, 1.0, 1.0],
-            kind: kind as u32,
-            parent,
-            first_child: children.0,
-            child_count: children.1,
-            first_lod: lods.0,
-            lod_count: lods.1,
-            ..bytemuck::Zeroable::zeroed()
-        };
+        let node = record;
         let (g, l, lod) = (NodeKind::Group, NodeKind::Leaf, NodeKind::Lod);
         vec![
             node(g, 0.0, 41.0, u32::MAX, (1, 2), (0, 0)),

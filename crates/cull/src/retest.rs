@@ -11,7 +11,7 @@
 //! tester whose answers are consistent (a box is visible when one inside it is).
 
 use crate::frustum::Containment;
-use crate::hc::{HcStats, above, owner};
+use crate::hc::{HcStats, above, owner, test_round};
 use crate::tester::VisibilityTester;
 use crate::view::View;
 use osw_scene::{NodeId, NodeRecord};
@@ -71,14 +71,7 @@ pub fn retest_additions(
         if batch.is_empty() {
             break;
         }
-        batch.sort_unstable();
-        stats.levels += 1;
-        answers.clear();
-        tester.test(view, &batch, &mut answers);
-        assert_eq!(answers.len(), batch.len(), "tester must answer every box");
-        if tester.tests() {
-            stats.tests += batch.len() as u32;
-        }
+        test_round(tester, view, &mut batch, &mut answers, &mut stats);
         for (&id, vis) in batch.iter().zip(&answers) {
             if vis.visible {
                 visible(id, &mut open, out);
