@@ -2,38 +2,48 @@
 //! is visible somewhere, not everywhere. Its clusters wholly outside the frustum, or whose
 //! every triangle faces away from the eye (meshopt's normal cone, kept only for closed meshes
 //! wound outwards), cover no pixel that another triangle of the frame does not cover nearer, so
-//! they are skipped. RVG also skips clusters hidden behind what it drew first (two passes, as
-//! niagara: `osw_gpu::Renderer::draw_visible`), remembering which were visible in a
-//! [`ClusterHistory`]. All tests are conservative.
+//! they are skipped. Inside the clusters kept, [`crate::triangle`] drops the triangles that face
+//! away or cover no pixel centre. RVG can also skip clusters hidden behind what it drew first
+//! (two passes, as niagara: `osw_gpu::Renderer::draw_visible`), remembering which were visible
+//! in a [`ClusterHistory`]. All tests are conservative.
 
+use crate::triangle::TriangleView;
 use crate::view::View;
 use glam::DVec3;
 use osw_scene::NodeId;
+use osw_scene::cluster::NO_CONE;
 use osw_scene::format::ClusterRecord;
 use std::collections::HashMap;
 
-/// Which cluster tests a pass runs (each can be turned off alone to show what it culls and
-/// that the frame does not change). By default the frustum and the cone: RVG's occlusion test
-/// costs lavapipe more than the triangles it saves (2M plant walk, tau 0, prev: 32% of clusters
-/// hidden, 94,018 -> 48,460 triangles a frame, but RVG 43.0 -> 62.8 ms: testing a cluster's box
-/// costs about what drawing its 32 triangles does; with hzb's CPU pyramid instead of the exact
-/// box test, on clusters of 128, 11% hidden for 7 ms more a frame).
+/// Which cluster and triangle tests a pass runs (each can be turned off alone to show what it
+/// culls and that the frame does not change). By default all but occlusion. The triangle tests
+/// pay on lavapipe, which sets up each triangle it is given on the CPU (2M plant walk, tau 0,
+/// prev: 70,657 -> 24,171 triangles a frame, 5.6 times the exactly visible ones, where culling
+/// whole clusters exactly would leave 3.9 times). RVG's occlusion test costs lavapipe more than the triangles it saves (same walk,
+/// before the triangle tests: 32% of clusters hidden, 94,018 -> 48,460 triangles a frame, but
+/// RVG 43.0 -> 62.8 ms: testing a cluster's box costs about what drawing its 32 triangles does;
+/// with hzb's CPU pyramid instead of the exact box test, on clusters of 128, 11% hidden for
+/// 7 ms more a frame).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ClusterTests {
     pub frustum: bool,
     pub cone: bool,
+    /// Per triangle of a cluster drawn: back faces of closed parts ([`crate::triangle`]).
+    pub backface: bool,
+    /// Per triangle of a cluster drawn: no pixel centre inside its screen bounds.
+    pub small: bool,
     /// RVG's two passes (the other passes have no depth to test against).
     pub occlusion: bool,
 }
 
 impl ClusterTests {
-    pub const ALL: ClusterTests = ClusterTests { frustum: true, cone: true, occlusion: true };
-    pub const NONE: ClusterTests = ClusterTests { frustum: false, cone: false, occlusion: false };
+    pub const ALL: ClusterTests = ClusterTests { frustum: true, cone: true, backface: true, small: true, occlusion: true };
+    pub const NONE: ClusterTests = ClusterTests { frustum: false, cone: false, backface: false, small: false, occlusion: false };
 }
 
 impl Default for ClusterTests {
     fn default() -> ClusterTests {
-        ClusterTests { frustum: true, cone: true, occlusion: false }
+        ClusterTests { frustum: true, cone: true, backface: true, small: true, occlusion: false }
     }
 }
 
@@ -46,6 +56,9 @@ pub struct ClusterStats {
     pub cone_culled: u64,
     /// Hidden behind what RVG drew first, and not drawn.
     pub occlusion_culled: u64,
+    /// Triangles of the clusters drawn that face away, or cover no pixel centre.
+    pub backface_culled: u64,
+    pub small_culled: u64,
 }
 
 /// Per LOD node drawn, which of its clusters were visible in the last frame (a bit each), and
@@ -85,18 +98,22 @@ impl ClusterHistory {
     }
 }
 
-/// Calls `keep` with the index range of each cluster of a node that may cover a pixel and that
-/// `select` (given its index in the block) takes, merging neighbours into one range.
-pub fn visible_clusters(
+/// Appends to `out` the indices (offset by `base`) of the clusters of one node that may cover a
+/// pixel and that `select` (given a cluster's index in the block) takes, less the triangles the
+/// triangle tests find covering none.
+#[allow(clippy::too_many_arguments)]
+pub fn gather<I: Copy + Into<u32>>(
     view: &View,
-    clusters: &[ClusterRecord],
+    triangles: &TriangleView,
     tests: ClusterTests,
+    geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
     stats: &mut ClusterStats,
     mut select: impl FnMut(usize, &ClusterRecord) -> bool,
-    mut keep: impl FnMut(std::ops::Range<u32>),
+    base: u32,
+    out: &mut Vec<u32>,
 ) {
+    let (positions, indices, clusters) = geometry;
     stats.clusters += clusters.len() as u64;
-    let mut run: Option<std::ops::Range<u32>> = None;
     for (k, c) in clusters.iter().enumerate() {
         let center = DVec3::from(c.center.map(f64::from));
         // The sphere grown by its centre's f32 rounding, and the eye's (the GPU makes vertices
@@ -106,42 +123,48 @@ pub fn visible_clusters(
             stats.frustum_culled += 1;
             continue;
         }
-        if tests.cone && faces_away(c, center, radius, view) {
+        let outside_closed = c.cone_cutoff < NO_CONE && eye_outside_closed(c, view);
+        if tests.cone && outside_closed && faces_away(c, center, radius, view) {
             stats.cone_culled += 1;
             continue;
         }
         if !select(k, c) {
             continue;
         }
-        let r = c.first_index..c.first_index + c.index_count;
-        match &mut run {
-            Some(open) if open.end == r.start => open.end = r.end,
-            _ => {
-                if let Some(done) = run.replace(r) {
-                    keep(done);
-                }
+        let ix = &indices[c.first_index as usize..(c.first_index + c.index_count) as usize];
+        let (backface, small) = (tests.backface && outside_closed, tests.small);
+        if !backface && !small {
+            out.extend(ix.iter().map(|&i| base + i.into()));
+            continue;
+        }
+        for t in ix.chunks_exact(3) {
+            let tri = [0, 1, 2].map(|v| positions[t[v].into() as usize]);
+            if backface && triangles.faces_away(tri) {
+                stats.backface_culled += 1;
+            } else if small && triangles.covers_no_pixel(tri) {
+                stats.small_culled += 1;
+            } else {
+                out.extend(t.iter().map(|&i| base + i.into()));
             }
         }
     }
-    if let Some(done) = run {
-        keep(done);
-    }
+}
+
+/// A back face is hidden only while the eye is outside its closed parts' box, grown by the
+/// near plane (which would otherwise cut the front faces away).
+fn eye_outside_closed(c: &ClusterRecord, view: &View) -> bool {
+    let grow = view.near * 2.0 + view.eye.abs().max_element() * 2.4e-7;
+    let lo = DVec3::from(c.closed_min.map(f64::from)) - grow;
+    let hi = DVec3::from(c.closed_max.map(f64::from)) + grow;
+    !(view.eye.cmpge(lo).all() && view.eye.cmple(hi).all())
 }
 
 /// meshopt's cone tests: every triangle of the cluster faces away from the eye when the eye
 /// lies in the cone behind the apex, dot(normalize(apex - eye), axis) >= cutoff, or when
 /// dot(c - eye, axis) >= cutoff * |c - eye| + radius on the bounding sphere. Each is
-/// conservative alone; a margin covers f32 rounding. A back face is hidden only while the eye is
-/// outside its closed parts' box, grown by the near plane (which would otherwise cut the front
-/// faces away).
+/// conservative alone; a margin covers f32 rounding.
 fn faces_away(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> bool {
     if c.cone_cutoff >= 1.0 {
-        return false;
-    }
-    let grow = view.near * 2.0 + view.eye.abs().max_element() * 2.4e-7;
-    let lo = DVec3::from(c.closed_min.map(f64::from)) - grow;
-    let hi = DVec3::from(c.closed_max.map(f64::from)) + grow;
-    if view.eye.cmpge(lo).all() && view.eye.cmple(hi).all() {
         return false;
     }
     let axis = DVec3::from(c.cone_axis.map(f64::from));
@@ -175,46 +198,45 @@ mod tests {
         }
         let (indices, clusters) = osw_scene::cluster::clusterize(&m, None);
         m.indices = indices;
-        let mut culled_total = 0;
+        let mut culled_total = [0; 2];
+        // Triangles the cone test and the triangle test drop.
         for k in 0..50 {
             let a = k as f64 * 0.7;
             let eye = DVec3::new(30.0 + 90.0 * a.cos(), 30.0 + 40.0 * (a * 0.3).sin(), 90.0 * a.sin());
             let view = View::new(&Camera::look_at(eye, DVec3::new(30.0, 30.0, 2.0), 60.0), DVec3::ZERO, 256, 256, 0.01);
-            let mut kept = vec![false; m.indices.len() / 3];
-            let mut s = ClusterStats::default();
-            let tests = ClusterTests { cone: true, ..ClusterTests::NONE };
-            visible_clusters(
-                &view,
-                &clusters,
-                tests,
-                &mut s,
-                |_, _| true,
-                |r| {
-                    for t in r.start / 3..r.end / 3 {
-                        kept[t as usize] = true;
-                    }
-                },
-            );
-            for (t, tri) in m.indices.chunks_exact(3).enumerate() {
-                assert!(kept[t] || !front_facing(&m, tri, eye), "front-facing triangle {t} culled from {eye}");
+            for tests in [ClusterTests { cone: true, ..ClusterTests::NONE }, ClusterTests { backface: true, ..ClusterTests::NONE }] {
+                let mut s = ClusterStats::default();
+                let out = draw(&view, &m, &clusters, tests, &mut s);
+                let kept: std::collections::HashSet<&[u32]> = out.chunks_exact(3).collect();
+                for (t, tri) in m.indices.chunks_exact(3).enumerate() {
+                    assert!(kept.contains(tri) || !front_facing(&m, tri, eye), "front-facing triangle {t} culled from {eye}");
+                }
+                culled_total[usize::from(tests.backface)] += (m.indices.len() - out.len()) / 3;
             }
-            culled_total += s.cone_culled;
+            assert!(culled_total[1] >= culled_total[0], "the triangle test drops what the cone test does");
         }
-        assert!(culled_total > 0, "boxes seen from outside have back-facing clusters");
+        assert!(culled_total[0] > 0, "boxes seen from outside have back-facing clusters");
+    }
+
+    /// The indices a pass would draw of mesh `m`.
+    fn draw(view: &View, m: &Mesh, clusters: &[ClusterRecord], tests: ClusterTests, s: &mut ClusterStats) -> Vec<u32> {
+        let mut out = Vec::new();
+        let tv = TriangleView::new(view);
+        gather(view, &tv, tests, (&m.positions, &m.indices, clusters), s, |_, _| true, 0, &mut out);
+        out
     }
 
     #[test]
-    fn the_eye_inside_a_closed_part_turns_the_cone_test_off_and_ranges_merge() {
+    fn the_eye_inside_a_closed_part_turns_the_back_face_tests_off() {
         let mut m = Mesh::default();
         add_box(&mut m, glam::Vec3::ZERO, glam::Vec3::splat(10.0));
         let (indices, clusters) = osw_scene::cluster::clusterize(&m, None);
         m.indices = indices;
         let view = View::new(&Camera::look_at(DVec3::splat(5.0), DVec3::new(5.0, 5.0, 0.0), 60.0), DVec3::ZERO, 64, 64, 0.01);
-        let mut ranges = Vec::new();
         let mut s = ClusterStats::default();
-        visible_clusters(&view, &clusters, ClusterTests { cone: true, ..ClusterTests::NONE }, &mut s, |_, _| true, |r| ranges.push(r));
-        assert_eq!(s.cone_culled, 0);
-        assert_eq!(ranges, vec![0..m.indices.len() as u32], "one range for the whole block");
+        let out = draw(&view, &m, &clusters, ClusterTests { cone: true, backface: true, ..ClusterTests::NONE }, &mut s);
+        assert_eq!((s.cone_culled, s.backface_culled), (0, 0));
+        assert_eq!(out, m.indices, "every triangle, in cluster order");
     }
 
     #[test]
@@ -237,10 +259,10 @@ mod tests {
         let clusters = [c(-10.0), c(10.0)];
         let clusters = [ClusterRecord { first_index: 3, ..clusters[1] }, clusters[0]];
         let view = View::new(&Camera::look_at(DVec3::ZERO, DVec3::X, 60.0), DVec3::ZERO, 64, 64, 0.01);
-        let mut ranges = Vec::new();
+        let m = Mesh { indices: vec![0, 1, 2, 3, 4, 5], ..Default::default() };
         let mut s = ClusterStats::default();
-        visible_clusters(&view, &clusters, ClusterTests::ALL, &mut s, |_, _| true, |r| ranges.push(r));
+        let out = draw(&view, &m, &clusters, ClusterTests { frustum: true, ..ClusterTests::NONE }, &mut s);
         assert_eq!((s.clusters, s.frustum_culled), (2, 1));
-        assert_eq!(ranges, vec![3..6]);
+        assert_eq!(out, vec![3, 4, 5]);
     }
 }

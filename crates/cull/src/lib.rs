@@ -10,6 +10,7 @@
 //!   interleaved culling with adaptive culling and a budget, which without them is 001's
 //!   stop-and-wait; coherent hierarchical culling; a software Z pyramid).
 //! - [`cluster`]: frustum and back-face cone tests of the clusters inside a node drawn.
+//! - [`triangle`]: back-face and small-triangle tests of the triangles of a cluster drawn.
 //! - [`delta`]: visible-set deltas, V(i) = (V(i-1) - removed) ∪ added (paper 000 sec. 3.4).
 //! - [`states`]: nodes classified visible / frustum-culled / occlusion-culled, for display.
 //! - [`front`]: the front update that re-selects last frame's visible set for a new camera
@@ -27,6 +28,7 @@ pub mod ovc;
 pub mod retest;
 pub mod states;
 pub mod tester;
+pub mod triangle;
 pub mod view;
 
 pub use hc::{HcStats, hardware_cull, hardware_cull_from};

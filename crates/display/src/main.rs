@@ -167,6 +167,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let c = drawn.clusters;
         (row.clusters, row.clusters_frustum_culled, row.clusters_cone_culled, row.clusters_occlusion_culled) =
             (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
+        (row.triangles_backface_culled, row.triangles_small_culled) = (c.backface_culled, c.small_culled);
         // Read back once for the PNG and the window both (unless the window draws another view).
         let rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
         if let (false, Some(rgba)) = (a.no_frames, &rgba) {

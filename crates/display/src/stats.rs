@@ -42,6 +42,8 @@ pub fn write_outputs(
         clusters_frustum_culled_fraction: share(|r| r.clusters_frustum_culled),
         clusters_cone_culled_fraction: share(|r| r.clusters_cone_culled),
         clusters_occlusion_culled_fraction: share(|r| r.clusters_occlusion_culled),
+        triangles_backface_culled_mean: mean(|r| r.triangles_backface_culled as f64),
+        triangles_small_culled_mean: mean(|r| r.triangles_small_culled as f64),
         hc_ms_median: quantile(&col(|r| r.hc_ms), 0.5),
         rvg_ms_median: quantile(&col(|r| r.rvg_ms), 0.5),
         scene: set.scene.display().to_string(),

@@ -31,6 +31,10 @@ pub struct ExactFrame {
     pub leaves: Vec<NodeId>,
     /// Distinct visible triangles.
     pub triangles: u64,
+    /// Triangles of the clusters that hold a visible triangle: the fewest that culling whole
+    /// clusters can draw, however exact its tests (issue 16). `None` when the item buffer was
+    /// drawn in more than one call (a triangle's index then restarts).
+    pub cluster_triangles: Option<u64>,
     /// Triangles drawn into the item buffer (the scene's full-detail count for the independent
     /// reference at tau 0).
     pub drawn_triangles: u64,
@@ -66,6 +70,37 @@ impl Renderer {
         let mut leaves: Vec<NodeId> = items.iter().map(|i| scene.node(i[0] - 1).parent).collect();
         leaves.sort_unstable();
         leaves.dedup();
-        Ok(ExactFrame { leaves, triangles: items.len() as u64, drawn_triangles: drawn.triangles })
+        let cluster_triangles = if drawn.draws == 1 { cluster_triangles(&scene, &ids, &items)? } else { None };
+        Ok(ExactFrame { leaves, triangles: items.len() as u64, cluster_triangles, drawn_triangles: drawn.triangles })
     }
+}
+
+/// Triangles of the clusters holding the visible `items` (sorted [node id + 1, triangle index
+/// in the one draw of `ids`, which drew each block whole and in order]); `None` if an index
+/// falls outside its node's triangles.
+fn cluster_triangles(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> Result<Option<u64>, RenderError> {
+    let mut total = 0;
+    let mut first = 0u64;
+    let mut at = 0;
+    for &id in ids {
+        let g = scene.geometry(id)?;
+        let end = first + g.indices.len() as u64 / 3;
+        let mut last = None;
+        while at < items.len() && items[at][0] == id + 1 {
+            let t = items[at][1] as u64;
+            if t < first || t >= end {
+                return Ok(None);
+            }
+            let Some(k) = g.clusters.partition_point(|c| (c.first_index / 3) as u64 <= t - first).checked_sub(1) else {
+                return Ok(None);
+            };
+            if last != Some(k) {
+                total += g.clusters[k].index_count as u64 / 3;
+                last = Some(k);
+            }
+            at += 1;
+        }
+        first = end;
+    }
+    Ok((at == items.len()).then_some(total))
 }

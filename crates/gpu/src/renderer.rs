@@ -8,7 +8,8 @@ use crate::draw::{DrawPipelines, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
-use osw_cull::cluster::{ClusterHistory, ClusterStats, ClusterTests, visible_clusters};
+use osw_cull::cluster::{ClusterHistory, ClusterStats, ClusterTests, gather};
+use osw_cull::triangle::TriangleView;
 use osw_cull::{Occluders, View, Visibility, VisibilityTester};
 use osw_scene::file::Indices;
 use osw_scene::format::ClusterRecord;
@@ -55,6 +56,8 @@ pub struct DrawStats {
     pub nodes: u32,
     pub triangles: u64,
     pub clusters: ClusterStats,
+    /// Draw calls submitted (more than one when a list outgrew the GPU's buffers).
+    pub draws: u32,
 }
 
 impl DrawStats {
@@ -63,11 +66,14 @@ impl DrawStats {
         DrawStats {
             nodes: self.nodes + o.nodes,
             triangles: self.triangles + o.triangles,
+            draws: self.draws + o.draws,
             clusters: ClusterStats {
                 clusters: a.clusters + b.clusters,
                 frustum_culled: a.frustum_culled + b.frustum_culled,
                 cone_culled: a.cone_culled + b.cone_culled,
                 occlusion_culled: a.occlusion_culled + b.occlusion_culled,
+                backface_culled: a.backface_culled + b.backface_culled,
+                small_culled: a.small_culled + b.small_culled,
             },
         }
     }
@@ -256,11 +262,15 @@ impl Renderer {
         history.end_frame();
         stats.triangles += first.triangles;
         stats.clusters.occlusion_culled = occluded;
+        // The triangle tests ran on what the two passes drew (the tests' pass selects none).
+        stats.clusters.backface_culled = first.clusters.backface_culled + second.clusters.backface_culled;
+        stats.clusters.small_culled = first.clusters.small_culled + second.clusters.small_culled;
         Ok(stats)
     }
 
-    /// Gathers into `self.indices` the index ranges of the clusters of `ids` that pass `tests`
-    /// and `select(node, cluster index, cluster)`, making the nodes resident.
+    /// Gathers into `self.indices` the indices of the clusters of `ids` that pass `tests` and
+    /// `select(node, cluster index, cluster)`, less the triangles `tests` drop, making the nodes
+    /// resident.
     fn gather(
         &mut self,
         view: &View,
@@ -270,25 +280,16 @@ impl Renderer {
     ) -> Result<DrawStats, RenderError> {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
+        let triangles = TriangleView::new(view);
         self.indices.clear();
         for &id in ids {
             let base = self.residency.ensure(&self.gpu, &scene, id)?;
             let g = scene.geometry(id)?;
-            let out = &mut self.indices;
-            visible_clusters(
-                view,
-                g.clusters,
-                tests,
-                &mut stats.clusters,
-                |k, c| select(id, k, c),
-                |r| {
-                    let r = r.start as usize..r.end as usize;
-                    match g.indices {
-                        Indices::U16(ix) => out.extend(ix[r].iter().map(|&i| base + i as u32)),
-                        Indices::U32(ix) => out.extend(ix[r].iter().map(|&i| base + i)),
-                    }
-                },
-            );
+            let (out, s) = (&mut self.indices, &mut stats.clusters);
+            match g.indices {
+                Indices::U16(ix) => gather(view, &triangles, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
+                Indices::U32(ix) => gather(view, &triangles, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
+            }
             stats.nodes += 1;
         }
         Ok(stats)
@@ -298,6 +299,7 @@ impl Renderer {
     fn submit(&mut self, view: &View, pass: Pass, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
+        stats.draws = 1;
         let bytes = self.indices.len() as u64 * 4;
         if bytes > self.index_buf.size() {
             let max = self.gpu.device.limits().max_buffer_size;

@@ -16,6 +16,9 @@ pub struct Target {
     color_tex: wgpu::Texture,
     depth_tex: wgpu::Texture,
     item_tex: wgpu::Texture,
+    /// Where every readback lands, sized for the widest texel (item ids): made once, since
+    /// HC reads the depth back several times a frame.
+    staging: wgpu::Buffer,
 }
 
 fn texture(gpu: &Gpu, label: &str, w: u32, h: u32, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
@@ -51,25 +54,24 @@ impl Target {
             color_tex,
             depth_tex,
             item_tex,
+            staging: crate::readback::staging(gpu, "readback", padded_row(width * 8) as u64 * height as u64),
         }
     }
 
     /// The colour attachment as tightly packed RGBA8 rows, top row first.
     pub fn read_color(&self, gpu: &Gpu) -> Result<Vec<u8>, GpuError> {
-        self.read(gpu, &self.color_tex, 4)
+        self.read(gpu, &self.color_tex)
     }
 
     /// The item attachment as (id + 1, triangle) pairs, row by row.
     pub fn read_item(&self, gpu: &Gpu) -> Result<Vec<[u32; 2]>, GpuError> {
-        let bytes = self.read(gpu, &self.item_tex, 8)?;
-        Ok(bytemuck::pod_collect_to_vec(&bytes))
+        self.read(gpu, &self.item_tex)
     }
 
     /// The depth attachment (reversed Z), row by row: the readback the `hzb` baseline makes
     /// (paper 002 sec. 5.3; paper 000 avoids it).
     pub fn read_depth(&self, gpu: &Gpu) -> Result<Vec<f32>, GpuError> {
-        let bytes = self.read(gpu, &self.depth_tex, 4)?;
-        Ok(bytemuck::pod_collect_to_vec(&bytes))
+        self.read(gpu, &self.depth_tex)
     }
 
     /// Records a copy of the depth attachment into `buffer` from offset 0, rows padded as
@@ -90,26 +92,28 @@ impl Target {
         );
     }
 
-    fn read(&self, gpu: &Gpu, tex: &wgpu::Texture, texel: u32) -> Result<Vec<u8>, GpuError> {
+    /// Texture `tex` as tightly packed texels of type `T` (RGBA8 as bytes), row by row.
+    fn read<T: bytemuck::Pod>(&self, gpu: &Gpu, tex: &wgpu::Texture) -> Result<Vec<T>, GpuError> {
+        let aspect = if tex.format() == DEPTH { wgpu::TextureAspect::DepthOnly } else { wgpu::TextureAspect::All };
+        let texel = tex.format().block_copy_size(Some(aspect)).unwrap_or(4);
         let row = padded_row(self.width * texel);
         let size = row as u64 * self.height as u64;
-        let staging = crate::readback::staging(gpu, "readback", size);
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: tex,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: if tex.format() == DEPTH { wgpu::TextureAspect::DepthOnly } else { wgpu::TextureAspect::All },
-            },
+            wgpu::TexelCopyTextureInfo { texture: tex, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect },
             wgpu::TexelCopyBufferInfo {
-                buffer: &staging,
+                buffer: &self.staging,
                 layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: None },
             },
             wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
         );
         gpu.queue.submit([enc.finish()]);
         let tight = (self.width * texel) as usize;
-        crate::readback::read(gpu, &staging, size, |b| b.chunks(row as usize).flat_map(|r| r[..tight].iter().copied()).collect())
+        crate::readback::read(gpu, &self.staging, size, |b| {
+            let mut out = Vec::with_capacity(tight / std::mem::size_of::<T>() * self.height as usize);
+            // Mapped rows start 256-byte aligned.
+            b.chunks(row as usize).for_each(|r| out.extend_from_slice(bytemuck::cast_slice(&r[..tight])));
+            out
+        })
     }
 }

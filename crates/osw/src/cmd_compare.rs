@@ -60,15 +60,14 @@ fn triangles_drawn(dir: &Path, s: &Summary) -> anyhow::Result<Option<Vec<u64>>> 
     }))
 }
 
-/// `osw exact` output: the visible nodes and triangles of each of `frames` frames.
-fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<u64>)> {
+/// `osw exact` output: the visible nodes and the exact.csv row of each of `frames` frames.
+fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<ExactFrame>)> {
     let leaves = read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
     let rows: Vec<ExactFrame> = results::csv::read(&dir.join("exact.csv"))?;
-    let tris: Vec<u64> = rows.iter().map(|r| r.visible_triangles).collect();
-    if leaves.len() < frames || tris.len() < frames {
-        bail!("{} has {} frames, the runs have {frames}", dir.display(), leaves.len());
+    if leaves.len() < frames || rows.len() < frames {
+        bail!("{} has {} frames, the runs have {frames}", dir.display(), leaves.len().min(rows.len()));
     }
-    Ok((leaves, tris))
+    Ok((leaves, rows))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -101,7 +100,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     if let Some(exact) = &a.exact {
         let scene = osw_scene::SceneFile::open(Path::new(&sa.scene))?;
-        let (leaves, tris) = read_exact(exact, frames)?;
+        let (leaves, rows_exact) = read_exact(exact, frames)?;
+        let tris: Vec<u64> = rows_exact.iter().map(|r| r.visible_triangles).collect();
+        let floor: Option<Vec<f64>> = rows_exact[..frames]
+            .iter()
+            .map(|r| r.visible_cluster_triangles.map(|c| c as f64 / r.visible_triangles.max(1) as f64))
+            .collect();
+        report.cluster_exact_triangles_ratio_mean = floor.map(|f| f.iter().sum::<f64>() / frames.max(1) as f64);
         let lod = a.exact_lod.as_deref().map(|d| read_exact(d, frames)).transpose()?;
         for (which, dir) in [(0, &a.a), (1, &a.b)] {
             let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
@@ -120,11 +125,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d as f64 / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64,
                 );
             }
-            if let Some((lod_leaves, lod_tris)) = &lod {
+            if let Some((lod_leaves, lod_rows)) = &lod {
                 let mut missed = Vec::with_capacity(frames);
                 for f in 0..frames {
                     missed.push(
-                        cull_error(&scene, &pvs[f], &lod_leaves[f], lod_tris[f]).map_err(anyhow::Error::msg)?.false_culled_leaves as u64,
+                        cull_error(&scene, &pvs[f], &lod_leaves[f], lod_rows[f].visible_triangles)
+                            .map_err(anyhow::Error::msg)?
+                            .false_culled_leaves as u64,
                     );
                 }
                 s.lod_false_culled_total = Some(missed.iter().sum());
@@ -171,7 +178,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         )
     };
     out!(
-        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{} → {}",
+        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{}{} → {}",
         report.frame_ms_median_a,
         report.frame_ms_median_b,
         report.speedup_a_over_b,
@@ -182,6 +189,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             s.pvs_exact_leaves_ratio_mean,
             s.drawn_exact_triangles_ratio_mean.map_or(String::new(), |r| format!(", drawn/exact triangles {r:.1}"))
         )),
+        report.cluster_exact_triangles_ratio_mean.map_or(String::new(), |r| format!(" (at least {r:.1} culling whole clusters)")),
         a.out.display()
     );
     Ok(())

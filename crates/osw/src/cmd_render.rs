@@ -93,11 +93,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     out!(
-        "left out: of the PVS's {:.0} clusters a frame, {:.0}% outside the frustum, {:.0}% facing away, {:.0}% hidden",
+        "left out: of the PVS's {:.0} clusters a frame, {:.0}% outside the frustum, {:.0}% facing away, {:.0}% hidden; \
+         of the triangles of those drawn, {:.0} facing away and {:.0} covering no pixel centre",
         s.clusters_mean,
         s.clusters_frustum_culled_fraction * 100.0,
         s.clusters_cone_culled_fraction * 100.0,
-        s.clusters_occlusion_culled_fraction * 100.0
+        s.clusters_occlusion_culled_fraction * 100.0,
+        s.triangles_backface_culled_mean,
+        s.triangles_small_culled_mean
     );
     out!(
         "render: {} tau {} over {} frames: frame {:.1} ms median ({:.1} p95), {:.0} triangles, {:.0} nodes, {:.0} tests a frame → {}",

@@ -182,6 +182,8 @@ fn entry(mode: Mode, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entr
         clusters_frustum_culled_fraction: s.clusters_frustum_culled_fraction,
         clusters_cone_culled_fraction: s.clusters_cone_culled_fraction,
         clusters_occlusion_culled_fraction: s.clusters_occlusion_culled_fraction,
+        triangles_backface_culled_mean: s.triangles_backface_culled_mean,
+        triangles_small_culled_mean: s.triangles_small_culled_mean,
         pvs_exact_leaves: culling.pvs_exact_leaves_ratio_mean,
         pvs_exact_triangles: culling.pvs_exact_triangles_ratio_mean,
         drawn_exact_triangles: culling.drawn_exact_triangles_ratio_mean.ok_or_else(|| missing("drawn_exact_triangles_ratio_mean"))?,
@@ -481,8 +483,9 @@ fn markdown(r: &Report, a: &Args) -> String {
     table(&mut md, &header, &rows);
     md.push_str(
         "## Clusters inside the visible nodes\n\nRVG's clusters a frame, the shares it skips \
-         as outside the frustum, facing away and hidden, the triangles it draws, and the ratio to the exactly visible \
-         triangles of the PVS's nodes' triangles and of the triangles drawn.\n\n",
+         as outside the frustum, facing away and hidden; of the triangles of the clusters it draws, those it skips \
+         as facing away and as covering no pixel centre, a frame; the triangles it draws, and the ratio to the exactly \
+         visible triangles of the PVS's nodes' triangles and of the triangles drawn.\n\n",
     );
     let header: Vec<String> = [
         "method",
@@ -491,6 +494,8 @@ fn markdown(r: &Report, a: &Args) -> String {
         "frustum %",
         "facing away %",
         "hidden %",
+        "back faces",
+        "no pixel",
         "triangles",
         "PVS/exact triangles",
         "drawn/exact triangles",
@@ -506,6 +511,8 @@ fn markdown(r: &Report, a: &Args) -> String {
             pct(e.clusters_frustum_culled_fraction),
             pct(e.clusters_cone_culled_fraction),
             pct(e.clusters_occlusion_culled_fraction),
+            format!("{:.0}", e.triangles_backface_culled_mean),
+            format!("{:.0}", e.triangles_small_culled_mean),
             format!("{:.0}", e.triangles_drawn_mean),
             format!("{:.1}", e.pvs_exact_triangles),
             format!("{:.1}", e.drawn_exact_triangles),

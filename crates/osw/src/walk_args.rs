@@ -22,10 +22,11 @@ pub struct WalkArgs {
     /// Geometry residency budget in MiB (least recently used geometry is dropped above it).
     #[arg(long, default_value_t = 1024, value_name = "MIB")]
     pub residency_mib: u64,
-    /// Cluster tests of the passes that draw: a list of `frustum`, `cone` and `occlusion` (RVG's
-    /// two passes, in prev; off by default: it costs lavapipe more than it saves), or `none`
-    /// (exact visibility's item pass always draws every triangle).
-    #[arg(long, default_value = "frustum,cone", value_parser = parse_cluster_tests, value_name = "LIST")]
+    /// Cluster tests of the passes that draw: a list of `frustum`, `cone` (per cluster),
+    /// `backface`, `small` (per triangle of a cluster drawn) and `occlusion` (RVG's two passes, in
+    /// prev; off by default: it costs lavapipe more than it saves), or `none` (exact
+    /// visibility's item pass always draws every triangle).
+    #[arg(long, default_value = "frustum,cone,backface,small", value_parser = parse_cluster_tests, value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,
 }
 
@@ -35,9 +36,11 @@ pub fn parse_cluster_tests(s: &str) -> Result<osw_cull::cluster::ClusterTests, S
         match name {
             "frustum" => t.frustum = true,
             "cone" => t.cone = true,
+            "backface" => t.backface = true,
+            "small" => t.small = true,
             "occlusion" => t.occlusion = true,
             "none" if s.trim() == "none" => {}
-            _ => return Err(format!("{s:?}: expected a list of frustum, cone and occlusion, or none")),
+            _ => return Err(format!("{s:?}: expected a list of frustum, cone, backface, small and occlusion, or none")),
         }
     }
     Ok(t)

@@ -235,7 +235,10 @@ fn bad_command_lines_are_refused() {
         let args = ["render", "--scene", "s.osw", "--path", "p.csv", "--mode", "vfc", "--cluster-tests", tests, "--out", "o"];
         let out = osw(&args);
         assert_eq!(out.status.code(), Some(2), "{tests:?}");
-        assert!(String::from_utf8_lossy(&out.stderr).contains("expected a list of frustum, cone and occlusion, or none"), "{tests:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("expected a list of frustum, cone, backface, small and occlusion, or none"),
+            "{tests:?}"
+        );
     }
 }
 

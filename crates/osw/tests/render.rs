@@ -87,11 +87,13 @@ fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
     }
 }
 
-/// Cluster culling inside the PVS's nodes (osw_cull::cluster): each test turned off alone stops
-/// its count and draws more triangles; the visible sets never change, and neither do the frames
-/// without the frustum or the occlusion test. Without the cone test the back faces it skips are
-/// drawn again: hidden behind their front faces, they can win only a silhouette pixel where the
-/// two tie in depth, so the frames differ by at most a few such pixels.
+/// Cluster culling inside the PVS's nodes (osw_cull::cluster, osw_cull::triangle): each test
+/// turned off alone stops its count and draws no fewer triangles; the visible sets never
+/// change, and neither do the frames without the frustum, small-triangle or occlusion test.
+/// Without a back-face test the back faces it skips are drawn again: hidden behind their front
+/// faces, they can win only a silhouette pixel where the two tie in depth, so the frames differ
+/// by at most a few such pixels. Culling whole clusters never draws fewer triangles than the
+/// clusters the item buffer finds a visible triangle in.
 #[test]
 fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
     let d = tempfile::tempdir().unwrap();
@@ -102,35 +104,59 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
         let args = ["render", "--scene", s(&scene), "--path", s(&path), "--mode", "prev", "--tau", "0", "--size", SIZE];
         osw_ok(&[&args[..], &["--cluster-tests", tests, "--out", s(&out)]].concat());
         let v = summary(&out);
-        let culled = [v.clusters_frustum_culled_fraction, v.clusters_cone_culled_fraction, v.clusters_occlusion_culled_fraction];
+        let culled = [
+            v.clusters_frustum_culled_fraction,
+            v.clusters_cone_culled_fraction,
+            v.triangles_backface_culled_mean,
+            v.triangles_small_culled_mean,
+            v.clusters_occlusion_culled_fraction,
+        ];
         (out, culled, v.triangles_drawn_mean)
     };
-    let (all, all_culled, all_t) = run("frustum,cone,occlusion");
+    let names = ["frustum", "cone", "backface", "small", "occlusion"];
+    let (all, all_culled, all_t) = run(&names.join(","));
     assert!(
         all_culled.iter().all(|&c| c > 0.0),
-        "a walk through a plant has clusters outside the view, facing away and hidden: {all_culled:?}"
+        "a walk through a plant has clusters outside the view, facing away and hidden, and triangles facing away and too small: {all_culled:?}"
     );
     let read = |p: &Path| std::fs::read(p).unwrap();
-    for (k, without) in ["cone,occlusion", "frustum,occlusion", "frustum,cone"].into_iter().enumerate() {
-        let (out, culled, t) = run(without);
-        assert_eq!(culled[k], 0.0, "{without}: a test turned off culls nothing");
-        assert!(t > all_t, "{without}: {t} triangles, all tests {all_t}");
-        assert_eq!(read(&all.join("pvs.txt")), read(&out.join("pvs.txt")), "{without}: visible sets");
-        if k == 1 {
-            let cmp = d.path().join("cmp-cone");
+    for (k, name) in names.into_iter().enumerate() {
+        let without: Vec<&str> = names.iter().copied().filter(|&n| n != name).collect();
+        let (out, culled, t) = run(&without.join(","));
+        assert_eq!(culled[k], 0.0, "without {name}: a test turned off culls nothing");
+        // The triangle test also drops what the cone test does.
+        assert!(t > all_t || (name == "cone" && t >= all_t), "without {name}: {t} triangles, all tests {all_t}");
+        assert_eq!(read(&all.join("pvs.txt")), read(&out.join("pvs.txt")), "without {name}: visible sets");
+        if name == "cone" || name == "backface" {
+            let cmp = d.path().join(format!("cmp-{name}"));
             osw_ok(&["compare", "--a", s(&out), "--b", s(&all), "--out", s(&cmp)]);
             let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp.join("compare.json")).unwrap()).unwrap();
             assert!(c["differing_fraction_max"].as_f64().unwrap() <= 1e-3, "more than silhouette ties: {c}");
         } else {
             for i in 0..24 {
                 let f = format!("frames/{i:05}.png");
-                assert!(read(&all.join(&f)) == read(&out.join(&f)), "frame {i} changes with {without} alone");
+                assert!(read(&all.join(&f)) == read(&out.join(&f)), "frame {i} changes without {name}");
             }
         }
     }
     let (none, _, none_t) = run("none");
     assert!(none_t > all_t);
     assert_eq!(read(&all.join("pvs.txt")), read(&none.join("pvs.txt")));
+    // Whole clusters against the item buffer's clusters with a visible triangle, frame by frame.
+    let exact = d.path().join("exact");
+    osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);
+    let (whole, _, _) = run("frustum,cone,occlusion");
+    let drawn = csv_column(&whole.join("stats.csv"), "triangles_drawn");
+    let floor = csv_column(&exact.join("exact.csv"), "visible_cluster_triangles");
+    let visible = csv_column(&exact.join("exact.csv"), "visible_triangles");
+    for i in 0..24 {
+        assert!(drawn[i] >= floor[i] && floor[i] >= visible[i] && visible[i] > 0.0, "frame {i}: {} {} {}", drawn[i], floor[i], visible[i]);
+    }
+    let cmp = d.path().join("cmp-exact");
+    osw_ok(&["compare", "--a", s(&all), "--b", s(&whole), "--exact", s(&exact), "--out", s(&cmp)]);
+    let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp.join("compare.json")).unwrap()).unwrap();
+    let mean = floor.iter().zip(&visible).map(|(f, v)| f / v).sum::<f64>() / 24.0;
+    assert!((c["cluster_exact_triangles_ratio_mean"].as_f64().unwrap() - mean).abs() < 1e-9 * mean, "{c}");
 }
 
 #[test]

@@ -489,6 +489,7 @@ impl ModeState {
         let c = drawn.clusters;
         (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled, s.clusters_occlusion_culled) =
             (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
+        (s.triangles_backface_culled, s.triangles_small_culled) = (c.backface_culled, c.small_culled);
         (s.tests, s.retests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
             (hc.tests, hc.retests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
         (s.adaptive_culled, s.over_budget) = (hc.adaptive_culled, hc.over_budget);

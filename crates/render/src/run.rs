@@ -94,7 +94,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
 }
 
 /// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles,
-/// triangles drawn into the item buffer) and `exact_leaves.txt` (the visible leaves of each
+/// triangles of the clusters holding them, triangles drawn into the item buffer) and `exact_leaves.txt` (the visible leaves of each
 /// frame).
 pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, reference: Reference, out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
     let mut rows = Vec::with_capacity(cams.len());
@@ -107,6 +107,7 @@ pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, reference: Refere
             frame: i as u64,
             visible_leaves: e.leaves.len() as u64,
             visible_triangles: e.triangles,
+            visible_cluster_triangles: e.cluster_triangles,
             drawn_triangles: e.drawn_triangles,
         });
         push_ids(&mut leaves, &e.leaves);

@@ -32,11 +32,14 @@ pub struct FrameStats {
     pub adaptive_culled: u32,
     pub over_budget: u32,
     /// RVG's cluster tests: clusters of the PVS's nodes, and those culled by the frustum, by
-    /// the back-face cone and as hidden (osw_cull::cluster).
+    /// the back-face cone and as hidden (osw_cull::cluster); then triangles of the clusters
+    /// drawn that face away or cover no pixel centre (osw_cull::triangle).
     pub clusters: u64,
     pub clusters_frustum_culled: u64,
     pub clusters_cone_culled: u64,
     pub clusters_occlusion_culled: u64,
+    pub triangles_backface_culled: u64,
+    pub triangles_small_culled: u64,
 }
 
 /// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
@@ -93,6 +96,8 @@ impl Summary {
             clusters_frustum_culled_fraction: share(frames, |f| f.clusters_frustum_culled),
             clusters_cone_culled_fraction: share(frames, |f| f.clusters_cone_culled),
             clusters_occlusion_culled_fraction: share(frames, |f| f.clusters_occlusion_culled),
+            triangles_backface_culled_mean: mean(frames.iter().map(|f| f.triangles_backface_culled as f64)),
+            triangles_small_culled_mean: mean(frames.iter().map(|f| f.triangles_small_culled as f64)),
             hc_ms_median: quantile(&col(|f| f.hc_ms), 0.5),
             rvg_ms_median: quantile(&col(|f| f.rvg_ms), 0.5),
             ..Summary::default()

@@ -172,13 +172,21 @@ pub fn compare(a: &Path, b: &Path, exact: &Path, out: &Path) -> serde_json::Valu
 }
 
 /// Renders `path` with vfc and every mode at tau 0, computes exact visibility, and checks
-/// each mode against both. Returns the run directory.
+/// each mode against both, and vfc against itself without the small-triangle test. Returns the
+/// run directory.
 pub fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) -> PathBuf {
     let run = dir.join(label);
     let exact = run.join("exact");
     osw_ok(&["exact", "--scene", s(scene), "--path", s(path), "--size", SIZE, "--out", s(&exact)]);
     render(scene, path, ("vfc", "exact"), "0", &run.join("vfc"));
     let frames = osw_scene::path::read(path).unwrap().len();
+    // A triangle said to cover no pixel centre makes no fragment: without that test, the same
+    // frames.
+    let all_but_small = run.join("vfc-all-but-small");
+    let args = ["render", "--scene", s(scene), "--path", s(path), "--mode", "vfc", "--tau", "0", "--size", SIZE];
+    osw_ok(&[&args[..], &["--cluster-tests", "frustum,cone,backface", "--out", s(&all_but_small)]].concat());
+    let c = compare(&all_but_small, &run.join("vfc"), &exact, &run.join("cmp-small"));
+    assert_eq!(c["identical_frames"], frames, "{label}: the small-triangle test changes a frame: {c}");
     for (mode, hc) in MODES {
         let name = format!("{mode}-{hc}");
         render(scene, path, (mode, hc), "0", &run.join(&name));

@@ -29,6 +29,11 @@ pub struct Compare {
     pub culling_a: Option<Culling>,
     #[serde(deserialize_with = "required")]
     pub culling_b: Option<Culling>,
+    /// Triangles of the clusters holding a visible triangle over visible triangles (exact.csv):
+    /// the least drawn/exact ratio culling whole clusters can reach. None without `--exact` or
+    /// where exact.csv does not know it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cluster_exact_triangles_ratio_mean: Option<f64>,
 }
 
 /// One run's culling error against exact visibility.

@@ -43,7 +43,8 @@ pub fn read<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>, ResultsError> {
     parse(&text).map_err(|e| ResultsError::new(path, e))
 }
 
-/// The rows of CSV `text`; a cell is a number where it reads as one, else a string.
+/// The rows of CSV `text`; a cell is a number where it reads as one, empty for a missing value
+/// (as [`to_string`] writes `None`), else a string.
 pub fn parse<T: DeserializeOwned>(text: &str) -> Result<Vec<T>, String> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().ok_or("empty: no header")?.split(',').collect();
@@ -61,6 +62,9 @@ pub fn parse<T: DeserializeOwned>(text: &str) -> Result<Vec<T>, String> {
 }
 
 fn value(c: &str) -> Value {
+    if c.is_empty() {
+        return Value::Null;
+    }
     if let Ok(n) = c.parse::<u64>() {
         return n.into();
     }

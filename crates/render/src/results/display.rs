@@ -36,4 +36,6 @@ pub struct DisplayFrame {
     pub clusters_frustum_culled: u64,
     pub clusters_cone_culled: u64,
     pub clusters_occlusion_culled: u64,
+    pub triangles_backface_culled: u64,
+    pub triangles_small_culled: u64,
 }

@@ -41,6 +41,10 @@ pub struct Entry {
     pub clusters_frustum_culled_fraction: f64,
     pub clusters_cone_culled_fraction: f64,
     pub clusters_occlusion_culled_fraction: f64,
+    /// Triangles of the clusters drawn that face away or cover no pixel centre, a frame
+    /// (osw_cull::triangle).
+    pub triangles_backface_culled_mean: f64,
+    pub triangles_small_culled_mean: f64,
     pub pvs_exact_leaves: f64,
     pub pvs_exact_triangles: f64,
     /// Triangles drawn after cluster culling over exactly visible triangles.

@@ -23,6 +23,9 @@ pub struct Summary {
     pub clusters_frustum_culled_fraction: f64,
     pub clusters_cone_culled_fraction: f64,
     pub clusters_occlusion_culled_fraction: f64,
+    /// Triangles of the clusters drawn that RVG's triangle tests dropped, a frame.
+    pub triangles_backface_culled_mean: f64,
+    pub triangles_small_culled_mean: f64,
     pub hc_ms_median: f64,
     pub rvg_ms_median: f64,
     pub scene: String,
