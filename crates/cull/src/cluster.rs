@@ -101,10 +101,8 @@ impl ClusterHistory {
 /// Appends to `out` the indices (offset by `base`) of the clusters of one node that may cover a
 /// pixel and that `select` (given a cluster's index in the block) takes, less the triangles the
 /// triangle tests find covering none.
-#[allow(clippy::too_many_arguments)]
 pub fn gather<I: Copy + Into<u32>>(
     view: &View,
-    triangles: &TriangleView,
     tests: ClusterTests,
     geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
     stats: &mut ClusterStats,
@@ -113,6 +111,7 @@ pub fn gather<I: Copy + Into<u32>>(
     out: &mut Vec<u32>,
 ) {
     let (positions, indices, clusters) = geometry;
+    let triangles = TriangleView::new(view);
     stats.clusters += clusters.len() as u64;
     for (k, c) in clusters.iter().enumerate() {
         let center = DVec3::from(c.center.map(f64::from));
@@ -221,8 +220,7 @@ mod tests {
     /// The indices a pass would draw of mesh `m`.
     fn draw(view: &View, m: &Mesh, clusters: &[ClusterRecord], tests: ClusterTests, s: &mut ClusterStats) -> Vec<u32> {
         let mut out = Vec::new();
-        let tv = TriangleView::new(view);
-        gather(view, &tv, tests, (&m.positions, &m.indices, clusters), s, |_, _| true, 0, &mut out);
+        gather(view, tests, (&m.positions, &m.indices, clusters), s, |_, _| true, 0, &mut out);
         out
     }
 

@@ -9,7 +9,6 @@ use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
 use osw_cull::cluster::{ClusterHistory, ClusterStats, ClusterTests, gather};
-use osw_cull::triangle::TriangleView;
 use osw_cull::{Occluders, View, Visibility, VisibilityTester};
 use osw_scene::file::Indices;
 use osw_scene::format::ClusterRecord;
@@ -280,15 +279,14 @@ impl Renderer {
     ) -> Result<DrawStats, RenderError> {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
-        let triangles = TriangleView::new(view);
         self.indices.clear();
         for &id in ids {
             let base = self.residency.ensure(&self.gpu, &scene, id)?;
             let g = scene.geometry(id)?;
             let (out, s) = (&mut self.indices, &mut stats.clusters);
             match g.indices {
-                Indices::U16(ix) => gather(view, &triangles, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
-                Indices::U32(ix) => gather(view, &triangles, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
+                Indices::U16(ix) => gather(view, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
+                Indices::U32(ix) => gather(view, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
             }
             stats.nodes += 1;
         }
