@@ -1,67 +1,70 @@
 #!/usr/bin/env bash
 # Culling inside the visible nodes (issue 16): triangles drawn over triangles exactly visible,
-# and frame time, in its two settings. The 2M plant's walk at tau 0 (prev) and the 5M plant's
-# walk at tau 5 (vfc, prev and the switch), each compared with exact visibility at full detail
-# (and at tau 5, `--exact-lod`, so that LOD error is not read as false culling).
+# and frame time, in its two settings. The small plant's walk at tau 0 (prev) and the large
+# plant's walk at tau 5 (vfc, prev and the switch), each compared with exact visibility at full
+# detail (and at tau 5, `--exact-lod`, so that LOD error is not read as false culling).
 #
-#   scripts/clusters.sh [--frames N] [--size WxH] [--out DIR]
+#   scripts/clusters.sh [--triangles SMALL,LARGE] [--frames N] [--size WxH] [--out DIR]
 #
-# Results in DIR (default out/clusters): each run's directory, exact/ references, cmp-*/
-# (osw compare: compare.json has drawn_exact_triangles_ratio_mean per run and
-# cluster_exact_triangles_ratio_mean, the floor of culling whole clusters), and clusters.md, a
-# table of the figures. Scenes, walks and runs already in DIR are used again.
+# The plants default to 2M and 5M triangles. Results in DIR (default out/clusters): each run's
+# directory, exact-*/ references, cmp-*/ (osw compare: compare.json has
+# drawn_exact_triangles_ratio_mean per run and cluster_exact_triangles_ratio_mean, the floor of
+# culling whole clusters), and clusters.md, a table of the figures. Scenes, walks and runs
+# already in DIR are used again.
 set -euo pipefail
-frames=300 size=1024x1024 out=out/clusters
+triangles=2000000,5000000 frames=300 size=1024x1024 out=out/clusters
 while (($#)); do
   case "$1" in
+    --triangles) triangles=$2; shift 2 ;;
     --frames) frames=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "clusters: unknown argument $1" >&2; exit 2 ;;
   esac
 done
+IFS=, read -r small large <<<"$triangles"
+[[ $small =~ ^[0-9]+$ && $large =~ ^[0-9]+$ ]] || { echo "clusters: --triangles $triangles: expected two counts, SMALL,LARGE" >&2; exit 2; }
 out=$(realpath -m "$out")
 cd "$(dirname "$0")/.."
-scripts/setup.sh
-export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
-osw="${OSW_BIN:-target/release}/osw"
+source scripts/tools.sh
 mkdir -p "$out"
 once() { [[ -e $1 ]] || "${@:2}"; }
-for n in 2 5; do
-  once "$out/plant${n}m.osw" $osw build --gen plant --triangles "${n}000000" --seed 1 -o "$out/plant${n}m.osw"
-  once "$out/walk${n}m.csv" $osw path --scene "$out/plant${n}m.osw" --kind walk --frames "$frames" --seed 1 -o "$out/walk${n}m.csv"
+for plant in "small $small" "large $large"; do
+  read -r name n <<<"$plant"
+  once "$out/plant-$name.osw" $osw build --gen plant --triangles "$n" --seed 1 -o "$out/plant-$name.osw"
+  once "$out/walk-$name.csv" $osw path --scene "$out/plant-$name.osw" --kind walk --frames "$frames" --seed 1 -o "$out/walk-$name.csv"
 done
 walk=(--size "$size" --no-frames)
-# 2M, tau 0: prev against exact visibility.
-s2=(--scene "$out/plant2m.osw" --path "$out/walk2m.csv")
-once "$out/exact2m/exact.csv" $osw exact "${s2[@]}" --size "$size" --frustum-cut --out "$out/exact2m"
-once "$out/prev2m/summary.json" $osw render "${s2[@]}" --mode prev --tau 0 "${walk[@]}" --out "$out/prev2m"
-$osw compare --a "$out/prev2m" --b "$out/prev2m" --exact "$out/exact2m" --out "$out/cmp-prev2m"
-# 5M, tau 5: vfc, prev and the switch.
-s5=(--scene "$out/plant5m.osw" --path "$out/walk5m.csv")
-once "$out/exact5m/exact.csv" $osw exact "${s5[@]}" --size "$size" --frustum-cut --out "$out/exact5m"
-once "$out/exact5m-tau5/exact.csv" $osw exact "${s5[@]}" --size "$size" --frustum-cut --tau 5 --out "$out/exact5m-tau5"
+# The small plant at tau 0: prev against exact visibility.
+small_walk=(--scene "$out/plant-small.osw" --path "$out/walk-small.csv")
+once "$out/exact-small/exact.csv" $osw exact "${small_walk[@]}" --size "$size" --frustum-cut --out "$out/exact-small"
+once "$out/prev-small/summary.json" $osw render "${small_walk[@]}" --mode prev --tau 0 "${walk[@]}" --out "$out/prev-small"
+$osw compare --a "$out/prev-small" --b "$out/prev-small" --exact "$out/exact-small" --out "$out/cmp-prev-small"
+# The large plant at tau 5: vfc, prev and the switch.
+large_walk=(--scene "$out/plant-large.osw" --path "$out/walk-large.csv")
+once "$out/exact-large/exact.csv" $osw exact "${large_walk[@]}" --size "$size" --frustum-cut --out "$out/exact-large"
+once "$out/exact-large-tau5/exact.csv" $osw exact "${large_walk[@]}" --size "$size" --frustum-cut --tau 5 --out "$out/exact-large-tau5"
 for mode in vfc prev; do
-  once "$out/${mode}5m/summary.json" $osw render "${s5[@]}" --mode $mode --tau 5 "${walk[@]}" --out "$out/${mode}5m"
+  once "$out/$mode-large/summary.json" $osw render "${large_walk[@]}" --mode $mode --tau 5 "${walk[@]}" --out "$out/$mode-large"
 done
-once "$out/switch5m/summary.json" $osw run "${s5[@]}" --tau 5 "${walk[@]}" --out "$out/switch5m"
-for run in prev5m switch5m; do
-  $osw compare --a "$out/$run" --b "$out/vfc5m" --exact "$out/exact5m" --exact-lod "$out/exact5m-tau5" --out "$out/cmp-$run"
+once "$out/switch-large/summary.json" $osw run "${large_walk[@]}" --tau 5 "${walk[@]}" --out "$out/switch-large"
+for run in prev-large switch-large; do
+  $osw compare --a "$out/$run" --b "$out/vfc-large" --exact "$out/exact-large" --exact-lod "$out/exact-large-tau5" --out "$out/cmp-$run"
 done
-python3 - "$out" <<'EOF' | tee "$out/clusters.md"
+python3 - "$out" "$small" "$large" <<'PY' | tee "$out/clusters.md"
 import json, sys
-out = sys.argv[1]
+out, small, large = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 def j(p): return json.load(open(f"{out}/{p}"))
-print("| setting | run | frame ms | OR ms | HC ms | RVG ms | triangles | drawn/exact | whole clusters, at least | speed-up over vfc |")
+print("| plant, tau | run | frame ms | OR ms | HC ms | RVG ms | triangles | drawn/exact | whole clusters, at least | speed-up over vfc |")
 print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-for setting, run, cmp in [("2M tau 0", "prev2m", "cmp-prev2m"), ("5M tau 5", "prev5m", "cmp-prev5m"), ("5M tau 5", "switch5m", "cmp-switch5m")]:
-    s, c = j(f"{run}/summary.json"), j(f"{cmp}/compare.json")
-    stage = lambda k: s.get(k) if s.get(k) is not None else float("nan")
-    orms = stage("or_ms_median") if "or_ms_median" in s else stage("node_a_or_ms_median")
-    speed = f"{c['speedup_a_over_b']:.2f}x" if run != "prev2m" else "-"
-    print(f"| {setting} | {run} | {s['frame_ms_median']:.1f} | {orms:.1f} | {stage('hc_ms_median'):.1f} | {stage('rvg_ms_median'):.1f} "
+for setting, run in [(f"{small:,}, 0", "prev-small"), (f"{large:,}, 5", "prev-large"), (f"{large:,}, 5", "switch-large")]:
+    s, c = j(f"{run}/summary.json"), j(f"cmp-{run}/compare.json")
+    # The switch's OR is its nodes' (node a's shown).
+    orms = s.get("or_ms_median", s.get("node_a_or_ms_median"))
+    stage = lambda v: "-" if v is None else f"{v:.1f}"
+    speed = "-" if run == "prev-small" else f"{c['speedup_a_over_b']:.2f}x"
+    print(f"| {setting} | {run} | {s['frame_ms_median']:.1f} | {stage(orms)} | {stage(s.get('hc_ms_median'))} | {stage(s.get('rvg_ms_median'))} "
           f"| {s['triangles_drawn_mean']:.0f} | {c['culling_a']['drawn_exact_triangles_ratio_mean']:.1f} "
           f"| {c['cluster_exact_triangles_ratio_mean']:.1f} | {speed} |")
-EOF
+PY

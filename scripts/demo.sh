@@ -13,17 +13,13 @@
 # 1024x1024).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh
-export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+source scripts/tools.sh
 out="${OUT:-out/demo}"
 triangles="${TRIANGLES:-20000000}"
 frames="${FRAMES:-300}"
 tau="${TAU:-1}"
 size="${SIZE:-1024x1024}"
 mkdir -p "$out"
-# OSW_BIN: a directory of built binaries to use as they are (the tests' smoke runs).
-[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
-osw="${OSW_BIN:-target/release}/osw"
 $osw build --gen plant --triangles "$triangles" --seed 1 -o "$out/plant.osw"
 $osw path --scene "$out/plant.osw" --kind walk --frames "$frames" --seed 1 -o "$out/walk.csv"
 {

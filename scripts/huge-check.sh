@@ -19,10 +19,7 @@ while (($#)); do
 done
 [[ -n $scene && -n $out ]] || { echo "huge-check: --scene and --out are required" >&2; exit 2; }
 cd "$(dirname "$0")/.."
-scripts/setup.sh
-export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
-osw="${OSW_BIN:-target/release}/osw"
+source scripts/tools.sh
 mkdir -p "$out"
 $osw info --scene "$scene" | tee "$out/info.txt"
 walk="$out/walk-$frames.csv"

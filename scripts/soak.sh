@@ -16,11 +16,7 @@ while (($#)); do
 done
 out=$(realpath -m "$out")
 cd "$(dirname "$0")/.."
-scripts/setup.sh
-export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-# OSW_BIN: a directory of built binaries to use as they are (the tests' smoke runs).
-[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
-osw="${OSW_BIN:-target/release}/osw"
+source scripts/tools.sh
 frames="${FRAMES:-10000}"
 mkdir -p "$out"
 $osw build --gen city --triangles 50000 --seed 1 -o "$out/city.osw" >/dev/null

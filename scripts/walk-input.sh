@@ -7,11 +7,7 @@
 abs() { [[ -z $1 ]] || realpath -m "$1"; }
 scene=$(abs "$scene") path=$(abs "$path") out=$(abs "$out")
 cd "$(dirname "$0")/.."
-scripts/setup.sh
-export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-# OSW_BIN: a directory of built binaries to use as they are (the tests' smoke runs).
-[[ -n ${OSW_BIN:-} ]] || cargo build --release --locked --bins
-osw="${OSW_BIN:-target/release}/osw"
+source scripts/tools.sh
 mkdir -p "$out"
 if [[ -z ${scene:-} ]]; then
   scene="$out/plant.osw"

@@ -61,6 +61,20 @@ pub struct ClusterStats {
     pub small_culled: u64,
 }
 
+impl std::ops::Add for ClusterStats {
+    type Output = ClusterStats;
+    fn add(self, o: ClusterStats) -> ClusterStats {
+        ClusterStats {
+            clusters: self.clusters + o.clusters,
+            frustum_culled: self.frustum_culled + o.frustum_culled,
+            cone_culled: self.cone_culled + o.cone_culled,
+            occlusion_culled: self.occlusion_culled + o.occlusion_culled,
+            backface_culled: self.backface_culled + o.backface_culled,
+            small_culled: self.small_culled + o.small_culled,
+        }
+    }
+}
+
 /// Per LOD node drawn, which of its clusters were visible in the last frame (a bit each), and
 /// those found visible in this one.
 #[derive(Debug, Default)]

@@ -61,19 +61,11 @@ pub struct DrawStats {
 
 impl DrawStats {
     fn add(self, o: DrawStats) -> DrawStats {
-        let (a, b) = (self.clusters, o.clusters);
         DrawStats {
             nodes: self.nodes + o.nodes,
             triangles: self.triangles + o.triangles,
             draws: self.draws + o.draws,
-            clusters: ClusterStats {
-                clusters: a.clusters + b.clusters,
-                frustum_culled: a.frustum_culled + b.frustum_culled,
-                cone_culled: a.cone_culled + b.cone_culled,
-                occlusion_culled: a.occlusion_culled + b.occlusion_culled,
-                backface_culled: a.backface_culled + b.backface_culled,
-                small_culled: a.small_culled + b.small_culled,
-            },
+            clusters: self.clusters + o.clusters,
         }
     }
 }

@@ -2,7 +2,8 @@
 //! with the binaries this test run built (OSW_BIN): each must finish and leave the files it
 //! promises, with numbers in them. `scripts/fuzz.sh` is checked for its help and its target
 //! list (a real run builds cargo-fuzz and a sanitizer build, minutes: not for every test run);
-//! `scripts/walk-input.sh` is sourced by bandwidth.sh and latency.sh.
+//! `scripts/walk-input.sh` is sourced by bandwidth.sh and latency.sh, `scripts/tools.sh` by all
+//! of these.
 
 mod common;
 use common::*;
@@ -58,6 +59,24 @@ fn bandwidth_and_latency_measure_a_loopback_run() {
     let lat = d.path().join("lat");
     run_script("latency.sh", &["--size", "64x64", "--out", s(&lat)], &[]);
     assert!(lat.join("latency.json").exists() && lat.join("latency.md").exists() && lat.join("latency.png").exists());
+}
+
+#[test]
+fn clusters_tabulates_both_settings_against_exact_visibility() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("clusters");
+    run_script("clusters.sh", &["--triangles", "20000,30000", "--frames", "4", "--size", "64x64", "--out", s(&out)], &[]);
+    for run in ["prev-small", "prev-large", "switch-large"] {
+        let c = json(&out.join(format!("cmp-{run}/compare.json")));
+        let drawn = c["culling_a"]["drawn_exact_triangles_ratio_mean"].as_f64().unwrap();
+        let floor = c["cluster_exact_triangles_ratio_mean"].as_f64().unwrap();
+        assert!(drawn > 0.0 && floor >= 1.0, "{run}: {c}");
+        // At tau 5, against what is visible at that tau (the rest is LOD error).
+        let missed = if run == "prev-small" { "false_culled_leaves_total" } else { "lod_false_culled_total" };
+        assert_eq!(c["culling_a"][missed], 0, "{run}: {c}");
+    }
+    let table = std::fs::read_to_string(out.join("clusters.md")).unwrap();
+    assert_eq!(table.lines().count(), 5, "{table}");
 }
 
 #[test]
