@@ -37,8 +37,8 @@ pub struct HcStats {
     pub levels: u32,
     /// Boxes sent to the tester.
     pub tests: u32,
-    /// Of `tests`, those made again after the traversal (osw_render's `hc_pass`: the exact
-    /// test of small boxes and of additions drawn as occluders).
+    /// Of `tests`, those made again after the traversal (osw_render's `hc_pass`: the second
+    /// look at small boxes and the exact test of additions drawn as occluders).
     pub retests: u32,
     /// Boxes accepted without a test (eye inside, crossing the near plane, above V(i-1)).
     pub untested: u32,

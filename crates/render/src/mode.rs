@@ -287,19 +287,19 @@ pub fn hc_pass_with(
     // New occluders the traversal drew (the hybrid's).
     let mut drawn = Vec::new();
     // The hybrid's pyramid of the depth buffer as its traversal left it.
-    let mut pyramid = None;
+    let mut hybrid_pyramid = None;
     let stats = if !occluders {
         hardware_cull(nodes, view, tau, &mut AllVisible, pvs)
     } else if hc == HcTest::Hybrid {
-        let depth = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
-        let mut tester = HybridTester { r, pyramid: depth, min: new_occluders_min, drawn: Vec::new(), error: None };
+        let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
+        let mut tester = HybridTester { r, pyramid, min: new_occluders_min, drawn: Vec::new(), error: None };
         let stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
         if let Some(e) = tester.error {
             return Err(e);
         }
         drawn = tester.drawn;
         drawn.sort_unstable();
-        pyramid = Some(tester.pyramid);
+        hybrid_pyramid = Some(tester.pyramid);
         stats
     } else {
         let test = match hc {
@@ -328,7 +328,7 @@ pub fn hc_pass_with(
     // what the traversal's coarse rectangles let through would otherwise be drawn as an
     // addition, dropped, and found again the next frame. The same pyramid read finer, or with
     // adaptive culling, which scores pixel counts, exactly on the GPU.
-    if let Some(pyramid) = &pyramid {
+    if let Some(pyramid) = &hybrid_pyramid {
         let vp = view.view_proj().as_dmat4();
         let small: Vec<NodeId> =
             pvs.iter().copied().filter(|&id| Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_SECOND_PX).collect();
