@@ -75,8 +75,13 @@ fn clusters_tabulates_both_settings_against_exact_visibility() {
         let missed = if run == "prev-small" { "false_culled_leaves_total" } else { "lod_false_culled_total" };
         assert_eq!(c["culling_a"][missed], 0, "{run}: {c}");
     }
+    for run in ["prev-small", "vfc-large", "prev-large", "switch-large"] {
+        let t = json(&out.join(format!("{run}/cpu.json")));
+        assert!(t["cpu_s"].as_f64().unwrap() > 0.0 && t["wall_s"].as_f64().unwrap() > 0.0, "{run}: {t}");
+    }
     let table = std::fs::read_to_string(out.join("clusters.md")).unwrap();
-    assert_eq!(table.lines().count(), 5, "{table}");
+    assert_eq!(table.lines().filter(|l| l.starts_with('|')).count(), 6, "{table}");
+    assert!(table.lines().any(|l| l.contains("allows it at most")), "{table}");
 }
 
 #[test]
