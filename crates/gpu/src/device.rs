@@ -38,6 +38,10 @@ pub struct Gpu {
 /// Features the exact box test and the item buffer need.
 pub const WANTED: wgpu::Features = wgpu::Features::SHADER_EARLY_DEPTH_TEST.union(wgpu::Features::PRIMITIVE_INDEX);
 
+/// Features used where the adapter has them: pipeline statistics count a pass's fragments
+/// (`Renderer::count_fragments`).
+pub const OPTIONAL: wgpu::Features = wgpu::Features::PIPELINE_STATISTICS_QUERY;
+
 impl Gpu {
     /// Opens an adapter: `name` picks the first whose name contains it (case-insensitive);
     /// `None` prefers a hardware adapter and falls back to a software one.
@@ -75,7 +79,7 @@ impl Gpu {
             None => adapters.into_iter().min_by_key(rank).ok_or(GpuError::NoAdapter)?,
         };
         let info = adapter.get_info();
-        let features = adapter.features() & WANTED;
+        let features = adapter.features() & (WANTED | OPTIONAL);
         if !features.contains(WANTED) {
             return Err(GpuError::Missing { adapter: info.name.clone(), what: format!("{:?}", WANTED - features) });
         }

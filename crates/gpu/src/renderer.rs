@@ -57,6 +57,9 @@ pub struct DrawStats {
     pub clusters: ClusterStats,
     /// Draw calls submitted (more than one when a list outgrew the GPU's buffers).
     pub draws: u32,
+    /// Fragments the draws rasterised (pixels covered, before the depth test), when counted
+    /// ([`Renderer::count_fragments`]).
+    pub fragments: u64,
 }
 
 impl DrawStats {
@@ -66,6 +69,7 @@ impl DrawStats {
             triangles: self.triangles + o.triangles,
             draws: self.draws + o.draws,
             clusters: self.clusters + o.clusters,
+            fragments: self.fragments + o.fragments,
         }
     }
 }
@@ -81,6 +85,10 @@ pub struct Renderer {
     /// Exact box tests read one pixel line in `.0`, from line `.1` (paper 003 sec. 3.3's
     /// interleaved sampling, see shaders/boxtest.wgsl); (1, 0) reads every line.
     pub sampling: (u32, u32),
+    /// Count each draw's fragments ([`DrawStats::fragments`]): a pipeline-statistics query
+    /// and a read-back per draw, so off unless asked for. Without the adapter's feature the
+    /// count stays 0 ([`Renderer::counts_fragments`]).
+    pub count_fragments: bool,
     draw: DrawPipelines,
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
@@ -95,6 +103,8 @@ pub struct Renderer {
     queries: wgpu::QuerySet,
     query_resolve: wgpu::Buffer,
     query_staging: wgpu::Buffer,
+    /// The fragment count's query, resolve and read-back buffers (with the adapter's feature).
+    fragment_query: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
     indices: Vec<u32>,
     gpu_boxes: Vec<GpuBox>,
 }
@@ -138,7 +148,21 @@ impl Renderer {
         });
         let query_resolve = storage(&gpu, "query resolve", QUERIES as u64 * 8, U::QUERY_RESOLVE | U::COPY_SRC);
         let query_staging = crate::readback::staging(&gpu, "query readback", QUERIES as u64 * 8);
+        let fragment_query = gpu.features.contains(wgpu::Features::PIPELINE_STATISTICS_QUERY).then(|| {
+            let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("fragments"),
+                ty: wgpu::QueryType::PipelineStatistics(wgpu::PipelineStatisticsTypes::FRAGMENT_SHADER_INVOCATIONS),
+                count: 1,
+            });
+            (
+                set,
+                storage(&gpu, "fragments resolve", 8, U::QUERY_RESOLVE | U::COPY_SRC),
+                crate::readback::staging(&gpu, "fragments readback", 8),
+            )
+        });
         Ok(Renderer {
+            fragment_query,
+            count_fragments: false,
             queries,
             query_resolve,
             query_staging,
@@ -161,6 +185,11 @@ impl Renderer {
             gpu,
             scene,
         })
+    }
+
+    /// Whether draws count their fragments: asked for, and the adapter can.
+    pub fn counts_fragments(&self) -> bool {
+        self.count_fragments && self.fragment_query.is_some()
     }
 
     /// The view of `camera` with this scene's near plane (see [`osw_cull::view::near_of`]).
@@ -252,6 +281,7 @@ impl Renderer {
         self.submit(view, pass, false, &mut stats)?;
         history.end_frame();
         stats.triangles += first.triangles;
+        stats.fragments += first.fragments;
         stats.clusters.occlusion_culled = occluded;
         // The triangle tests ran on what the two passes drew (the tests' pass selects none).
         stats.clusters.backface_culled = first.clusters.backface_culled + second.clusters.backface_culled;
@@ -285,7 +315,8 @@ impl Renderer {
         Ok(stats)
     }
 
-    /// Draws the gathered indices in one call; counts them into `stats.triangles`.
+    /// Draws the gathered indices in one call; counts them into `stats.triangles`, and their
+    /// fragments into `stats.fragments` when [`Renderer::counts_fragments`].
     fn submit(&mut self, view: &View, pass: Pass, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
@@ -338,6 +369,10 @@ impl Renderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+            let query = self.fragment_query.as_ref().filter(|_| self.count_fragments);
+            if let Some((set, _, _)) = query {
+                rp.begin_pipeline_statistics_query(set, 0);
+            }
             if let (Some(arena), true) = (self.residency.arena(), bytes > 0) {
                 rp.set_pipeline(self.draw.pipeline(pass));
                 rp.set_bind_group(0, &self.draw_group, &[]);
@@ -345,9 +380,20 @@ impl Renderer {
                 rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);
                 rp.draw_indexed(0..self.indices.len() as u32, 0, 0..1);
             }
+            if query.is_some() {
+                rp.end_pipeline_statistics_query();
+            }
+        }
+        let query = self.fragment_query.as_ref().filter(|_| self.count_fragments);
+        if let Some((set, resolve, staging)) = query {
+            enc.resolve_query_set(set, 0..1, resolve, 0);
+            enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(8));
         }
         self.gpu.queue.submit([enc.finish()]);
-        self.gpu.wait()?;
+        match query {
+            Some((_, _, staging)) => stats.fragments = crate::readback::read(&self.gpu, staging, 8, bytemuck::pod_read_unaligned::<u64>)?,
+            None => self.gpu.wait()?,
+        }
         self.residency.trim();
         Ok(())
     }

@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.0)]
     tau: f64,
     /// How prev's HC tests boxes: hybrid (the depth read back once, a farthest-depth pyramid
-    /// on the CPU, then exact again for the PVS's boxes that are small on screen), pyramid (a
+    /// on the CPU, then the PVS's boxes that are small on screen again, read finer), pyramid (a
     /// farthest-depth pyramid in compute, conservative, a GPU round trip per round),
     /// exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
     /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0) or queries (one occlusion query
@@ -43,6 +43,11 @@ pub struct Args {
     /// Do not write frame PNGs (statistics only).
     #[arg(long)]
     no_frames: bool,
+    /// Count the fragments RVG's draw rasterises each frame (`fragments` in stats.csv,
+    /// `fragments_mean` in summary.json): on lavapipe a pass costs about its fragments. A
+    /// pipeline-statistics query and a read-back a draw.
+    #[arg(long)]
+    fragments: bool,
     /// Output directory: frames/NNNNN.png, stats.csv, pvs.txt, summary.json.
     #[arg(long)]
     out: PathBuf,
@@ -69,6 +74,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         anyhow::bail!("--adaptive is ovc's and prev's (paper 003 eq. 1); --mode is {}", a.mode.name());
     }
     let (cams, mut r) = a.walk.open()?;
+    r.count_fragments = a.fragments;
+    if a.fragments && !r.counts_fragments() {
+        anyhow::bail!("--fragments: adapter {} has no pipeline statistics queries", r.gpu.info.name);
+    }
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, a.mode.name());
     let spec = RunSpec {
@@ -91,6 +100,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             d.blocks_total,
             d.geometry_never_loaded_fraction * 100.0
         );
+    }
+    if let Some(f) = s.render().and_then(|d| d.fragments_mean) {
+        out!("fragments: RVG rasterised {f:.0} a frame, {:.2} a pixel", f / (s.width as f64 * s.height as f64).max(1.0));
     }
     out!(
         "left out: of the PVS's {:.0} clusters a frame, {:.0}% outside the frustum, {:.0}% facing away, {:.0}% hidden; \

@@ -94,6 +94,9 @@ fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
 /// faces, they can win only a silhouette pixel where the two tie in depth, so the frames differ
 /// by at most a few such pixels. Culling whole clusters never draws fewer triangles than the
 /// clusters the item buffer finds a visible triangle in.
+/// The renderer's sky (osw_gpu's SKY, 0.62 0.74 0.86) in RGBA8.
+const SKY_RGBA: [u8; 4] = [158, 189, 219, 255];
+
 #[test]
 fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
     let d = tempfile::tempdir().unwrap();
@@ -101,7 +104,7 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
     let path = camera_path(&scene, "walk", 24);
     let run = |tests: &str| {
         let out = d.path().join(tests.replace(',', "-"));
-        let args = ["render", "--scene", s(&scene), "--path", s(&path), "--mode", "prev", "--tau", "0", "--size", SIZE];
+        let args = ["render", "--scene", s(&scene), "--path", s(&path), "--mode", "prev", "--tau", "0", "--size", SIZE, "--fragments"];
         osw_ok(&[&args[..], &["--cluster-tests", tests, "--out", s(&out)]].concat());
         let v = summary(&out);
         let culled = [
@@ -120,6 +123,14 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
         "a walk through a plant has clusters outside the view, facing away and hidden, and triangles facing away and too small: {all_culled:?}"
     );
     let read = |p: &Path| std::fs::read(p).unwrap();
+    // Fragments RVG rasterised: at least the pixels its frame covers (not sky).
+    let fragments = |out: &Path| csv_column(&out.join("stats.csv"), "fragments");
+    let all_f = fragments(&all);
+    for (i, &f) in all_f.iter().enumerate() {
+        let frame = image::open(all.join(format!("frames/{i:05}.png"))).unwrap().to_rgba8();
+        let covered = frame.pixels().filter(|p| p.0 != SKY_RGBA).count() as f64;
+        assert!(covered > 0.0 && f >= covered, "frame {i}: {f} fragments for {covered} covered pixels");
+    }
     for (k, name) in names.into_iter().enumerate() {
         let without: Vec<&str> = names.iter().copied().filter(|&n| n != name).collect();
         let (out, culled, t) = run(&without.join(","));
@@ -127,6 +138,15 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
         // The triangle test also drops what the cone test does.
         assert!(t > all_t || (name == "cone" && t >= all_t), "without {name}: {t} triangles, all tests {all_t}");
         assert_eq!(read(&all.join("pvs.txt")), read(&out.join("pvs.txt")), "without {name}: visible sets");
+        // What the frustum and small tests drop makes no fragment; back faces and hidden
+        // clusters do (the back-face test also drops what the cone test does).
+        let f = fragments(&out);
+        let at_least = f.iter().zip(&all_f).all(|(a, b)| a >= b);
+        match name {
+            "frustum" | "small" => assert_eq!(f, all_f, "without {name}: fragments"),
+            "cone" => assert!(at_least, "without {name}: {f:?}, all {all_f:?}"),
+            _ => assert!(at_least && f.iter().sum::<f64>() > all_f.iter().sum::<f64>(), "without {name}: {f:?}, all {all_f:?}"),
+        }
         if name == "cone" || name == "backface" {
             let cmp = d.path().join(format!("cmp-{name}"));
             osw_ok(&["compare", "--a", s(&out), "--b", s(&all), "--out", s(&cmp)]);

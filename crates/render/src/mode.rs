@@ -506,6 +506,7 @@ impl ModeState {
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         (self.last_render_ms, self.frames) = (Some(s.rvg_ms), self.frames + 1);
         (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
+        s.fragments = r.counts_fragments().then_some(drawn.fragments);
         let c = drawn.clusters;
         (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled, s.clusters_occlusion_culled) =
             (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);

@@ -40,6 +40,9 @@ pub struct FrameStats {
     pub clusters_occlusion_culled: u64,
     pub triangles_backface_culled: u64,
     pub triangles_small_culled: u64,
+    /// Fragments RVG's draw rasterised (pixels covered, before the depth test: what a pass
+    /// costs on lavapipe), with `osw render --fragments`; empty otherwise.
+    pub fragments: Option<u64>,
 }
 
 /// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
@@ -114,6 +117,11 @@ impl RenderSummary {
             adaptive_culled_mean: mean(frames.iter().map(|f| f.adaptive_culled as f64)),
             over_budget_mean: mean(frames.iter().map(|f| f.over_budget as f64)),
             hc_tests_per_second_median: quantile(&rates, 0.5),
+            fragments_mean: frames
+                .iter()
+                .map(|f| f.fragments.map(|n| n as f64))
+                .sum::<Option<f64>>()
+                .map(|sum| sum / frames.len().max(1) as f64),
             ..RenderSummary::default()
         }
     }

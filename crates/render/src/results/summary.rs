@@ -76,6 +76,8 @@ pub struct RenderSummary {
     pub geometry_never_loaded_fraction: f64,
     /// Peak resident memory of the process at the end of the run.
     pub peak_rss_kb: u64,
+    /// RVG's fragments a frame, when counted (`osw render --fragments`).
+    pub fragments_mean: Option<f64>,
 }
 
 /// `osw run`: the switch, as its display saw it, and the nodes' stage times.
