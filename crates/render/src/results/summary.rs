@@ -76,7 +76,8 @@ pub struct RenderSummary {
     pub geometry_never_loaded_fraction: f64,
     /// Peak resident memory of the process at the end of the run.
     pub peak_rss_kb: u64,
-    /// RVG's fragments a frame, when counted (`osw render --fragments`).
+    /// RVG's fragments a frame, when counted (`osw render --fragments`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fragments_mean: Option<f64>,
 }
 
