@@ -57,8 +57,8 @@ pub struct DrawStats {
     pub clusters: ClusterStats,
     /// Draw calls submitted (more than one when a list outgrew the GPU's buffers).
     pub draws: u32,
-    /// Fragments the draws rasterised (pixels covered, before the depth test), when counted
-    /// ([`Renderer::count_fragments`]).
+    /// Fragment shader invocations of the draws (lavapipe: the pixels covered, in whole 2x2
+    /// quads, before the depth test), when counted ([`Renderer::count_fragments`]).
     pub fragments: u64,
 }
 
@@ -336,6 +336,7 @@ impl Renderer {
             q.write_buffer(&self.index_buf, 0, bytemuck::cast_slice(&self.indices));
         }
         let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+        let query = self.fragment_query.as_ref().filter(|_| self.count_fragments);
         {
             let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
             let color_view = match pass {
@@ -369,7 +370,6 @@ impl Renderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            let query = self.fragment_query.as_ref().filter(|_| self.count_fragments);
             if let Some((set, _, _)) = query {
                 rp.begin_pipeline_statistics_query(set, 0);
             }
@@ -384,7 +384,6 @@ impl Renderer {
                 rp.end_pipeline_statistics_query();
             }
         }
-        let query = self.fragment_query.as_ref().filter(|_| self.count_fragments);
         if let Some((set, resolve, staging)) = query {
             enc.resolve_query_set(set, 0..1, resolve, 0);
             enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(8));

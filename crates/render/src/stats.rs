@@ -40,8 +40,8 @@ pub struct FrameStats {
     pub clusters_occlusion_culled: u64,
     pub triangles_backface_culled: u64,
     pub triangles_small_culled: u64,
-    /// Fragments RVG's draw rasterised (pixels covered, before the depth test: what a pass
-    /// costs on lavapipe), with `osw render --fragments`; empty otherwise.
+    /// Fragments RVG's draw rasterised (osw_gpu's `DrawStats::fragments`: what a pass costs
+    /// on lavapipe), with `osw render --fragments`; empty otherwise.
     pub fragments: Option<u64>,
 }
 
