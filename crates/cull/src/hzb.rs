@@ -49,6 +49,22 @@ pub fn select_occluders(nodes: &[NodeRecord], bvh_count: u32, view: &View, count
     out
 }
 
+/// The next level of a `w` x `h` image: each texel the farthest (minimum) of the 2x2 below it,
+/// an odd last row or column read twice. Row by row, so that the compiler sees plain slices
+/// (HC builds a pyramid of a million texels at least once a frame: 2.5-3% of the switch's CPU
+/// as an iterator clamping every read, 1.1% so).
+fn reduce(w: usize, h: usize, d: &[f32]) -> Vec<f32> {
+    let mut next = Vec::with_capacity(w.div_ceil(2) * h.div_ceil(2));
+    for y in (0..h).step_by(2) {
+        let (r0, r1) = (&d[y * w..][..w], &d[(y + 1).min(h - 1) * w..][..w]);
+        next.extend(r0.chunks_exact(2).zip(r1.chunks_exact(2)).map(|(a, b)| a[0].min(a[1]).min(b[0].min(b[1]))));
+        if w % 2 == 1 {
+            next.push(r0[w - 1].min(r1[w - 1]));
+        }
+    }
+    next
+}
+
 /// Farthest-depth pyramid; level 0 is the depth buffer (row 0 at the top).
 pub struct Pyramid {
     levels: Vec<(u32, u32, Vec<f32>)>,
@@ -60,13 +76,8 @@ impl Pyramid {
         assert_eq!(depth.len(), (width * height) as usize, "depth image size");
         let mut levels = vec![(width, height, depth)];
         while let Some((w, h, d)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
-            let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
-            let at = |x: u32, y: u32| d[(y.min(h - 1) * w + x.min(w - 1)) as usize];
-            let next = (0..nh)
-                .flat_map(|y| (0..nw).map(move |x| (x, y)))
-                .map(|(x, y)| at(2 * x, 2 * y).min(at(2 * x + 1, 2 * y)).min(at(2 * x, 2 * y + 1)).min(at(2 * x + 1, 2 * y + 1)))
-                .collect();
-            levels.push((nw, nh, next));
+            let next = reduce(*w as usize, *h as usize, d);
+            levels.push((w.div_ceil(2), h.div_ceil(2), next));
         }
         Pyramid { levels }
     }
@@ -198,5 +209,30 @@ mod tests {
         // One level finer: the 2x2 rectangle is read at level 0, texel by texel.
         assert_eq!(p.farthest(0, 0, 1, 0, 1), 0.5);
         assert_eq!(p.farthest(0, 0, 0, 1, 1), 0.8);
+    }
+
+    #[test]
+    fn every_level_holds_the_farthest_of_its_block() {
+        // Odd sizes both ways: each texel of level l is the minimum over the level-0 pixels of
+        // its 2^l x 2^l block, clipped to the image, counted pixel by pixel.
+        let (w, h) = (37u32, 23u32);
+        let mut rng = 7u32;
+        let depth: Vec<f32> = (0..w * h)
+            .map(|_| {
+                rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+                (rng >> 8) as f32 / (1 << 24) as f32
+            })
+            .collect();
+        let p = Pyramid::new(w, h, depth.clone());
+        assert_eq!(p.levels.last().map(|l| (l.0, l.1)), Some((1, 1)));
+        let depth = &depth;
+        for (l, (lw, lh, d)) in p.levels.iter().enumerate() {
+            for (y, x) in (0..*lh).flat_map(|y| (0..*lw).map(move |x| (y, x))) {
+                let block = |v: u32, n: u32| (v << l)..((v + 1) << l).min(n);
+                let want =
+                    block(y, h).flat_map(|py| block(x, w).map(move |px| depth[(py * w + px) as usize])).fold(f32::INFINITY, f32::min);
+                assert_eq!(d[(y * lw + x) as usize], want, "level {l}, texel ({x}, {y})");
+            }
+        }
     }
 }
