@@ -89,6 +89,10 @@ pub struct Renderer {
     /// and a read-back per draw, so off unless asked for. Without the adapter's feature the
     /// count stays 0 ([`Renderer::counts_fragments`]).
     pub count_fragments: bool,
+    /// A draw returns once it is submitted and the draw before it is done, not once it is
+    /// drawn: one draw in flight, so that the CPU gathers the next frame while the GPU draws
+    /// this one (the display). Read-backs still wait for everything before them.
+    pub overlap: bool,
     draw: DrawPipelines,
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
@@ -163,6 +167,7 @@ impl Renderer {
         Ok(Renderer {
             fragment_query,
             count_fragments: false,
+            overlap: false,
             queries,
             query_resolve,
             query_staging,
@@ -388,10 +393,14 @@ impl Renderer {
             enc.resolve_query_set(set, 0..1, resolve, 0);
             enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(8));
         }
+        if self.overlap {
+            self.gpu.wait()?;
+        }
         self.gpu.queue.submit([enc.finish()]);
         match query {
             Some((_, _, staging)) => stats.fragments = crate::readback::read(&self.gpu, staging, 8, bytemuck::pod_read_unaligned::<u64>)?,
-            None => self.gpu.wait()?,
+            None if !self.overlap => self.gpu.wait()?,
+            None => {}
         }
         self.residency.trim();
         Ok(())

@@ -4,12 +4,17 @@
 //! When a process fails, the others are stopped and the error names it and its last words.
 //! `osw play` is `osw run --window`: a path replayed in the window.
 //!
-//! Three processes on one host share its cores: unless `LP_NUM_THREADS` is set, each runs
-//! Mesa lavapipe without raster threads (`LP_NUM_THREADS=0`; ignored by other drivers). Each
-//! process's own threads would compete for the cores the other two need: on the 100M plant
-//! walk at tau 1, three pairs of runs took 42.8 / 40.5, 44.7 / 42.3 and 41.4 / 39.1 ms a frame
-//! (default / 0). A single process is the other way round (chc: 53.6 against 74.1 ms), so
-//! `osw render` keeps lavapipe's default.
+//! Three processes on one host share its cores: unless `LP_NUM_THREADS` is set, the nodes run
+//! Mesa lavapipe without raster threads (`LP_NUM_THREADS=0`; ignored by other drivers) and
+//! the display with lavapipe's default (a raster thread a core). Raster threads in every
+//! process would compete for the cores the other two need: on the 100M plant walk at tau 1,
+//! three pairs of runs took 42.8 / 40.5, 44.7 / 42.3 and 41.4 / 39.1 ms a frame (default / 0
+//! everywhere). But RVG draws the whole visible set with colour, the frame's largest pass,
+//! and alone in one thread it set the pace (5M plant walk, tau 5: the display's thread busy
+//! 95% of the time, the nodes' core 82%): with the display's raster threads, four pairs took
+//! 62.9 / 64.9, 59.1 / 62.9, 58.4 / 61.3 and 56.1 / 58.9 ms a frame, and on the 100M walk at
+//! tau 1 80.6 / 79.6, 76.7 / 79.6 and 67.9 / 76.6 (display default / 0). A single process
+//! keeps lavapipe's default too (chc: 53.6 against 74.1 ms with 0).
 
 use anyhow::{Context, bail};
 use osw_render::Mode;
@@ -94,7 +99,7 @@ fn sibling(name: &str) -> anyhow::Result<PathBuf> {
 fn spawn(name: &'static str, bin: &Path, args: &[String], out: &Path) -> anyhow::Result<Proc> {
     let stderr = out.join(format!("{}.log", name.replace(' ', "-")));
     let mut cmd = Command::new(bin);
-    if std::env::var_os("LP_NUM_THREADS").is_none() {
+    if name != "display" && std::env::var_os("LP_NUM_THREADS").is_none() {
         cmd.env("LP_NUM_THREADS", "0");
     }
     let child = cmd

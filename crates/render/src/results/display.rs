@@ -9,6 +9,8 @@ pub struct DisplayFrame {
     pub frame: u64,
     /// Time from the previous displayed frame to this one.
     pub frame_ms: f64,
+    /// RVG's gather and submit of this frame's draw, which waits for the draw before it (the
+    /// display keeps one draw in flight: `osw_gpu::Renderer::overlap`).
     pub rvg_ms: f64,
     pub hc_ms: f64,
     pub latency_ms: f64,
