@@ -91,4 +91,5 @@ vfc, switch = j("vfc-large/summary.json"), j("switch-large/summary.json")
 per_frame = j("switch-large/cpu.json")["cpu_s"] * 1e3 / switch["frames"]
 print(f"\nOn {cores} cores the switch's {per_frame:.1f} ms of CPU a frame allows it at most "
       f"{vfc['frame_ms_median'] / (per_frame / cores):.2f}x vfc's frame ({vfc['frame_ms_median']:.1f} ms).")
+print("The switch's RVG ms is the display's gather and submit: its draw goes on while it gathers the next frame.")
 PY
