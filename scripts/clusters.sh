@@ -9,7 +9,8 @@
 # The plants default to 2M and 5M triangles. Results in DIR (default out/clusters): each run's
 # directory, exact-*/ references, cmp-*/ (osw compare: compare.json has
 # drawn_exact_triangles_ratio_mean per run and cluster_exact_triangles_ratio_mean, the floor of
-# culling whole clusters), and clusters.md, a table of the figures. Each run's cpu.json holds
+# culling whole clusters, and visible_draw_ms_median, RVG's floor: the ms that drawing only the
+# exactly visible triangles takes, and visible_cluster_draw_ms_median, only their clusters), and clusters.md, a table of the figures. Each run's cpu.json holds
 # the CPU and wall seconds of the whole run, its processes' together: on one host the switch's
 # three processes share the cores, so its frame is at least its CPU a frame over the cores, and
 # the table ends with the speed-up over vfc that allows. Scenes, walks and runs already in DIR
@@ -22,7 +23,7 @@ while (($#)); do
     --frames) frames=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "clusters: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -72,8 +73,8 @@ python3 - "$out" "$small" "$large" <<'PY' | tee "$out/clusters.md"
 import json, os, sys
 out, small, large = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 def j(p): return json.load(open(f"{out}/{p}"))
-print("| plant, tau | run | frame ms | OR ms | HC ms | RVG ms | triangles | drawn/exact | whole clusters, at least | speed-up over vfc | CPU ms a frame | cores busy |")
-print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+print("| plant, tau | run | frame ms | OR ms | HC ms | RVG ms | RVG floor ms: visible, their clusters | triangles | drawn/exact | whole clusters, at least | speed-up over vfc | CPU ms a frame | cores busy |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 rows = [(f"{small:,}, 0", "prev-small")] + [(f"{large:,}, 5", f"{m}-large") for m in ("vfc", "prev", "switch")]
 for setting, run in rows:
     s, c, t = j(f"{run}/summary.json"), j(f"cmp-{run}/compare.json"), j(f"{run}/cpu.json")
@@ -82,6 +83,7 @@ for setting, run in rows:
     stage = lambda v: "-" if v is None else f"{v:.1f}"
     speed = "-" if run == "prev-small" else f"{c['speedup_a_over_b']:.2f}x"
     print(f"| {setting} | {run} | {s['frame_ms_median']:.1f} | {stage(orms)} | {stage(s.get('hc_ms_median'))} | {stage(s.get('rvg_ms_median'))} "
+          f"| {stage(c.get('visible_draw_ms_median'))}, {stage(c.get('visible_cluster_draw_ms_median'))} "
           f"| {s['triangles_drawn_mean']:.0f} | {c['culling_a']['drawn_exact_triangles_ratio_mean']:.1f} "
           f"| {c['cluster_exact_triangles_ratio_mean']:.1f} | {speed} | {t['cpu_s'] * 1e3 / s['frames']:.1f} | {t['cpu_s'] / t['wall_s']:.2f} |")
 # The switch's three processes share this host's cores: a frame takes at least its CPU a frame
@@ -92,4 +94,5 @@ per_frame = j("switch-large/cpu.json")["cpu_s"] * 1e3 / switch["frames"]
 print(f"\nOn {cores} cores the switch's {per_frame:.1f} ms of CPU a frame allows it at most "
       f"{vfc['frame_ms_median'] / (per_frame / cores):.2f}x vfc's frame ({vfc['frame_ms_median']:.1f} ms).")
 print("The switch's RVG ms is the display's gather and submit: its draw goes on while it gathers the next frame.")
+print("RVG floor: drawing only the triangles exact visibility finds visible at the run's tau, or their clusters, submit to done (osw exact).")
 PY

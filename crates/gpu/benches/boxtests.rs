@@ -12,9 +12,8 @@ use std::sync::Arc;
 fn bench(c: &mut Criterion) {
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("plant.osw");
-    let objects = osw_scene::generators::generate(osw_scene::generators::GenKind::Plant, 2_000_000, 1).objects;
-    osw_scene::build_scene(objects, "bench", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).expect("scene");
-    let scene = Arc::new(osw_scene::SceneFile::open(&path).expect("open"));
+    let scene =
+        Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 2_000_000, 1, &path).expect("scene"));
     let gpu = match osw_gpu::Gpu::new(None) {
         Ok(g) => g,
         Err(e) => {

@@ -13,6 +13,7 @@ use crate::draw::Pass;
 use crate::renderer::{RenderError, Renderer};
 use osw_cull::{AllVisible, View, hardware_cull};
 use osw_scene::{NodeId, NodeKind, SceneFile};
+use std::ops::Range;
 
 /// What the item buffer draws.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,7 +25,7 @@ pub enum Reference {
 }
 
 /// Exact visibility of one frame.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ExactFrame {
     /// BVH nodes whose geometry is visible, sorted: leaves, and at tau > 0 also groups shown
     /// by their HLOD.
@@ -38,6 +39,13 @@ pub struct ExactFrame {
     /// Triangles drawn into the item buffer (the scene's full-detail count for the independent
     /// reference at tau 0).
     pub drawn_triangles: u64,
+    /// Milliseconds to draw in colour only the visible triangles, submit to done: the least
+    /// any culling lets RVG's draw take at this size and tau (issue 16). Drawn last: its image
+    /// is the item pass's, in colour (`Renderer::read_color`). `None` like `cluster_triangles`.
+    pub visible_draw_ms: Option<f64>,
+    /// The same for the triangles of `cluster_triangles`: the least culling whole clusters
+    /// lets RVG's draw take.
+    pub cluster_draw_ms: Option<f64>,
 }
 
 /// The LOD nodes the item buffer draws.
@@ -70,16 +78,45 @@ impl Renderer {
         let mut leaves: Vec<NodeId> = items.iter().map(|i| scene.node(i[0] - 1).parent).collect();
         leaves.sort_unstable();
         leaves.dedup();
-        let cluster_triangles = if drawn.draws == 1 { cluster_triangles(&scene, &ids, &items)? } else { None };
-        Ok(ExactFrame { leaves, triangles: items.len() as u64, cluster_triangles, drawn_triangles: drawn.triangles })
+        // The floors need the pass's triangles numbered as one draw numbered them.
+        let (mut cluster_triangles, mut visible_draw_ms, mut cluster_draw_ms) = (None, None, None);
+        if drawn.draws == 1 {
+            let pass = std::mem::take(&mut self.indices);
+            if let Some(clusters) = visible_clusters(&scene, &ids, &items)? {
+                cluster_triangles = Some(clusters.iter().map(|c| c.len() as u64).sum());
+                cluster_draw_ms = Some(self.draw_of_item_pass(view, &pass, clusters.into_iter().flatten())?);
+            }
+            visible_draw_ms = Some(self.draw_of_item_pass(view, &pass, items.iter().map(|i| i[1]))?);
+        }
+        Ok(ExactFrame {
+            leaves,
+            triangles: items.len() as u64,
+            cluster_triangles,
+            drawn_triangles: drawn.triangles,
+            visible_draw_ms,
+            cluster_draw_ms,
+        })
+    }
+
+    /// Draws in colour the triangles of the item pass (its indices `pass`) that `triangles`
+    /// (ascending) name, in the pass's order, so that depth ties resolve as they did; returns
+    /// the milliseconds from submit to done. When they hold every visible triangle, every
+    /// pixel keeps the triangle that won it: the image is the item pass's.
+    fn draw_of_item_pass(&mut self, view: &View, pass: &[u32], triangles: impl Iterator<Item = u32>) -> Result<f64, RenderError> {
+        self.indices.clear();
+        self.indices.extend(triangles.flat_map(|t| &pass[t as usize * 3..t as usize * 3 + 3]));
+        let start = std::time::Instant::now();
+        self.submit(view, Pass::Color, true, &mut Default::default())?;
+        self.gpu.wait()?;
+        Ok(start.elapsed().as_secs_f64() * 1e3)
     }
 }
 
-/// Triangles of the clusters holding the visible `items` (sorted [node id + 1, triangle index
-/// in the one draw of `ids`, which drew each block whole and in order]); `None` if an index
-/// falls outside its node's triangles.
-fn cluster_triangles(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> Result<Option<u64>, RenderError> {
-    let mut total = 0;
+/// The triangles, numbered as in the one draw of `ids` (which drew each block whole and in
+/// order), of the clusters holding the visible `items` (sorted [node id + 1, triangle index]),
+/// in that order; `None` if an index falls outside its node's triangles.
+fn visible_clusters(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> Result<Option<Vec<Range<u32>>>, RenderError> {
+    let mut clusters = Vec::new();
     let mut first = 0u64;
     let mut at = 0;
     for &id in ids {
@@ -95,12 +132,14 @@ fn cluster_triangles(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> R
                 return Ok(None);
             };
             if last != Some(k) {
-                total += g.clusters[k].index_count as u64 / 3;
+                let c = &g.clusters[k];
+                let start = (first + c.first_index as u64 / 3) as u32;
+                clusters.push(start..start + c.index_count / 3);
                 last = Some(k);
             }
             at += 1;
         }
         first = end;
     }
-    Ok((at == items.len()).then_some(total))
+    Ok((at == items.len()).then_some(clusters))
 }

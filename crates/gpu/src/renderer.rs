@@ -109,7 +109,7 @@ pub struct Renderer {
     query_staging: wgpu::Buffer,
     /// The fragment count's query, resolve and read-back buffers (with the adapter's feature).
     fragment_query: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
-    indices: Vec<u32>,
+    pub(crate) indices: Vec<u32>,
     gpu_boxes: Vec<GpuBox>,
 }
 
@@ -322,7 +322,7 @@ impl Renderer {
 
     /// Draws the gathered indices in one call; counts them into `stats.triangles`, and their
     /// fragments into `stats.fragments` when [`Renderer::counts_fragments`].
-    fn submit(&mut self, view: &View, pass: Pass, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
+    pub(crate) fn submit(&mut self, view: &View, pass: Pass, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
         stats.draws = 1;

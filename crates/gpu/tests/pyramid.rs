@@ -18,9 +18,7 @@ use std::sync::Arc;
 fn the_gpu_pyramid_answers_as_the_cpu_reference() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plant.osw");
-    let objects = osw_scene::generators::generate(osw_scene::generators::GenKind::Plant, 200_000, 3).objects;
-    osw_scene::build_scene(objects, "test", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).unwrap();
-    let scene = Arc::new(osw_scene::SceneFile::open(&path).unwrap());
+    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap());
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
     let (w, h) = (300, 200);
     let mut r = Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES).unwrap();

@@ -13,9 +13,7 @@ use std::sync::Arc;
 fn the_phases_of_a_sampled_box_test_add_up_to_the_whole_count() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("city.osw");
-    let objects = osw_scene::generators::generate(osw_scene::generators::GenKind::City, 50_000, 2).objects;
-    osw_scene::build_scene(objects, "test", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).unwrap();
-    let scene = Arc::new(osw_scene::SceneFile::open(&path).unwrap());
+    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::City, 50_000, 2, &path).unwrap());
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
     let mut r = Renderer::new(gpu, Arc::clone(&scene), 203, 157, osw_gpu::limits::RESIDENCY_BYTES).unwrap();
     let root = scene.node(0).aabb();

@@ -12,9 +12,7 @@ use std::sync::Arc;
 fn a_pass_larger_than_the_arena_is_drawn_in_parts_with_the_same_pixels() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plant.osw");
-    let objects = osw_scene::generators::generate(osw_scene::generators::GenKind::Plant, 300_000, 5).objects;
-    osw_scene::build_scene(objects, "test", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).unwrap();
-    let scene = Arc::new(osw_scene::SceneFile::open(&path).unwrap());
+    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 300_000, 5, &path).unwrap());
     let root = scene.node(0).aabb();
     let camera = Camera::look_at(
         root.center().as_dvec3() + scene.origin() + DVec3::new(0.0, 40.0, -120.0),

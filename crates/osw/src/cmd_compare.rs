@@ -108,6 +108,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .collect();
         report.cluster_exact_triangles_ratio_mean = floor.map(|f| f.iter().sum::<f64>() / frames.max(1) as f64);
         let lod = a.exact_lod.as_deref().map(|d| read_exact(d, frames)).transpose()?;
+        // RVG's floor at the runs' tau: the LOD reference's, if given.
+        let floor_rows = lod.as_ref().map_or(&rows_exact, |(_, rows)| rows);
+        let median = |ms: Option<Vec<f64>>| ms.filter(|v| !v.is_empty()).map(|v| osw_render::stats::quantile(&v, 0.5));
+        report.visible_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_draw_ms).collect());
+        report.visible_cluster_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_cluster_draw_ms).collect());
         for (which, dir) in [(0, &a.a), (1, &a.b)] {
             let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
             if pvs.len() < frames {
@@ -178,7 +183,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         )
     };
     out!(
-        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{}{} → {}",
+        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{}{}{} → {}",
         report.frame_ms_median_a,
         report.frame_ms_median_b,
         report.speedup_a_over_b,
@@ -190,6 +195,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             s.drawn_exact_triangles_ratio_mean.map_or(String::new(), |r| format!(", drawn/exact triangles {r:.1}"))
         )),
         report.cluster_exact_triangles_ratio_mean.map_or(String::new(), |r| format!(" (at least {r:.1} culling whole clusters)")),
+        report.visible_draw_ms_median.map_or(String::new(), |f| format!(
+            "; RVG a {:.1} ms a frame (median), b {:.1}: drawing only the visible triangles takes {f:.1}{}",
+            sa.rvg_ms_median,
+            sb.rvg_ms_median,
+            report.visible_cluster_draw_ms_median.map_or(String::new(), |c| format!(", only their clusters {c:.1}"))
+        )),
         a.out.display()
     );
     Ok(())

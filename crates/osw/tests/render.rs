@@ -177,6 +177,14 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
     let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp.join("compare.json")).unwrap()).unwrap();
     let mean = floor.iter().zip(&visible).map(|(f, v)| f / v).sum::<f64>() / 24.0;
     assert!((c["cluster_exact_triangles_ratio_mean"].as_f64().unwrap() - mean).abs() < 1e-9 * mean, "{c}");
+    // RVG's floor: the median of exact.csv's times for drawing only the visible triangles.
+    let mut draw_ms = csv_column(&exact.join("exact.csv"), "visible_draw_ms");
+    assert!(draw_ms.iter().all(|&ms| ms > 0.0), "{draw_ms:?}");
+    draw_ms.sort_by(f64::total_cmp);
+    assert_eq!(c["visible_draw_ms_median"].as_f64(), Some(draw_ms[draw_ms.len() / 2]), "{c}");
+    let mut cluster_ms = csv_column(&exact.join("exact.csv"), "visible_cluster_draw_ms");
+    cluster_ms.sort_by(f64::total_cmp);
+    assert_eq!(c["visible_cluster_draw_ms_median"].as_f64(), Some(cluster_ms[cluster_ms.len() / 2]), "{c}");
 }
 
 #[test]

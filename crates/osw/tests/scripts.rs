@@ -71,6 +71,9 @@ fn clusters_tabulates_both_settings_against_exact_visibility() {
         let drawn = c["culling_a"]["drawn_exact_triangles_ratio_mean"].as_f64().unwrap();
         let floor = c["cluster_exact_triangles_ratio_mean"].as_f64().unwrap();
         assert!(drawn > 0.0 && floor >= 1.0, "{run}: {c}");
+        for floor in ["visible_draw_ms_median", "visible_cluster_draw_ms_median"] {
+            assert!(c[floor].as_f64().is_some_and(|ms| ms > 0.0), "{run}: {c}");
+        }
         // At tau 5, against what is visible at that tau (the rest is LOD error).
         let missed = if run == "prev-small" { "false_culled_leaves_total" } else { "lod_false_culled_total" };
         assert_eq!(c["culling_a"][missed], 0, "{run}: {c}");

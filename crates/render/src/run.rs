@@ -94,8 +94,8 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
 }
 
 /// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles,
-/// triangles of the clusters holding them, triangles drawn into the item buffer) and `exact_leaves.txt` (the visible leaves of each
-/// frame).
+/// triangles of the clusters holding them, triangles drawn into the item buffer, ms to draw only
+/// the visible ones, and only their clusters) and `exact_leaves.txt` (the visible leaves of each frame).
 pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, reference: Reference, out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
     let mut rows = Vec::with_capacity(cams.len());
     let mut leaves = String::new();
@@ -109,6 +109,8 @@ pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, reference: Refere
             visible_triangles: e.triangles,
             visible_cluster_triangles: e.cluster_triangles,
             drawn_triangles: e.drawn_triangles,
+            visible_draw_ms: e.visible_draw_ms,
+            visible_cluster_draw_ms: e.cluster_draw_ms,
         });
         push_ids(&mut leaves, &e.leaves);
         tick();

@@ -15,9 +15,7 @@ use std::sync::Arc;
 fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plant.osw");
-    let objects = osw_scene::generators::generate(osw_scene::generators::GenKind::Plant, 200_000, 3).objects;
-    osw_scene::build_scene(objects, "test", Vec::new(), &Default::default(), &path, std::time::Instant::now(), &()).unwrap();
-    let scene = Arc::new(osw_scene::SceneFile::open(&path).unwrap());
+    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap());
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
     let mut r = Renderer::new(gpu, Arc::clone(&scene), 256, 256, osw_gpu::limits::RESIDENCY_BYTES).unwrap();
     let root = scene.node(0).aabb();

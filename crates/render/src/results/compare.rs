@@ -34,6 +34,14 @@ pub struct Compare {
     /// where exact.csv does not know it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cluster_exact_triangles_ratio_mean: Option<f64>,
+    /// Median ms to draw only the visible triangles (exact.csv of `--exact-lod` if given, the
+    /// runs' tau, else of `--exact`): RVG's floor. None without `--exact` or where exact.csv
+    /// does not know it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visible_draw_ms_median: Option<f64>,
+    /// The same for the clusters holding a visible triangle: the floor of culling whole clusters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visible_cluster_draw_ms_median: Option<f64>,
 }
 
 /// One run's culling error against exact visibility.

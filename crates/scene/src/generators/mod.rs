@@ -42,6 +42,15 @@ pub struct Generated {
     pub notes: Vec<String>,
 }
 
+/// Generator `kind`'s scene (as [`generate`]) built with the default options into `path` and
+/// opened: what the tests and benches that draw start from.
+pub fn build_generated(kind: GenKind, triangles: u64, seed: u64, path: &std::path::Path) -> Result<crate::SceneFile, String> {
+    let g = generate(kind, triangles, seed);
+    crate::build_scene(g.objects, &format!("{kind:?}"), g.notes, &Default::default(), path, std::time::Instant::now(), &())
+        .map_err(|e| e.to_string())?;
+    crate::SceneFile::open(path).map_err(|e| e.to_string())
+}
+
 /// Runs generator `kind` for about `triangles` triangles (at least 1,000) with `seed`.
 pub fn generate(kind: GenKind, triangles: u64, seed: u64) -> Generated {
     let triangles = triangles.max(1_000);
