@@ -24,7 +24,7 @@ pub struct WalkArgs {
     pub residency_mib: u64,
     /// Cluster tests of the passes that draw: a list of `frustum`, `cone` (per cluster),
     /// `backface`, `small` (per triangle of a cluster drawn) and `occlusion` (RVG's two passes, in
-    /// prev; off by default: it costs lavapipe more than it saves), or `none` (exact
+    /// prev; off by default: on lavapipe it saves about what it costs), or `none` (exact
     /// visibility's item pass always draws every triangle).
     #[arg(long, default_value = "frustum,cone,backface,small", value_parser = parse_cluster_tests, value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,
