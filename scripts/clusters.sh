@@ -78,8 +78,8 @@ print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |
 rows = [(f"{small:,}, 0", "prev-small")] + [(f"{large:,}, 5", f"{m}-large") for m in ("vfc", "prev", "switch")]
 for setting, run in rows:
     s, c, t = j(f"{run}/summary.json"), j(f"cmp-{run}/compare.json"), j(f"{run}/cpu.json")
-    # The switch's OR is its nodes' (node a's shown).
-    orms = s.get("or_ms_median", s.get("node_a_or_ms_median"))
+    # The switch's OR is its nodes' (node a's shown); vfc has none.
+    orms = None if run.startswith("vfc") else s.get("or_ms_median", s.get("node_a_or_ms_median"))
     stage = lambda v: "-" if v is None else f"{v:.1f}"
     speed = "-" if run == "prev-small" else f"{c['speedup_a_over_b']:.2f}x"
     print(f"| {setting} | {run} | {s['frame_ms_median']:.1f} | {stage(orms)} | {stage(s.get('hc_ms_median'))} | {stage(s.get('rvg_ms_median'))} "
