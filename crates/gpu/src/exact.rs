@@ -107,6 +107,7 @@ impl Renderer {
         self.indices.extend(triangles.flat_map(|t| &pass[t as usize * 3..t as usize * 3 + 3]));
         let start = std::time::Instant::now();
         self.submit(view, Pass::Color, true, &mut Default::default())?;
+        // Done, also when the renderer keeps a draw in flight (`Renderer::overlap`).
         self.gpu.wait()?;
         Ok(start.elapsed().as_secs_f64() * 1e3)
     }

@@ -248,8 +248,8 @@ impl Renderer {
     /// (read back; on lavapipe the exact GPU box test per cluster took RVG from 43 to 63 ms,
     /// this one breaks even: issue 16's closing notes), and those visible and not yet drawn
     /// are drawn. Conservative: a cluster is skipped only when geometry drawn this frame hides
-    /// all of its box. `history` then holds this frame's
-    /// visible clusters. Without the occlusion test, [`Renderer::draw`].
+    /// all of its box. `history` then holds this frame's visible clusters. Without the
+    /// occlusion test, [`Renderer::draw`].
     pub fn draw_visible(
         &mut self,
         view: &View,
