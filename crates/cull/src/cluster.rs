@@ -47,6 +47,41 @@ impl Default for ClusterTests {
     }
 }
 
+/// The names of the tests, in the order a list gives them.
+const TEST_NAMES: [&str; 5] = ["frustum", "cone", "backface", "small", "occlusion"];
+
+impl ClusterTests {
+    fn flags(&mut self) -> [&mut bool; 5] {
+        [&mut self.frustum, &mut self.cone, &mut self.backface, &mut self.small, &mut self.occlusion]
+    }
+}
+
+/// A comma-separated list of test names, or `none`.
+impl std::str::FromStr for ClusterTests {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<ClusterTests, String> {
+        let mut t = ClusterTests::NONE;
+        if s.trim() == "none" {
+            return Ok(t);
+        }
+        for name in s.split(',').map(str::trim) {
+            let k = TEST_NAMES.iter().position(|n| *n == name);
+            *t.flags()[k.ok_or_else(|| format!("{s:?}: expected a list of frustum, cone, backface, small and occlusion, or none"))?] = true;
+        }
+        Ok(t)
+    }
+}
+
+/// The list [`ClusterTests::from_str`](std::str::FromStr) reads.
+impl std::fmt::Display for ClusterTests {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        let mut t = *self;
+        let on: Vec<&str> = TEST_NAMES.iter().zip(t.flags()).filter(|(_, on)| **on).map(|(n, _)| *n).collect();
+        f.write_str(if on.is_empty() { "none".into() } else { on.join(",") }.as_str())
+    }
+}
+
 /// Counts of one pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ClusterStats {
@@ -190,6 +225,23 @@ fn faces_away(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> boo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_list_of_tests_reads_back_what_it_writes() {
+        for bits in 0..32u32 {
+            let mut t = ClusterTests::NONE;
+            for (k, flag) in t.flags().into_iter().enumerate() {
+                *flag = bits >> k & 1 == 1;
+            }
+            let written = t.to_string();
+            assert_eq!(written.parse::<ClusterTests>(), Ok(t), "{written}");
+        }
+        assert_eq!(ClusterTests::default().to_string(), "frustum,cone,backface,small");
+        assert_eq!("none".parse::<ClusterTests>(), Ok(ClusterTests::NONE));
+        for bad in ["", "none,cone", "frustrum", "cone,"] {
+            assert!(bad.parse::<ClusterTests>().unwrap_err().contains("expected a list of"), "{bad:?}");
+        }
+    }
     use osw_scene::Camera;
     use osw_scene::generators::shapes::add_box;
     use osw_scene::mesh::Mesh;

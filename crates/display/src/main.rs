@@ -57,6 +57,9 @@ struct Args {
     /// Do not write frame PNGs.
     #[arg(long)]
     no_frames: bool,
+    /// RVG's cluster tests, as `osw render --cluster-tests` (`occlusion` adds its two passes).
+    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
+    cluster_tests: osw_cull::cluster::ClusterTests,
     /// Longest wait for one frame, seconds (a first frame at full detail of a huge scene may
     /// need more than the default).
     #[arg(long, default_value_t = receive::WAIT.as_secs_f64(), value_name = "SECS")]
@@ -118,6 +121,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         (None, osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?)
     };
     let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
+    r.cluster_tests = a.cluster_tests;
     // The next frame's gather overlaps this frame's draw (5M plant walk, tau 5: four pairs of
     // runs took 57.8 / 64.4, 56.3 / 59.9, 57.5 / 56.4 and 58.4 / 59.2 ms a frame, with /
     // without). RVG's stage time then ends when its draw is submitted, the previous one done.

@@ -39,6 +39,10 @@ struct Args {
     /// hidden. 0 is conservative.
     #[arg(long, default_value_t = 0.0)]
     adaptive: f64,
+    /// The cluster tests of OR's and HC's drawing, as `osw render --cluster-tests` (only RVG
+    /// has an `occlusion` test).
+    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
+    cluster_tests: osw_cull::cluster::ClusterTests,
     /// Longest wait for the peer or the display, seconds (a first frame at full detail of a
     /// huge scene may need more than the default).
     #[arg(long, default_value_t = inbox::WAIT.as_secs_f64(), value_name = "SECS")]
@@ -82,7 +86,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
     let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone());
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
-    let renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
+    let mut renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
+    renderer.cluster_tests = a.cluster_tests;
 
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (events_tx, events) = std::sync::mpsc::channel();

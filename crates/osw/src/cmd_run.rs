@@ -57,6 +57,10 @@ pub struct Args {
     /// time bought with error. 0 is conservative.
     #[arg(long, default_value_t = 0.0, value_name = "T")]
     adaptive: f64,
+    /// Cluster tests of the passes that draw, in the nodes and the display: as `osw render
+    /// --cluster-tests` (`occlusion` is RVG's two passes, in the display).
+    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
+    cluster_tests: osw_cull::cluster::ClusterTests,
     /// Longest wait for one frame, seconds: the display gives up after it (a first frame at
     /// full detail of a billion triangles needs more than the default).
     #[arg(long, value_name = "SECS")]
@@ -141,6 +145,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let size = format!("{}x{}", a.size.0, a.size.1);
     let common = |name: &str| {
         let mut v: Vec<String> = vec!["--name".into(), name.into(), "--scene".into(), s(&a.scene), "--size".into(), size.clone()];
+        v.extend(["--cluster-tests".into(), a.cluster_tests.to_string()]);
         if a.full {
             v.push("--full".into());
         }
@@ -169,6 +174,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.tau.to_string(),
         "--size".into(),
         size,
+        "--cluster-tests".into(),
+        a.cluster_tests.to_string(),
         "--out".into(),
         s(&a.out),
     ];

@@ -26,24 +26,8 @@ pub struct WalkArgs {
     /// `backface`, `small` (per triangle of a cluster drawn) and `occlusion` (RVG's two passes, in
     /// prev; off by default: on lavapipe it saves about what it costs), or `none` (exact
     /// visibility's item pass always draws every triangle).
-    #[arg(long, default_value = "frustum,cone,backface,small", value_parser = parse_cluster_tests, value_name = "LIST")]
+    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,
-}
-
-pub fn parse_cluster_tests(s: &str) -> Result<osw_cull::cluster::ClusterTests, String> {
-    let mut t = osw_cull::cluster::ClusterTests::NONE;
-    for name in s.split(',').map(str::trim) {
-        match name {
-            "frustum" => t.frustum = true,
-            "cone" => t.cone = true,
-            "backface" => t.backface = true,
-            "small" => t.small = true,
-            "occlusion" => t.occlusion = true,
-            "none" if s.trim() == "none" => {}
-            _ => return Err(format!("{s:?}: expected a list of frustum, cone, backface, small and occlusion, or none")),
-        }
-    }
-    Ok(t)
 }
 
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {

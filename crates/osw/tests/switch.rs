@@ -59,6 +59,37 @@ fn the_switch_is_prev_split_across_processes() {
     check_latency(&run, &d.path().join("lat"));
 }
 
+/// `osw run --cluster-tests` reaches the display: with RVG's occlusion test, or with the
+/// frustum test alone, its counts say so and its frames and visible sets are prev's with the
+/// same tests (the nodes take the list too; their depth, and so the visible sets, do not
+/// depend on it).
+#[test]
+fn the_switch_runs_the_cluster_tests_it_is_given() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "plant", 150_000, 4);
+    let path = camera_path(&scene, "walk", 12);
+    for tests in ["frustum,cone,backface,small,occlusion", "frustum"] {
+        let [run, prev] = ["run", "prev"].map(|n| d.path().join(format!("{n}-{}", tests.replace(',', "-"))));
+        let walk = ["--scene", s(&scene), "--path", s(&path), "--size", "256x256", "--cluster-tests", tests];
+        osw_ok(&[&["run"], &walk[..], &["--out", s(&run)]].concat());
+        osw_ok(&[&["render", "--mode", "prev"], &walk[..], &["--out", s(&prev)]].concat());
+        let pvs = |p: &Path| std::fs::read_to_string(p.join("pvs.txt")).unwrap();
+        assert_eq!(pvs(&run), pvs(&prev), "{tests}: visible sets");
+        for i in 0..12 {
+            let f = |p: &Path| std::fs::read(p.join(format!("frames/{i:05}.png"))).unwrap();
+            assert!(f(&run) == f(&prev), "{tests}: frame {i} differs from prev's");
+        }
+        let (r, p) = (summary(&run), summary(&prev));
+        assert_eq!(r.triangles_drawn_mean, p.triangles_drawn_mean, "{tests}: RVG draws what prev's RVG draws");
+        let occlusion = r.clusters_occlusion_culled_fraction;
+        let cone = r.clusters_cone_culled_fraction;
+        match tests {
+            "frustum" => assert!(occlusion == 0.0 && cone == 0.0, "frustum only: {occlusion} hidden, {cone} facing away"),
+            _ => assert!(occlusion > 0.0 && cone > 0.0, "all tests: {occlusion} hidden, {cone} facing away"),
+        }
+    }
+}
+
 /// A CSV file as rows of cells by header name.
 fn csv(p: &Path) -> Vec<std::collections::HashMap<String, String>> {
     let text = std::fs::read_to_string(p).unwrap();
