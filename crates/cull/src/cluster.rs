@@ -118,18 +118,9 @@ pub struct ClusterHistory {
     this: HashMap<NodeId, Vec<u64>>,
 }
 
-fn bit(bits: &HashMap<NodeId, Vec<u64>>, id: NodeId, cluster: usize) -> bool {
-    bits.get(&id).and_then(|b| b.get(cluster / 64)).is_some_and(|w| w >> (cluster % 64) & 1 != 0)
-}
-
 impl ClusterHistory {
     pub fn was_visible(&self, id: NodeId, cluster: usize) -> bool {
-        bit(&self.last, id, cluster)
-    }
-
-    /// Marked visible in this frame.
-    pub fn is_marked(&self, id: NodeId, cluster: usize) -> bool {
-        bit(&self.this, id, cluster)
+        self.last.get(&id).and_then(|b| b.get(cluster / 64)).is_some_and(|w| w >> (cluster % 64) & 1 != 0)
     }
 
     /// Marks a cluster visible in this frame.

@@ -11,7 +11,7 @@ use osw_scene::Aabb;
 pub const GUARD_BAND_PX: f64 = 8192.0;
 
 /// Planes as (normal, d): a point p is inside when normal.dot(p) + d >= 0.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Frustum {
     planes: [(DVec3, f64); 5],
     eye: DVec3,

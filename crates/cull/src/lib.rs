@@ -22,6 +22,7 @@ pub mod delta;
 pub mod distance_queue;
 pub mod front;
 pub mod frustum;
+pub mod gathered;
 pub mod hc;
 pub mod hzb;
 pub mod ovc;

@@ -8,7 +8,7 @@ use crate::frustum::Frustum;
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3};
 use osw_scene::{Aabb, Camera};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct View {
     /// Eye in scene-local coordinates (world - scene origin), f64.
     pub eye: DVec3,

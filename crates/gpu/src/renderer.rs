@@ -9,6 +9,7 @@ use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
 use osw_cull::cluster::{ClusterHistory, ClusterStats, ClusterTests, gather};
+use osw_cull::gathered::Gathered;
 use osw_cull::{Occluders, View, Visibility, VisibilityTester};
 use osw_scene::file::Indices;
 use osw_scene::format::ClusterRecord;
@@ -110,11 +111,36 @@ pub struct Renderer {
     /// The fragment count's query, resolve and read-back buffers (with the adapter's feature).
     fragment_query: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
     pub(crate) indices: Vec<u32>,
+    /// Each node's indices as last gathered, for passes of the same view.
+    gathered: Gathered,
     gpu_boxes: Vec<GpuBox>,
 }
 
 fn storage(gpu: &Gpu, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
     gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+}
+
+/// Which clusters of a node a pass takes (node, cluster index, cluster), after the tests.
+type Select<'a> = dyn FnMut(NodeId, usize, &ClusterRecord) -> bool + 'a;
+
+/// One node's part of [`Renderer::gather`]: every cluster that passes `tests` through the
+/// indices kept for this view, or those that `select` takes.
+#[allow(clippy::too_many_arguments)]
+fn gather_node<I: Copy + Into<u32>>(
+    view: &View,
+    tests: ClusterTests,
+    id: NodeId,
+    geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
+    select: Option<&mut Select>,
+    gathered: &mut Gathered,
+    base: u32,
+    stats: &mut ClusterStats,
+    out: &mut Vec<u32>,
+) {
+    match select {
+        None => gathered.gather(view, tests, (id, base), geometry, stats, out),
+        Some(select) => gather(view, tests, geometry, stats, |k, c| select(id, k, c), base, out),
+    }
 }
 
 /// RVG's cluster occlusion test reads the pyramid this many levels finer than GigaWalk's 2x2
@@ -191,6 +217,7 @@ impl Renderer {
             results_staging,
             box_group,
             indices: Vec::new(),
+            gathered: Gathered::default(),
             gpu_boxes: Vec::new(),
             gpu,
             scene,
@@ -221,7 +248,7 @@ impl Renderer {
     /// that the frustum and cone tests skip (none in the item pass).
     pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.cluster_tests };
-        let drawn = self.gather(view, ids, tests, |_, _, _| true).and_then(|mut stats| {
+        let drawn = self.gather(view, ids, tests, None).and_then(|mut stats| {
             self.submit(view, pass, clear, &mut stats)?;
             Ok(stats)
         });
@@ -261,46 +288,50 @@ impl Renderer {
         if !tests.occlusion {
             return self.draw(view, ids, pass, true);
         }
-        let mut first = self.gather(view, ids, tests, |id, k, _| history.was_visible(id, k))?;
+        let mut first = self.gather(view, ids, tests, Some(&mut |id, k, _| history.was_visible(id, k)))?;
         self.submit(view, pass, true, &mut first)?;
         // Every cluster that passes the frustum and cone tests, its box tested against the
         // farthest-depth pyramid of what the first pass drew (boxes around the eye or across
-        // the near plane count as visible, as in HC).
+        // the near plane count as visible, as in HC); the second pass draws those visible
+        // now and not drawn in the first.
         let pyramid = osw_cull::hzb::Pyramid::new(view.width, view.height, self.target.read_depth(&self.gpu)?);
         let vp = view.view_proj().as_dmat4();
         let mut occluded = 0;
-        let mut stats = self.gather(view, ids, tests, |id, k, c| {
-            let b = c.aabb();
-            if view.frustum.needs_no_test(&b) || osw_cull::hzb::visible_box(&pyramid, &vp, view, &b, CLUSTER_FINER) {
-                history.mark(id, k);
-            } else if !history.was_visible(id, k) {
-                occluded += 1;
-            }
-            false
-        })?;
-        // The second pass: visible now and not drawn in the first.
-        let second = self.gather(view, ids, tests, |id, k, _| history.is_marked(id, k) && !history.was_visible(id, k))?;
-        stats.nodes = second.nodes;
+        let mut stats = self.gather(
+            view,
+            ids,
+            tests,
+            Some(&mut |id, k, c: &ClusterRecord| {
+                let b = c.aabb();
+                let drawn = history.was_visible(id, k);
+                if view.frustum.needs_no_test(&b) || osw_cull::hzb::visible_box(&pyramid, &vp, view, &b, CLUSTER_FINER) {
+                    history.mark(id, k);
+                    return !drawn;
+                }
+                occluded += u64::from(!drawn);
+                false
+            }),
+        )?;
         self.submit(view, pass, false, &mut stats)?;
         history.end_frame();
         stats.triangles += first.triangles;
         stats.fragments += first.fragments;
         stats.clusters.occlusion_culled = occluded;
-        // The triangle tests ran on what the two passes drew (the tests' pass selects none).
-        stats.clusters.backface_culled = first.clusters.backface_culled + second.clusters.backface_culled;
-        stats.clusters.small_culled = first.clusters.small_culled + second.clusters.small_culled;
+        // The triangle tests ran on what the two passes drew.
+        stats.clusters.backface_culled += first.clusters.backface_culled;
+        stats.clusters.small_culled += first.clusters.small_culled;
         Ok(stats)
     }
 
     /// Gathers into `self.indices` the indices of the clusters of `ids` that pass `tests` and
-    /// `select(node, cluster index, cluster)`, less the triangles `tests` drop, making the nodes
-    /// resident.
+    /// `select(node, cluster index, cluster)` (all, through the indices kept for this view, when
+    /// `None`), less the triangles `tests` drop, making the nodes resident.
     fn gather(
         &mut self,
         view: &View,
         ids: &[NodeId],
         tests: ClusterTests,
-        mut select: impl FnMut(NodeId, usize, &ClusterRecord) -> bool,
+        mut select: Option<&mut Select>,
     ) -> Result<DrawStats, RenderError> {
         let scene = Arc::clone(&self.scene);
         let mut stats = DrawStats::default();
@@ -308,10 +339,11 @@ impl Renderer {
         for &id in ids {
             let base = self.residency.ensure(&self.gpu, &scene, id)?;
             let g = scene.geometry(id)?;
-            let (out, s) = (&mut self.indices, &mut stats.clusters);
+            let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
+            let select = select.as_deref_mut();
             match g.indices {
-                Indices::U16(ix) => gather(view, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
-                Indices::U32(ix) => gather(view, tests, (g.positions, ix, g.clusters), s, |k, c| select(id, k, c), base, out),
+                Indices::U16(ix) => gather_node(view, tests, id, (g.positions, ix, g.clusters), select, gathered, base, s, out),
+                Indices::U32(ix) => gather_node(view, tests, id, (g.positions, ix, g.clusters), select, gathered, base, s, out),
             }
             stats.nodes += 1;
         }

@@ -1,0 +1,103 @@
+//! The indices [`gather`] made for each node, kept for the view and tests they were made under,
+//! so that a later pass of the same frame that draws the node again copies them instead of
+//! testing its clusters and triangles again. In prev, OR draws the last visible sets from the
+//! new camera and RVG then draws the new visible set from the same camera: the set changes by
+//! a few nodes a frame, so RVG tests almost nothing. In the switch OR and RVG run in different
+//! processes, and each gathers its own.
+
+use crate::cluster::{ClusterStats, ClusterTests, gather};
+use crate::view::View;
+use osw_scene::NodeId;
+use osw_scene::format::ClusterRecord;
+use std::collections::HashMap;
+use std::ops::Range;
+
+/// One node's gathered indices: where its vertices were, which of `Gathered::indices` it
+/// made, and its counts.
+struct Entry {
+    base: u32,
+    range: Range<usize>,
+    stats: ClusterStats,
+}
+
+#[derive(Default)]
+pub struct Gathered {
+    key: Option<(View, ClusterTests)>,
+    nodes: HashMap<NodeId, Entry>,
+    indices: Vec<u32>,
+}
+
+impl Gathered {
+    /// Appends to `out`, and adds to `stats`, what [`gather`] would for `node` (its id, and
+    /// its first vertex in the arena), taking every cluster that passes `tests`: copied when
+    /// the node was gathered under the same view, tests and first vertex since the view last
+    /// changed.
+    pub fn gather<I: Copy + Into<u32>>(
+        &mut self,
+        view: &View,
+        tests: ClusterTests,
+        (id, base): (NodeId, u32),
+        geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
+        stats: &mut ClusterStats,
+        out: &mut Vec<u32>,
+    ) {
+        if self.key.as_ref().is_none_or(|(v, t)| v != view || *t != tests) {
+            self.key = Some((view.clone(), tests));
+            self.nodes.clear();
+            self.indices.clear();
+        }
+        if let Some(e) = self.nodes.get(&id).filter(|e| e.base == base) {
+            out.extend_from_slice(&self.indices[e.range.clone()]);
+            *stats = *stats + e.stats;
+            return;
+        }
+        let (start, mut s) = (out.len(), ClusterStats::default());
+        gather(view, tests, geometry, &mut s, |_, _| true, base, out);
+        let from = self.indices.len();
+        self.indices.extend_from_slice(&out[start..]);
+        self.nodes.insert(id, Entry { base, range: from..self.indices.len(), stats: s });
+        *stats = *stats + s;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+    use osw_scene::Camera;
+    use osw_scene::generators::shapes::add_box;
+    use osw_scene::mesh::Mesh;
+
+    #[test]
+    fn a_node_gathered_again_under_the_same_view_gives_what_gather_gives() {
+        let mut m = Mesh::default();
+        for i in 0..60 {
+            let o = glam::Vec3::new((i % 10) as f32 * 3.0, (i / 10) as f32 * 2.0, (i % 4) as f32);
+            add_box(&mut m, o, o + glam::Vec3::new(1.0, 0.5 + (i % 3) as f32, 1.5));
+        }
+        let (indices, clusters) = osw_scene::cluster::clusterize(&m, None);
+        let geometry = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
+        let view_at = |eye: DVec3| View::new(&Camera::look_at(eye, DVec3::new(15.0, 5.0, 2.0), 60.0), DVec3::ZERO, 128, 96, 0.05);
+        let direct = |view: &View, tests: ClusterTests, base: u32| {
+            let (mut out, mut s) = (Vec::new(), ClusterStats::default());
+            gather(view, tests, geometry, &mut s, |_, _| true, base, &mut out);
+            (out, s)
+        };
+        let mut cache = Gathered::default();
+        let mut via_cache = |view: &View, tests: ClusterTests, base: u32| {
+            let (mut out, mut s) = (vec![7], ClusterStats::default());
+            cache.gather(view, tests, (3, base), geometry, &mut s, &mut out);
+            assert_eq!(out[0], 7, "appends");
+            (out[1..].to_vec(), s)
+        };
+        let (a, b) = (view_at(DVec3::new(10.0, 5.0, 40.0)), view_at(DVec3::new(-20.0, 3.0, 30.0)));
+        let all = ClusterTests::default();
+        // First, again (copied), another view, another base, other tests, the first view back.
+        for (view, tests, base) in [(&a, all, 0), (&a, all, 0), (&b, all, 0), (&b, all, 100), (&b, ClusterTests::NONE, 100), (&a, all, 0)] {
+            let want = direct(view, tests, base);
+            assert!(!want.0.is_empty(), "the camera sees the boxes");
+            assert_eq!(via_cache(view, tests, base), want);
+        }
+        assert_ne!(direct(&a, all, 0), direct(&b, all, 0), "the two views cull differently");
+    }
+}
