@@ -216,6 +216,9 @@ fn faces_away(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> boo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use osw_scene::Camera;
+    use osw_scene::generators::shapes::add_box;
+    use osw_scene::mesh::Mesh;
 
     #[test]
     fn a_list_of_tests_reads_back_what_it_writes() {
@@ -233,9 +236,6 @@ mod tests {
             assert!(bad.parse::<ClusterTests>().unwrap_err().contains("expected a list of"), "{bad:?}");
         }
     }
-    use osw_scene::Camera;
-    use osw_scene::generators::shapes::add_box;
-    use osw_scene::mesh::Mesh;
 
     /// Triangles of `m` whose front faces `eye` (counter-clockwise from outside).
     fn front_facing(m: &Mesh, t: &[u32], eye: DVec3) -> bool {

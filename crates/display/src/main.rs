@@ -58,7 +58,7 @@ struct Args {
     #[arg(long)]
     no_frames: bool,
     /// RVG's cluster tests, as `osw render --cluster-tests` (`occlusion` adds its two passes).
-    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
+    #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
     cluster_tests: osw_cull::cluster::ClusterTests,
     /// Longest wait for one frame, seconds (a first frame at full detail of a huge scene may
     /// need more than the default).

@@ -41,7 +41,7 @@ struct Args {
     adaptive: f64,
     /// The cluster tests of OR's and HC's drawing, as `osw render --cluster-tests` (only RVG
     /// has an `occlusion` test).
-    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
+    #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
     cluster_tests: osw_cull::cluster::ClusterTests,
     /// Longest wait for the peer or the display, seconds (a first frame at full detail of a
     /// huge scene may need more than the default).

@@ -59,7 +59,7 @@ pub struct Args {
     adaptive: f64,
     /// Cluster tests of the passes that draw, in the nodes and the display: as `osw render
     /// --cluster-tests` (`occlusion` is RVG's two passes, in the display).
-    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
+    #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
     cluster_tests: osw_cull::cluster::ClusterTests,
     /// Longest wait for one frame, seconds: the display gives up after it (a first frame at
     /// full detail of a billion triangles needs more than the default).

@@ -26,7 +26,7 @@ pub struct WalkArgs {
     /// `backface`, `small` (per triangle of a cluster drawn) and `occlusion` (RVG's two passes, in
     /// prev; off by default: on lavapipe it saves about what it costs), or `none` (exact
     /// visibility's item pass always draws every triangle).
-    #[arg(long, default_value = "frustum,cone,backface,small", value_name = "LIST")]
+    #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,
 }
 
