@@ -17,6 +17,8 @@ pub struct Frustum {
     eye: DVec3,
     forward: DVec3,
     near: f64,
+    /// Pixels per unit at unit distance.
+    focal_px: f64,
     /// Largest box extent per unit of depth that projects inside the guard band.
     max_extent_per_depth: f64,
 }
@@ -53,7 +55,7 @@ impl Frustum {
             side(f * ty - u), // top
             (f, -f.dot(eye + f * near)),
         ];
-        Frustum { planes, eye, forward: f, near, max_extent_per_depth: GUARD_BAND_PX / focal_px }
+        Frustum { planes, eye, forward: f, near, focal_px, max_extent_per_depth: GUARD_BAND_PX / focal_px }
     }
 
     /// A frustum that contains every box: no plane rejects anything, no box needs to be
@@ -64,6 +66,7 @@ impl Frustum {
             eye: DVec3::ZERO,
             forward: DVec3::ZERO,
             near: f64::NEG_INFINITY,
+            focal_px: f64::INFINITY,
             max_extent_per_depth: f64::INFINITY,
         }
     }
@@ -90,18 +93,18 @@ impl Frustum {
         self.planes.iter().any(|(n, d)| n.dot(center) + d < -radius)
     }
 
-    /// True when the box contains the eye, reaches in front of the near plane, or is so large
-    /// for its depth that its faces reach beyond the rasteriser's guard band: such a box
-    /// cannot be tested by rasterising it (paper 004 sec. 4: clamp or accept) and counts as
-    /// visible.
+    /// True when the box as it would be tested ([`crate::view::grow_for_test`]) contains the
+    /// eye, reaches in front of the near plane, or is so large for its depth that its faces
+    /// reach beyond the rasteriser's guard band: such a box cannot be tested by rasterising it
+    /// (paper 004 sec. 4: clamp or accept) and counts as visible.
     pub fn needs_no_test(&self, b: &Aabb) -> bool {
-        let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+        let (lo, hi) = crate::view::grow_for_test(b.min.as_dvec3() - self.eye, b.max.as_dvec3() - self.eye, self.eye, self.focal_px);
         let q = DVec3::select(self.forward.cmpge(DVec3::ZERO), lo, hi);
         // Nearest box corner along the view direction closer than the near plane (with a
         // margin for rounding), or the eye in the box.
-        let depth = self.forward.dot(q - self.eye);
+        let depth = self.forward.dot(q);
         depth <= self.near * 1.01
-            || (self.eye.cmpge(lo).all() && self.eye.cmple(hi).all())
+            || (lo.cmple(DVec3::ZERO).all() && hi.cmpge(DVec3::ZERO).all())
             || (hi - lo).max_element() > depth * self.max_extent_per_depth
     }
 }

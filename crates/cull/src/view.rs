@@ -74,16 +74,50 @@ impl View {
         (p.as_dvec3() - self.eye).as_vec3()
     }
 
-    /// Box `b` made camera-relative for an occlusion test (GPU or CPU), grown by a relative
-    /// epsilon so that f32 rounding of its corners never shrinks it (conservative) and a flat
-    /// box keeps an area. The geometry drawn into the depth buffer is made camera-relative in
-    /// f32 with the eye rounded to f32 (draw.wgsl): it may sit up to two ulps of the eye's
-    /// coordinates nearer than in f64, and a box must not hide behind its own contents.
+    /// Box `b` made camera-relative and grown for an occlusion test (GPU or CPU): see
+    /// [`grow_for_test`].
     pub fn test_box(&self, b: &Aabb) -> (DVec3, DVec3) {
-        let (lo, hi) = (b.min.as_dvec3() - self.eye, b.max.as_dvec3() - self.eye);
-        let eps = (hi - lo).max_element() * 1e-6 + lo.abs().max(hi.abs()).max_element() * 1e-6 + self.eye.abs().max_element() * 2.4e-7;
-        (lo - eps, hi + eps)
+        grow_for_test(b.min.as_dvec3() - self.eye, b.max.as_dvec3() - self.eye, self.eye, self.focal_px)
     }
+}
+
+/// Pixels by which a tested box outgrows its silhouette ([`grow_for_test`]): 16 times the
+/// half step of an 8-bit sub-pixel grid, the coarsest Vulkan and D3D allow.
+pub const SNAP_PX: f64 = 1.0 / 32.0;
+
+/// Share of its distance by which a tested box reaches towards the eye ([`grow_for_test`]):
+/// 1/1024, 50 times the error measured on OpenArena.
+pub const DEPTH_MARGIN: f64 = 1.0 / 1024.0;
+
+/// A camera-relative box `lo..hi` as every occlusion test tests it (the GPU's exact and
+/// pyramid tests, the CPU pyramid, ovc), and as [`crate::frustum::Frustum::needs_no_test`]
+/// judges whether it can be tested at all. `eye`: the scene-local eye; `focal_px`: pixels per
+/// unit at unit distance. Conservative against three roundings:
+/// - f32: the corners go to the GPU as f32, and the geometry drawn into the depth buffer is
+///   made camera-relative in f32 with the eye rounded to f32 (draw.wgsl), up to two ulps of
+///   the eye's coordinates nearer than in f64. A relative epsilon, which also gives a flat box
+///   an area.
+/// - Vertex snapping: a rasteriser snaps every vertex to its sub-pixel grid (1/256 px on
+///   lavapipe), the box's and the geometry's independently, so a pixel centre within a snap of
+///   the box's silhouette, where its geometry touches it, can be covered by the geometry and
+///   missed by the box. Grown by [`SNAP_PX`] at the box's farthest point.
+/// - Depth extrapolated outside a triangle: a pixel centre just outside a thin triangle that
+///   snapping covers gets a depth from the triangle's plane, beyond its vertices' depths. On
+///   OpenArena a floor 2.6 km off, 0.55 px tall and seen 1.7 degrees off edge-on, covered one
+///   pixel 0.00025 px outside its triangles at a depth 2e-5 (relative) nearer than every vertex
+///   and than its own box: HC found the box hidden behind its own floor, which showed in
+///   frustum culling's frame. The box test's depth bias (64 steps, 1e-10 at that depth; no
+///   slope on a face seen head-on) is absolute; the box is reached towards the eye by
+///   [`DEPTH_MARGIN`] of its distance, which scales its depth by as much and leaves its
+///   silhouette as it is (a perspective projection does not change under scaling about the
+///   eye).
+pub fn grow_for_test(lo: DVec3, hi: DVec3, eye: DVec3, focal_px: f64) -> (DVec3, DVec3) {
+    let far = lo.abs().max(hi.abs());
+    let eps = (hi - lo).max_element() * 1e-6 + far.max_element() * 1e-6 + eye.abs().max_element() * 2.4e-7;
+    let snap = far.length() / focal_px * SNAP_PX;
+    let (lo, hi) = (lo - (eps + snap), hi + (eps + snap));
+    let s = 1.0 / (1.0 + DEPTH_MARGIN);
+    (lo.min(lo * s), hi.max(hi * s))
 }
 
 /// Near plane for a scene of diagonal `diag`: small enough that walking cameras never clip
@@ -95,4 +129,66 @@ pub fn near_for(diag: f64) -> f64 {
 /// The near plane every renderer uses for `scene`: [`near_for`] its root box's diagonal.
 pub fn near_of(scene: &osw_scene::SceneFile) -> f64 {
     near_for(scene.node(0).aabb().extent().length() as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hzb::Footprint;
+    use glam::{DQuat, Vec3};
+
+    /// Where `b` lands through `view` as it is tested (grown), and as it is:
+    /// (x0, y0, x1, y1, nearest reversed-Z depth) each.
+    fn footprints(view: &View, b: &Aabb) -> [(f64, f64, f64, f64, f64); 2] {
+        let vp = view.view_proj().as_dmat4();
+        let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of_box(&vp, view, b) else { panic!("box behind the eye") };
+        let mut raw = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY, 0.0f64);
+        for c in 0..8 {
+            let p = DVec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), b.max.as_dvec3(), b.min.as_dvec3()) - view.eye;
+            let q = vp * p.extend(1.0);
+            let (x, y) = ((q.x / q.w + 1.0) * 0.5 * view.width as f64, (1.0 - q.y / q.w) * 0.5 * view.height as f64);
+            raw = (raw.0.min(x), raw.1.min(y), raw.2.max(x), raw.3.max(y), raw.4.max(q.z / q.w));
+        }
+        [(x0, y0, x1, y1, nearest), raw]
+    }
+
+    #[test]
+    fn the_openarena_floor_reaches_nearer_than_its_own_fragment() {
+        // OpenArena's 68 maps, walk frame 59, 512x512: leaf 2850 (a floor 2.6 km off) drew
+        // pixel (339, 242) at depth 1.9080608e-5 (read back), nearer than its vertices, and its
+        // box as tested before reached only 1.9080248e-5 there: hidden behind itself.
+        let camera = Camera {
+            position: DVec3::new(1424.5834350585938, -79.783203125, 1188.7167358398438),
+            orientation: DQuat::from_xyzw(0.0, 0.7071067811865476, 0.0, -0.7071067811865476),
+            fovy_deg: 60.0,
+        };
+        let view = View::new(&camera, DVec3::new(2379.0, 30.0, 2004.0), 512, 512, 0.05);
+        let floor = Aabb { min: Vec3::new(1666.0974, -33.2512, -322.0577), max: Vec3::new(1679.1023, -30.0, -213.1425) };
+        let [(x0, y0, x1, y1, nearest), raw] = footprints(&view, &floor);
+        assert!(nearest >= 1.9080608e-5, "{nearest}");
+        assert!(x0 < 339.5 && 339.5 < x1 && y0 < 242.5 && 242.5 < y1, "{x0} {y0} {x1} {y1}");
+        // The box as it is does not.
+        assert!(raw.4 < 1.9080608e-5, "{raw:?}");
+    }
+
+    proptest::proptest! {
+        /// Any box in front of the eye is tested at least SNAP_PX pixels wider on each side and
+        /// DEPTH_MARGIN nearer (in reversed-Z depth) than it projects.
+        #[test]
+        fn a_tested_box_is_wider_by_the_snap_and_nearer_by_the_margin(
+            c in proptest::array::uniform3(-1e4f32..1e4),
+            e in proptest::array::uniform3(0.0f32..50.0),
+            eye in proptest::array::uniform3(-1e4f64..1e4),
+            dir in proptest::array::uniform3(-1.0f64..1.0),
+            fovy in 1.0f64..170.0,
+        ) {
+            let b = Aabb { min: Vec3::from(c), max: Vec3::from(c) + Vec3::from(e) };
+            let camera = Camera::look_along(DVec3::from(eye), DVec3::from(dir).try_normalize().unwrap_or(DVec3::X), fovy);
+            let view = View::new(&camera, DVec3::ZERO, 640, 480, 0.05);
+            proptest::prop_assume!(!view.frustum.needs_no_test(&b));
+            let [(a0, b0, a1, b1, n), (x0, y0, x1, y1, nearest)] = footprints(&view, &b);
+            proptest::prop_assert!(a0 <= x0 - SNAP_PX && b0 <= y0 - SNAP_PX && a1 >= x1 + SNAP_PX && b1 >= y1 + SNAP_PX);
+            proptest::prop_assert!(n >= nearest * (1.0 + DEPTH_MARGIN) * (1.0 - 1e-9), "{n} vs {nearest}");
+        }
+    }
 }

@@ -32,14 +32,28 @@ pub struct Object {
     pub mesh: Mesh,
     /// Object frame → world, in f64: world coordinates of a real model (site coordinates of a
     /// plant or a city, 1e6-1e9 units out) do not fit f32, so they are composed and kept in
-    /// f64 until the scene's origin is chosen. The identity once placed.
+    /// f64 until the scene's origin is chosen. At the model's own scale: its whole units of
+    /// translation are in `anchor`. The identity once placed.
     pub placement: glam::DAffine3,
+    /// Whole units added after `placement`: world = anchor + placement · p. Kept apart so that
+    /// nothing is composed at a large magnitude (see [`crate::place`]). Zero once placed.
+    pub anchor: glam::DVec3,
 }
 
 impl Object {
     /// An object whose mesh is already in world coordinates.
     pub fn new(name: impl Into<String>, mesh: Mesh) -> Object {
-        Object { name: name.into(), mesh, placement: glam::DAffine3::IDENTITY }
+        Object::placed(name, mesh, glam::DVec3::ZERO, glam::DAffine3::IDENTITY)
+    }
+
+    /// An object at `anchor + placement · p`; `anchor` whole units.
+    pub fn placed(name: impl Into<String>, mesh: Mesh, anchor: glam::DVec3, placement: glam::DAffine3) -> Object {
+        Object { name: name.into(), mesh, placement, anchor }
+    }
+
+    /// World position of vertex `p` of the mesh, in f64.
+    pub fn world(&self, p: [f32; 3]) -> glam::DVec3 {
+        self.anchor + self.placement.transform_point3(glam::Vec3::from_array(p).as_dvec3())
     }
 }
 

@@ -2,21 +2,53 @@
 //!
 //! Real models stand far from their file's origin (site coordinates of a plant, a ship yard or
 //! a city: 1e6-1e9 units out), where f32's spacing is 0.06-64 units. Every reader keeps
-//! positions as f32 in the object's own frame plus an f64 placement (a glTF node's world
-//! matrix composed in f64, a PLY or OBJ file's anchor, a generator's offset); only here, once
-//! the origin is known, does each vertex go to f32, as `placement · p − origin` evaluated in
-//! f64. The scene file stores the origin (see [`crate::format::Header::origin`]).
+//! positions as f32 in the object's own frame plus an f64 placement at the model's own scale
+//! and a whole-unit anchor (a glTF node's world matrix composed in f64 with its whole units
+//! taken out at each node, a PLY or OBJ file's anchor, a generator's offset); only here, once
+//! the origin is known, does each vertex go to f32, as `placement · p + (anchor − origin)`
+//! evaluated in f64. The scene file stores the origin (see [`crate::format::Header::origin`]).
 //!
-//! The origin is the centre of the world bounds rounded to whole units: a model moved by a
-//! whole number of units gets the same scene-local coordinates, bit for bit, as at the
-//! origin, so it builds into the same node table and renders the same frames.
+//! The origin is the centre of the world bounds rounded to whole units. Bounds are taken
+//! relative to an anchor and `anchor − origin` is a difference of whole numbers, so nothing is
+//! formed at the model's distance from the file's origin: a model moved by a whole number of
+//! units gets the same scene-local coordinates, bit for bit, as at the origin, whatever its own
+//! transforms, and so builds into the same node table and renders the same frames. (Forming
+//! `placement · p` at 1e7 first rounds to f64's spacing there, 1.9e-9, an occasional f32
+//! rounding of the local coordinate then flips, and the simplifier builds another mesh.)
 
 use crate::mesh::Object;
-use glam::{DAffine3, DVec3, Vec3};
+use glam::{DAffine3, DMat4, DVec3};
 use rayon::prelude::*;
 
-/// The scene origin for world bounds `min..max`: their centre rounded to whole units (0 for
-/// empty bounds).
+/// Bounds of world positions as `anchor + min .. anchor + max`, `anchor` whole units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub anchor: DVec3,
+    pub min: DVec3,
+    pub max: DVec3,
+}
+
+impl Bounds {
+    /// No positions.
+    pub const EMPTY: Bounds = Bounds { anchor: DVec3::ZERO, min: DVec3::INFINITY, max: DVec3::NEG_INFINITY };
+
+    /// Bounds given in world coordinates of small magnitude (a generator's).
+    pub fn world(min: DVec3, max: DVec3) -> Bounds {
+        Bounds { anchor: DVec3::ZERO, min, max }
+    }
+
+    /// The scene origin: the centre rounded to whole units (the anchor for empty bounds).
+    pub fn origin(&self) -> DVec3 {
+        self.anchor + origin_of(self.min, self.max)
+    }
+
+    /// The same bounds moved by whole units.
+    pub fn shifted(self, by: DVec3) -> Bounds {
+        Bounds { anchor: self.anchor + by, ..self }
+    }
+}
+
+/// The centre of `min..max` rounded to whole units (0 for empty bounds).
 pub fn origin_of(min: DVec3, max: DVec3) -> DVec3 {
     if min.cmpgt(max).any() {
         return DVec3::ZERO;
@@ -31,27 +63,40 @@ pub fn anchor(points: impl Iterator<Item = DVec3>) -> DVec3 {
     origin_of(min, max)
 }
 
-/// `points` as f32 relative to `anchor` (the placement that puts them back is a translation
-/// by `anchor`).
+/// `points` as f32 relative to `anchor` (the object's anchor; its placement the identity).
 pub fn relative(points: &[[f64; 3]], anchor: DVec3) -> Vec<[f32; 3]> {
     points.iter().map(|p| (DVec3::from_array(*p) - anchor).as_vec3().to_array()).collect()
+}
+
+/// Splits `m` into whole units of translation and the rest: `m = T(whole) · rest`, `rest`'s
+/// translation within half a unit of zero. Exact: `t − round(t)` is a difference of nearby
+/// f64s.
+pub fn split(m: DMat4) -> (DVec3, DMat4) {
+    let whole = m.w_axis.truncate().round();
+    let mut rest = m;
+    rest.w_axis -= whole.extend(0.0);
+    (whole, rest)
 }
 
 /// Moves every object into scene-local coordinates around the origin of their world bounds;
 /// returns the objects (placements now the identity) and the origin.
 pub fn place(mut objects: Vec<Object>) -> (Vec<Object>, DVec3) {
-    let (min, max) = world_bounds(&objects);
-    let origin = origin_of(min, max);
+    let origin = world_bounds(&objects).origin();
     to_local(&mut objects, origin);
     (objects, origin)
 }
 
-/// Bounds of the objects' finite world positions (placements applied).
-pub fn world_bounds(objects: &[Object]) -> (DVec3, DVec3) {
-    objects
+/// Bounds of the objects' finite world positions, relative to the first object's anchor.
+pub fn world_bounds(objects: &[Object]) -> Bounds {
+    let anchor = objects.first().map_or(DVec3::ZERO, |o| o.anchor);
+    let (min, max) = objects
         .par_iter()
-        .map(|o| bounds(o.mesh.positions.iter().map(|p| o.placement.transform_point3(Vec3::from_array(*p).as_dvec3()))))
-        .reduce(|| bounds(std::iter::empty()), |(a, b), (c, d)| (a.min(c), b.max(d)))
+        .map(|o| {
+            let shift = o.anchor - anchor;
+            bounds(o.mesh.positions.iter().map(|p| o.placement.transform_point3(glam::Vec3::from_array(*p).as_dvec3()) + shift))
+        })
+        .reduce(|| bounds(std::iter::empty()), |(a, b), (c, d)| (a.min(c), b.max(d)));
+    Bounds { anchor, min, max }
 }
 
 /// Moves objects into scene-local coordinates around `origin` (placements become the
@@ -59,15 +104,15 @@ pub fn world_bounds(objects: &[Object]) -> (DVec3, DVec3) {
 /// clean-up reports by object.
 pub fn to_local(objects: &mut [Object], origin: DVec3) {
     objects.par_iter_mut().for_each(|o| {
-        let to_local = DAffine3::from_translation(-origin) * o.placement;
-        if to_local != DAffine3::IDENTITY {
+        // Whole units: exact.
+        let shift = o.anchor - origin;
+        if o.placement != DAffine3::IDENTITY || shift != DVec3::ZERO {
             for p in &mut o.mesh.positions {
-                // Translation last and in f64: `placement · p` first, then `− origin`.
-                let w = o.placement.transform_point3(Vec3::from_array(*p).as_dvec3());
-                *p = (w - origin).as_vec3().to_array();
+                let local = o.placement.transform_point3(glam::Vec3::from_array(*p).as_dvec3());
+                *p = (local + shift).as_vec3().to_array();
             }
         }
-        o.placement = DAffine3::IDENTITY;
+        (o.placement, o.anchor) = (DAffine3::IDENTITY, DVec3::ZERO);
     });
 }
 
@@ -80,9 +125,10 @@ fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
 mod tests {
     use super::*;
     use crate::mesh::Mesh;
+    use glam::Vec3;
 
-    fn object(points: &[[f32; 3]], placement: DAffine3) -> Object {
-        Object { name: "o".into(), mesh: Mesh { positions: points.to_vec(), indices: vec![0, 1, 2], colors: Vec::new() }, placement }
+    fn object(points: &[[f32; 3]], anchor: DVec3, placement: DAffine3) -> Object {
+        Object::placed("o", Mesh { positions: points.to_vec(), indices: vec![0, 1, 2], colors: Vec::new() }, anchor, placement)
     }
 
     #[test]
@@ -95,26 +141,38 @@ mod tests {
     }
 
     #[test]
-    fn a_whole_unit_shift_gives_the_same_local_coordinates() {
-        // Coordinates with bits far below f32's spacing at 1e7 (1 unit). `placement · p` is
-        // exact in f64 when p is a multiple of f64's spacing at the shift (2^-29 at 1e7: any f32
-        // of magnitude 2^-6 or more), and then so is every later step.
+    fn a_whole_unit_shift_gives_the_same_local_coordinates_whatever_the_transform() {
+        // A placement with a rotation, a non-uniform scale and fractional offsets: composed at
+        // 1e7 (f64 spacing 1.9e-9) its products would round differently from those at the
+        // origin; kept at the model's scale with the shift in the anchor they are the same.
         let pts = [[0.123_456_7, -3.000_001, 17.25], [5.5, 0.031_25, -2.0e-2], [-7.75, 0.0, 3.3]];
-        let (near, o0) = place(vec![object(&pts, DAffine3::IDENTITY)]);
-        let t = DVec3::new(1e7, 1e7, -1e7);
-        let (far, o1) = place(vec![object(&pts, DAffine3::from_translation(t))]);
-        assert_eq!(o1 - o0, t);
-        assert_eq!(far[0].mesh.positions, near[0].mesh.positions);
-        assert_eq!(far[0].placement, DAffine3::IDENTITY);
-        // At 1e9 f64's spacing is 2^-23: small coordinates may move by one f32 step, no more.
-        let t = DVec3::new(-1e9, 1e9, 1e9);
-        let (far, o1) = place(vec![object(&pts, DAffine3::from_translation(t))]);
-        assert_eq!(o1 - o0, t);
-        for (a, b) in far[0].mesh.positions.iter().zip(&near[0].mesh.positions) {
-            for (x, y) in a.iter().zip(b) {
-                assert!((x - y).abs() <= y.abs().max(1.0) * f32::EPSILON, "{a:?} vs {b:?}");
+        let m = DAffine3::from_scale_rotation_translation(
+            DVec3::new(0.3048, 1.7, 0.01),
+            glam::DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 2.9),
+            DVec3::new(0.123_456_789, -17.000_000_1, 3.141_592_653_589_793),
+        );
+        let (near, o0) = place(vec![object(&pts, DVec3::ZERO, m), object(&pts, DVec3::new(3.0, 0.0, -2.0), m)]);
+        for t in [DVec3::new(1e7, 1e7, -1e7), DVec3::new(-1e9, 1e9, 1e9), DVec3::new(4_503_599_627_370_496.0, 0.0, -1.0)] {
+            let (far, o1) = place(vec![object(&pts, t, m), object(&pts, t + DVec3::new(3.0, 0.0, -2.0), m)]);
+            assert_eq!(o1 - o0, t);
+            for (a, b) in far.iter().zip(&near) {
+                assert_eq!(a.mesh.positions, b.mesh.positions, "shift {t}");
+                assert_eq!((a.placement, a.anchor), (DAffine3::IDENTITY, DVec3::ZERO));
             }
         }
+    }
+
+    #[test]
+    fn split_takes_out_whole_units_exactly() {
+        let m = DMat4::from_scale_rotation_translation(
+            DVec3::splat(2.5),
+            glam::DQuat::from_rotation_y(0.7),
+            DVec3::new(1e7 + 0.625, -3.5, 0.25),
+        );
+        let (whole, rest) = split(m);
+        assert_eq!(whole, DVec3::new(1e7 + 1.0, -4.0, 0.0));
+        assert_eq!(rest.w_axis.truncate(), DVec3::new(-0.375, 0.5, 0.25));
+        assert_eq!(rest.x_axis, m.x_axis);
     }
 
     #[test]
@@ -123,7 +181,7 @@ mod tests {
         let pts = [[0.1f32, 0.0, 0.0], [0.4, 0.0, 0.0], [0.1, 0.3, 0.0]];
         let world: Vec<Vec3> = pts.iter().map(|p| Vec3::from_array(*p) + Vec3::splat(1e7)).collect();
         assert_eq!((world[1] - world[0]).cross(world[2] - world[0]).length_squared(), 0.0);
-        let (placed, _) = place(vec![object(&pts, DAffine3::from_translation(DVec3::splat(1e7)))]);
+        let (placed, _) = place(vec![object(&pts, DVec3::splat(1e7), DAffine3::IDENTITY)]);
         let v: Vec<Vec3> = placed[0].mesh.positions.iter().map(|p| Vec3::from_array(*p)).collect();
         assert!((v[1] - v[0]).cross(v[2] - v[0]).length() > 0.08);
     }

@@ -4,6 +4,7 @@
 //! ([`crate::place`]), and every vertex goes to scene-local f32 as it arrives.
 
 use crate::mesh::Object;
+use crate::place::Bounds;
 use glam::{DAffine3, DVec3};
 
 /// A stream of objects in world coordinates.
@@ -11,7 +12,7 @@ pub trait Source: Send {
     /// Bounds of the world positions the stream will give (each object's placement applied).
     /// They may be larger than the true bounds: the origin only has to be a whole-unit point
     /// that moves with the model.
-    fn world_bounds(&self) -> (DVec3, DVec3);
+    fn world_bounds(&self) -> Bounds;
     /// About how many triangles the stream will give (for progress).
     fn triangles_hint(&self) -> u64;
     /// The next batch, None at the end. Batches come in the same order for the same input.
@@ -24,7 +25,7 @@ pub const BATCH_TRIANGLES: u64 = 1 << 20;
 /// Objects already in memory (an imported file, a small generated scene), streamed in batches.
 pub struct InMemory {
     objects: std::vec::IntoIter<Object>,
-    bounds: (DVec3, DVec3),
+    bounds: Bounds,
     triangles: u64,
 }
 
@@ -39,7 +40,7 @@ impl InMemory {
 }
 
 impl Source for InMemory {
-    fn world_bounds(&self) -> (DVec3, DVec3) {
+    fn world_bounds(&self) -> Bounds {
         self.bounds
     }
 
@@ -60,16 +61,17 @@ impl Source for InMemory {
 }
 
 /// Another source moved by `by` in the world (`osw build --offset`), in f64 like a model's own
-/// coordinates.
+/// coordinates: its whole units join each object's anchor, the rest its placement.
 pub struct Shifted<S> {
     pub inner: S,
     pub by: DVec3,
 }
 
 impl<S: Source> Source for Shifted<S> {
-    fn world_bounds(&self) -> (DVec3, DVec3) {
-        let (min, max) = self.inner.world_bounds();
-        (min + self.by, max + self.by)
+    fn world_bounds(&self) -> Bounds {
+        let (whole, rest) = (self.by.round(), self.by - self.by.round());
+        let b = self.inner.world_bounds();
+        Bounds { min: b.min + rest, max: b.max + rest, ..b.shifted(whole) }
     }
 
     fn triangles_hint(&self) -> u64 {
@@ -77,15 +79,15 @@ impl<S: Source> Source for Shifted<S> {
     }
 
     fn next_batch(&mut self) -> Option<Vec<Object>> {
-        let shift = DAffine3::from_translation(self.by);
+        let (whole, rest) = (self.by.round(), DAffine3::from_translation(self.by - self.by.round()));
         let mut batch = self.inner.next_batch()?;
-        batch.iter_mut().for_each(|o| o.placement = shift * o.placement);
+        batch.iter_mut().for_each(|o| (o.anchor, o.placement) = (o.anchor + whole, rest * o.placement));
         Some(batch)
     }
 }
 
 impl<S: Source + ?Sized> Source for Box<S> {
-    fn world_bounds(&self) -> (DVec3, DVec3) {
+    fn world_bounds(&self) -> Bounds {
         (**self).world_bounds()
     }
 

@@ -36,8 +36,7 @@ pub fn stream(
     times: &mut Times,
     progress: &dyn Progress,
 ) -> Result<Streamed, BuildError> {
-    let (min, max) = source.world_bounds();
-    let origin = crate::place::origin_of(min, max);
+    let origin = source.world_bounds().origin();
     let mut spill = Spill::create(out).map_err(|e| BuildError::temp(out, e))?;
     let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
     let (mut chunks, mut closed_objects) = (Vec::new(), Vec::new());

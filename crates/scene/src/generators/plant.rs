@@ -13,7 +13,7 @@ use super::shapes::{add_box, cylinder, lathe, rounded, tube};
 use super::triangles_of;
 use crate::mesh::{Mesh, Object};
 use crate::source::Source;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -85,12 +85,12 @@ impl Site {
 }
 
 impl Source for Site {
-    fn world_bounds(&self) -> (DVec3, DVec3) {
+    fn world_bounds(&self) -> crate::place::Bounds {
         let size = self.size();
         let last = self.corners.iter().fold(Vec3::ZERO, |m, c| m.max(*c));
         let min = Vec3::new(-WALL, 0.0, -WALL);
         let max = last + Vec3::new(size.x + WALL, FLOORS as f32 * FLOOR, size.z + WALL);
-        (min.as_dvec3(), max.as_dvec3())
+        crate::place::Bounds::world(min.as_dvec3(), max.as_dvec3())
     }
 
     fn triangles_hint(&self) -> u64 {
@@ -290,10 +290,10 @@ mod tests {
     fn a_site_streams_buildings_side_by_side_within_its_bounds() {
         for (triangles, building) in [(60_000, BUILDING_TRIANGLES), (150_000, 40_000)] {
             let mut site = Site::sized(triangles, 7, building);
-            let (min, max) = site.world_bounds();
+            let crate::place::Bounds { min, max, .. } = site.world_bounds();
             let batches: Vec<Vec<Object>> = std::iter::from_fn(|| site.next_batch()).collect();
             let objects: Vec<Object> = batches.into_iter().flatten().collect();
-            let (lo, hi) = world_bounds(&objects);
+            let crate::place::Bounds { min: lo, max: hi, .. } = world_bounds(&objects);
             assert!(lo.cmpge(min).all() && hi.cmple(max).all(), "{lo}..{hi} outside {min}..{max}");
             // The declared bounds are tight: within a pipe's reach of the true ones.
             assert!((lo - min).max_element() < 1.0 && (max - hi).max_element() < 1.0, "{lo}..{hi} vs {min}..{max}");

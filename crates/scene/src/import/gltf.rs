@@ -47,34 +47,39 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
         None => doc.nodes().filter(|n| !doc.nodes().any(|p| p.children().any(|c| c.index() == n.index()))).collect(),
     };
     let mut out = Imported::default();
-    let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots.into_iter().map(|n| (n, DMat4::IDENTITY, 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
+    // Each node's world transform as whole units (the anchor) after the rest: the whole units
+    // are taken out at every node, so that a model under a parent translated far away is
+    // composed at its own scale, as at the origin (see crate::place).
+    let mut stack: Vec<(gltf::Node, DVec3, DMat4, usize)> = roots.into_iter().map(|n| (n, DVec3::ZERO, DMat4::IDENTITY, 0)).collect();
+    while let Some((node, anchor, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err("node hierarchy deeper than 256 (a cycle?)".into());
         }
         let raw_node = raw.nodes.get(node.index()).ok_or("node table unreadable")?;
-        let world = parent * raw_node.local();
-        if !world.is_finite() {
+        let (whole, world) = crate::place::split(parent * raw_node.local());
+        let anchor = anchor + whole;
+        if !world.is_finite() || !anchor.is_finite() {
             return Err(format!("node {} has a non-finite transform", node.index()));
         }
         if let Some(mesh) = node.mesh() {
             let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| format!("mesh {}: {e}", mesh.index()))?;
             let name = node.name().or(mesh.name()).map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
             match &raw_node.extensions.instancing {
-                None => out.objects.push(Object { name, mesh: m, placement: DAffine3::from_mat4(world) }),
+                None => out.objects.push(Object::placed(name, m, anchor, DAffine3::from_mat4(world))),
                 Some(inst) => {
                     let at = |e: String| format!("node {} EXT_mesh_gpu_instancing: {e}", node.index());
                     for (k, t) in instances(inst, &doc, &buffers).map_err(at)?.into_iter().enumerate() {
-                        let placement = DAffine3::from_mat4(world * t);
-                        if !placement.is_finite() {
+                        let (whole, placement) = crate::place::split(world * t);
+                        if !placement.is_finite() || !whole.is_finite() {
                             return Err(at(format!("instance {k} has a non-finite transform")));
                         }
-                        out.objects.push(Object { name: format!("{name} instance {k}"), mesh: m.clone(), placement });
+                        let placement = DAffine3::from_mat4(placement);
+                        out.objects.push(Object::placed(format!("{name} instance {k}"), m.clone(), anchor + whole, placement));
                     }
                 }
             }
         }
-        stack.extend(node.children().map(|c| (c, world, depth + 1)));
+        stack.extend(node.children().map(|c| (c, anchor, world, depth + 1)));
     }
     Ok(out)
 }

@@ -53,7 +53,7 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, S
                 mesh.paint([c(0), c(1), c(2), 255]);
             }
             let name = if m.name.is_empty() { format!("object {i}") } else { m.name };
-            Object { name, mesh, placement: DAffine3::from_translation(anchor) }
+            Object::placed(name, mesh, anchor, DAffine3::IDENTITY)
         })
         .collect();
     Ok(Imported { objects, skipped: Vec::new() })

@@ -215,7 +215,7 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
     }
     let anchor = crate::place::anchor(positions.iter().map(|p| glam::DVec3::from_array(*p)));
     let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices, colors };
-    Ok(Object { name: String::new(), mesh, placement: glam::DAffine3::from_translation(anchor) })
+    Ok(Object::placed("", mesh, anchor, glam::DAffine3::IDENTITY))
 }
 
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
@@ -254,7 +254,7 @@ mod tests {
 
     /// World positions of a parsed object (its placement applied in f64).
     fn world(o: &Object) -> Vec<[f64; 3]> {
-        o.mesh.positions.iter().map(|p| o.placement.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).to_array()).collect()
+        o.mesh.positions.iter().map(|p| o.world(*p).to_array()).collect()
     }
 
     #[test]
