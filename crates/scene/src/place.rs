@@ -29,9 +29,6 @@ pub struct Bounds {
 }
 
 impl Bounds {
-    /// No positions.
-    pub const EMPTY: Bounds = Bounds { anchor: DVec3::ZERO, min: DVec3::INFINITY, max: DVec3::NEG_INFINITY };
-
     /// Bounds given in world coordinates of small magnitude (a generator's).
     pub fn world(min: DVec3, max: DVec3) -> Bounds {
         Bounds { anchor: DVec3::ZERO, min, max }
@@ -40,11 +37,6 @@ impl Bounds {
     /// The scene origin: the centre rounded to whole units (the anchor for empty bounds).
     pub fn origin(&self) -> DVec3 {
         self.anchor + origin_of(self.min, self.max)
-    }
-
-    /// The same bounds moved by whole units.
-    pub fn shifted(self, by: DVec3) -> Bounds {
-        Bounds { anchor: self.anchor + by, ..self }
     }
 }
 

@@ -71,7 +71,7 @@ impl<S: Source> Source for Shifted<S> {
     fn world_bounds(&self) -> Bounds {
         let (whole, rest) = (self.by.round(), self.by - self.by.round());
         let b = self.inner.world_bounds();
-        Bounds { min: b.min + rest, max: b.max + rest, ..b.shifted(whole) }
+        Bounds { anchor: b.anchor + whole, min: b.min + rest, max: b.max + rest }
     }
 
     fn triangles_hint(&self) -> u64 {
