@@ -75,7 +75,7 @@ mod tests {
             let o = glam::Vec3::new((i % 10) as f32 * 3.0, (i / 10) as f32 * 2.0, (i % 4) as f32);
             add_box(&mut m, o, o + glam::Vec3::new(1.0, 0.5 + (i % 3) as f32, 1.5));
         }
-        let (indices, clusters) = osw_scene::cluster::clusterize(&m, None);
+        let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
         let geometry = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
         let view_at = |eye: DVec3| View::new(&Camera::look_at(eye, DVec3::new(15.0, 5.0, 2.0), 60.0), DVec3::ZERO, 128, 96, 0.05);
         let direct = |view: &View, tests: ClusterTests, base: u32| {

@@ -44,6 +44,9 @@ pub struct HcStats {
     pub untested: u32,
     pub frustum_culled: u32,
     pub occlusion_culled: u32,
+    /// Triangles of the nodes occlusion culled (a BVH node's at full detail): what culling
+    /// kept from RVG, for judging whether it pays (crate::payoff).
+    pub culled_triangles: u64,
     /// Groups that stopped at their HLOD because few of their pixels are visible.
     pub pixel_stops: u32,
     /// Boxes seen but counted as occluded by adaptive culling (paper 003 eq. 1).
@@ -139,6 +142,7 @@ fn traverse(
                 refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
             } else {
                 stats.occlusion_culled += 1;
+                stats.culled_triangles += nodes[id as usize].triangles as u64;
             }
         }
         // Occluders where OR drew none (a region came into view): the PVS's new LODs, for

@@ -26,6 +26,7 @@ pub mod gathered;
 pub mod hc;
 pub mod hzb;
 pub mod ovc;
+pub mod payoff;
 pub mod retest;
 pub mod states;
 pub mod tester;

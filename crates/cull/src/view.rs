@@ -159,7 +159,7 @@ mod tests {
         // box as tested before reached only 1.9080248e-5 there: hidden behind itself.
         let camera = Camera {
             position: DVec3::new(1424.5834350585938, -79.783203125, 1188.7167358398438),
-            orientation: DQuat::from_xyzw(0.0, 0.7071067811865476, 0.0, -0.7071067811865476),
+            orientation: DQuat::from_xyzw(0.0, std::f64::consts::FRAC_1_SQRT_2, 0.0, -std::f64::consts::FRAC_1_SQRT_2),
             fovy_deg: 60.0,
         };
         let view = View::new(&camera, DVec3::new(2379.0, 30.0, 2004.0), 512, 512, 0.05);

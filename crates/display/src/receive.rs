@@ -127,7 +127,7 @@ impl Frames {
                 Message::EndOfFrame(e) if e.frame == i => {
                     row.bytes += bytes;
                     row.hc_ms = e.stats.hc_us as f64 / 1e3;
-                    row.tests = e.stats.tests;
+                    (row.tests, row.cull_skipped) = (e.stats.tests, u32::from(e.stats.cull_skipped));
                     let (hc, cam) = source.expect("from the source");
                     // Every stamp on the display's clock. The end of frame is stamped when HC
                     // queues it, behind the frame's deltas: its link time includes sending them.

@@ -38,6 +38,7 @@ pub fn write_outputs(
         triangles_drawn_mean: mean(|r| r.triangles_drawn as f64),
         pvs_nodes_mean: mean(|r| r.pvs_nodes as f64),
         tests_mean: mean(|r| r.tests as f64),
+        cull_skipped_frames: rows.iter().map(|r| r.cull_skipped as u64).sum(),
         clusters_mean: mean(|r| r.clusters as f64),
         clusters_frustum_culled_fraction: share(|r| r.clusters_frustum_culled),
         clusters_cone_culled_fraction: share(|r| r.clusters_cone_culled),

@@ -2,7 +2,8 @@
 //! vertex carrying its node's id, which picks the node's object from a per-node table. Passes:
 //! colour + depth (RVG), depth only (OR's occluders), item ids + depth (exact visibility). All
 //! use the same vertex shader, so a node covers the same pixels at the same depth in every
-//! pass.
+//! pass. A block's translucent clusters are a second layer: blended over the colour (or written
+//! over the item ids), depth tested but never written, and never drawn in the depth pass.
 
 use crate::target::{COLOR, DEPTH, ITEM};
 use bytemuck::{Pod, Zeroable};
@@ -16,6 +17,14 @@ pub enum Pass {
     Tinted([u8; 3]),
     Depth,
     Item,
+}
+
+/// Which of a node's clusters a draw takes (see `osw_scene::format::BlockRecord::opaque_clusters`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layer {
+    Opaque,
+    /// Depth tested, not written; colour passes blend with the model's alpha.
+    Translucent,
 }
 
 /// The view uniform shared by all shaders: 96 bytes.
@@ -50,6 +59,8 @@ pub struct DrawPipelines {
     pub color: wgpu::RenderPipeline,
     pub depth: wgpu::RenderPipeline,
     pub item: wgpu::RenderPipeline,
+    pub blend: wgpu::RenderPipeline,
+    pub item_over: wgpu::RenderPipeline,
 }
 
 pub fn depth_state(write: bool, compare: wgpu::CompareFunction) -> wgpu::DepthStencilState {
@@ -99,15 +110,16 @@ impl DrawPipelines {
             step_mode: wgpu::VertexStepMode::Vertex,
             attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32, 2 => Unorm8x4],
         })];
-        let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>| {
-            let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend: None, write_mask: wgpu::ColorWrites::ALL })]);
+        let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>, layer: Layer| {
+            let blend = (layer == Layer::Translucent && fs.is_some_and(|(_, f)| f == COLOR)).then_some(wgpu::BlendState::ALPHA_BLENDING);
+            let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend, write_mask: wgpu::ColorWrites::ALL })]);
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&pl),
                 vertex: wgpu::VertexState { module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &vbuf },
                 // No back-face culling: imported models are not reliably closed or wound.
                 primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
-                depth_stencil: Some(depth_state(true, wgpu::CompareFunction::Greater)),
+                depth_stencil: Some(depth_state(layer == Layer::Opaque, wgpu::CompareFunction::Greater)),
                 multisample: Default::default(),
                 fragment: fs.map(|(entry, _)| wgpu::FragmentState {
                     module,
@@ -120,18 +132,24 @@ impl DrawPipelines {
             })
         };
         DrawPipelines {
-            color: make("draw color", &module, Some(("fs_color", COLOR))),
-            depth: make("draw depth", &module, None),
-            item: make("draw item", &item_module, Some(("fs_item", ITEM))),
+            color: make("draw color", &module, Some(("fs_color", COLOR)), Layer::Opaque),
+            depth: make("draw depth", &module, None, Layer::Opaque),
+            item: make("draw item", &item_module, Some(("fs_item", ITEM)), Layer::Opaque),
+            blend: make("draw blend", &module, Some(("fs_blend", COLOR)), Layer::Translucent),
+            item_over: make("draw item over", &item_module, Some(("fs_item", ITEM)), Layer::Translucent),
             layout,
         }
     }
 
-    pub fn pipeline(&self, pass: Pass) -> &wgpu::RenderPipeline {
-        match pass {
-            Pass::Color | Pass::Tinted(_) => &self.color,
-            Pass::Depth => &self.depth,
-            Pass::Item => &self.item,
+    /// The pipeline of `pass` for `layer`; translucent clusters are never drawn into depth
+    /// alone (they occlude nothing), so the depth pass has one.
+    pub fn pipeline(&self, pass: Pass, layer: Layer) -> &wgpu::RenderPipeline {
+        match (pass, layer) {
+            (Pass::Color | Pass::Tinted(_), Layer::Opaque) => &self.color,
+            (Pass::Color | Pass::Tinted(_), Layer::Translucent) => &self.blend,
+            (Pass::Depth, _) => &self.depth,
+            (Pass::Item, Layer::Opaque) => &self.item,
+            (Pass::Item, Layer::Translucent) => &self.item_over,
         }
     }
 }

@@ -30,7 +30,8 @@ pub struct ExactFrame {
     /// BVH nodes whose geometry is visible, sorted: leaves, and at tau > 0 also groups shown
     /// by their HLOD.
     pub leaves: Vec<NodeId>,
-    /// Distinct visible triangles.
+    /// Distinct visible triangles (a translucent one counts where it is the nearest translucent
+    /// surface in some pixel).
     pub triangles: u64,
     /// Triangles of the clusters that hold a visible triangle: the fewest that culling whole
     /// clusters can draw, however exact its tests (issue 16). `None` when the item buffer was
@@ -72,16 +73,33 @@ impl Renderer {
         let scene = std::sync::Arc::clone(&self.scene);
         let ids = drawn(&scene, view, tau, reference);
         let drawn = self.draw(view, &ids, Pass::Item, true)?;
-        let mut items: Vec<[u32; 2]> = self.target.read_item(&self.gpu)?.into_iter().filter(|i| i[0] != 0).collect();
-        items.sort_unstable();
-        items.dedup();
+        let pass = std::mem::take(&mut self.indices);
+        let items = self.read_items()?;
         let mut leaves: Vec<NodeId> = items.iter().map(|i| scene.node(i[0] - 1).parent).collect();
+        // Translucent surfaces are not in the depth buffer: what lies behind them was found
+        // above. They are visible where a triangle of theirs passes the depth test; a pass
+        // keeps only the last of overlapping ones, so passes repeat without the nodes found
+        // until one finds none.
+        let mut translucent: Vec<NodeId> = ids.iter().copied().filter(|&id| scene.has_translucent(id)).collect();
+        let (mut translucent_triangles, mut drawn_triangles, mut first) = (0, drawn.triangles, true);
+        while !translucent.is_empty() {
+            let round = self.draw_translucent(view, &translucent, Pass::Item, true)?;
+            drawn_triangles += if std::mem::take(&mut first) { round.triangles } else { 0 };
+            let found = self.read_items()?;
+            if found.is_empty() {
+                break;
+            }
+            translucent_triangles += found.len() as u64;
+            let mut nodes: Vec<NodeId> = found.iter().map(|i| i[0] - 1).collect();
+            nodes.dedup();
+            leaves.extend(nodes.iter().map(|&id| scene.node(id).parent));
+            translucent.retain(|id| nodes.binary_search(id).is_err());
+        }
         leaves.sort_unstable();
         leaves.dedup();
         // The floors need the pass's triangles numbered as one draw numbered them.
         let (mut cluster_triangles, mut visible_draw_ms, mut cluster_draw_ms) = (None, None, None);
         if drawn.draws == 1 {
-            let pass = std::mem::take(&mut self.indices);
             if let Some(clusters) = visible_clusters(&scene, &ids, &items)? {
                 cluster_triangles = Some(clusters.iter().map(|c| c.len() as u64).sum());
                 cluster_draw_ms = Some(self.draw_of_item_pass(view, &pass, clusters.into_iter().flatten())?);
@@ -90,12 +108,20 @@ impl Renderer {
         }
         Ok(ExactFrame {
             leaves,
-            triangles: items.len() as u64,
+            triangles: items.len() as u64 + translucent_triangles,
             cluster_triangles,
-            drawn_triangles: drawn.triangles,
+            drawn_triangles,
             visible_draw_ms,
             cluster_draw_ms,
         })
+    }
+
+    /// The distinct [node id + 1, triangle index] pairs left in the item buffer, sorted.
+    fn read_items(&self) -> Result<Vec<[u32; 2]>, RenderError> {
+        let mut items: Vec<[u32; 2]> = self.target.read_item(&self.gpu)?.into_iter().filter(|i| i[0] != 0).collect();
+        items.sort_unstable();
+        items.dedup();
+        Ok(items)
     }
 
     /// Draws in colour the triangles of the item pass (its indices `pass`) that `triangles`
@@ -106,15 +132,15 @@ impl Renderer {
         self.indices.clear();
         self.indices.extend(triangles.flat_map(|t| &pass[t as usize * 3..t as usize * 3 + 3]));
         let start = std::time::Instant::now();
-        self.submit(view, Pass::Color, true, &mut Default::default())?;
+        self.submit(view, Pass::Color, crate::draw::Layer::Opaque, true, &mut Default::default())?;
         // Done, also when the renderer keeps a draw in flight (`Renderer::overlap`).
         self.gpu.wait()?;
         Ok(start.elapsed().as_secs_f64() * 1e3)
     }
 }
 
-/// The triangles, numbered as in the one draw of `ids` (which drew each block whole and in
-/// order), of the clusters holding the visible `items` (sorted [node id + 1, triangle index]),
+/// The triangles, numbered as in the one draw of `ids` (which drew each block's opaque
+/// clusters whole and in order), of the clusters holding the visible `items` (sorted [node id + 1, triangle index]),
 /// in that order; `None` if an index falls outside its node's triangles.
 fn visible_clusters(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> Result<Option<Vec<Range<u32>>>, RenderError> {
     let mut clusters = Vec::new();
@@ -122,7 +148,7 @@ fn visible_clusters(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> Re
     let mut at = 0;
     for &id in ids {
         let g = scene.geometry(id)?;
-        let end = first + g.indices.len() as u64 / 3;
+        let end = first + g.opaque_indices() as u64 / 3;
         let mut last = None;
         while at < items.len() && items[at][0] == id + 1 {
             let t = items[at][1] as u64;

@@ -4,7 +4,7 @@
 
 use crate::boxtest::{BoxTestPipelines, GpuBox};
 use crate::device::{Gpu, GpuError};
-use crate::draw::{DrawPipelines, Pass, ViewUniform};
+use crate::draw::{DrawPipelines, Layer, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
@@ -245,11 +245,21 @@ impl Renderer {
     /// One draw call: the nodes' indices, read from the mapped file and offset to their
     /// vertices in the arena, are gathered in the given order (so triangles rasterise in the
     /// same order as one draw per node would, and depth ties resolve alike), less the clusters
-    /// that the frustum and cone tests skip (none in the item pass).
+    /// that the frustum and cone tests skip (none in the item pass). Colour passes then blend
+    /// the nodes' translucent clusters over it ([`Renderer::draw_translucent`]); the depth and
+    /// item passes draw only the opaque ones.
     pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+        let opaque = self.draw_opaque(view, ids, pass, clear)?;
+        match pass {
+            Pass::Color | Pass::Tinted(_) => Ok(opaque.add(self.draw_translucent(view, ids, pass, false)?)),
+            Pass::Depth | Pass::Item => Ok(opaque),
+        }
+    }
+
+    fn draw_opaque(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.cluster_tests };
         let drawn = self.gather(view, ids, tests, None).and_then(|mut stats| {
-            self.submit(view, pass, clear, &mut stats)?;
+            self.submit(view, pass, Layer::Opaque, clear, &mut stats)?;
             Ok(stats)
         });
         match drawn {
@@ -260,13 +270,46 @@ impl Renderer {
                 // Nothing of the failed attempt was submitted, and everything submitted before
                 // it precedes any upload on the queue: all of it may make room now.
                 self.residency.next_epoch();
-                let first = self.draw(view, a, pass, clear)?;
+                let first = self.draw_opaque(view, a, pass, clear)?;
                 self.residency.next_epoch();
-                let second = self.draw(view, b, pass, false)?;
+                let second = self.draw_opaque(view, b, pass, false)?;
                 Ok(first.add(second))
             }
             r => r,
         }
+    }
+
+    /// The translucent clusters of `ids` over what is drawn: depth tested against it, never
+    /// written, blended in a colour pass. The nodes go far to near by their box centres, ties
+    /// by id, so that every mode blends the surfaces it shares with another in the same order
+    /// (a node one mode culls is hidden, and blends nothing in the other). `clear` clears the
+    /// colour (or item ids) only, keeping the depth.
+    pub fn draw_translucent(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+        let scene = Arc::clone(&self.scene);
+        let mut order: Vec<(f32, NodeId)> = ids
+            .iter()
+            .filter(|&&id| scene.has_translucent(id))
+            .map(|&id| (view.relative(scene.node(id).aabb().center()).length_squared(), id))
+            .collect();
+        let mut stats = DrawStats::default();
+        if order.is_empty() && !clear {
+            return Ok(stats);
+        }
+        order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let tests = if pass == Pass::Item { ClusterTests::NONE } else { ClusterTests { occlusion: false, ..self.cluster_tests } };
+        self.indices.clear();
+        for (_, id) in order {
+            let base = self.residency.ensure(&self.gpu, &scene, id)?;
+            let g = scene.geometry(id)?;
+            let (out, s, clusters) = (&mut self.indices, &mut stats.clusters, &g.clusters[g.opaque..]);
+            match g.indices {
+                Indices::U16(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
+                Indices::U32(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
+            }
+            stats.nodes += 1;
+        }
+        self.submit(view, pass, Layer::Translucent, clear, &mut stats)?;
+        Ok(stats)
     }
 
     /// RVG's draw of the visible set with occlusion culling of clusters, in two passes as in
@@ -289,7 +332,7 @@ impl Renderer {
             return self.draw(view, ids, pass, true);
         }
         let mut first = self.gather(view, ids, tests, Some(&mut |id, k, _| history.was_visible(id, k)))?;
-        self.submit(view, pass, true, &mut first)?;
+        self.submit(view, pass, Layer::Opaque, true, &mut first)?;
         // Every cluster that passes the frustum and cone tests, its box tested against the
         // farthest-depth pyramid of what the first pass drew (boxes around the eye or across
         // the near plane count as visible, as in HC); the second pass draws those visible
@@ -312,7 +355,7 @@ impl Renderer {
                 false
             }),
         )?;
-        self.submit(view, pass, false, &mut stats)?;
+        self.submit(view, pass, Layer::Opaque, false, &mut stats)?;
         history.end_frame();
         stats.triangles += first.triangles;
         stats.fragments += first.fragments;
@@ -320,12 +363,12 @@ impl Renderer {
         // The triangle tests ran on what the two passes drew.
         stats.clusters.backface_culled += first.clusters.backface_culled;
         stats.clusters.small_culled += first.clusters.small_culled;
-        Ok(stats)
+        Ok(stats.add(self.draw_translucent(view, ids, pass, false)?))
     }
 
-    /// Gathers into `self.indices` the indices of the clusters of `ids` that pass `tests` and
-    /// `select(node, cluster index, cluster)` (all, through the indices kept for this view, when
-    /// `None`), less the triangles `tests` drop, making the nodes resident.
+    /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`
+    /// and `select(node, cluster index, cluster)` (all, through the indices kept for this view,
+    /// when `None`), less the triangles `tests` drop, making the nodes resident.
     fn gather(
         &mut self,
         view: &View,
@@ -340,10 +383,10 @@ impl Renderer {
             let base = self.residency.ensure(&self.gpu, &scene, id)?;
             let g = scene.geometry(id)?;
             let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
-            let select = select.as_deref_mut();
+            let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
             match g.indices {
-                Indices::U16(ix) => gather_node(view, tests, id, (g.positions, ix, g.clusters), select, gathered, base, s, out),
-                Indices::U32(ix) => gather_node(view, tests, id, (g.positions, ix, g.clusters), select, gathered, base, s, out),
+                Indices::U16(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
+                Indices::U32(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
             }
             stats.nodes += 1;
         }
@@ -351,8 +394,9 @@ impl Renderer {
     }
 
     /// Draws the gathered indices in one call; counts them into `stats.triangles`, and their
-    /// fragments into `stats.fragments` when [`Renderer::counts_fragments`].
-    pub(crate) fn submit(&mut self, view: &View, pass: Pass, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
+    /// fragments into `stats.fragments` when [`Renderer::counts_fragments`]. A translucent
+    /// layer keeps the depth when it clears.
+    pub(crate) fn submit(&mut self, view: &View, pass: Pass, layer: Layer, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
         stats.draws = 1;
@@ -396,7 +440,7 @@ impl Renderer {
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &self.target.depth,
                     depth_ops: Some(wgpu::Operations {
-                        load: if clear { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load },
+                        load: if clear && layer == Layer::Opaque { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load },
                         store: wgpu::StoreOp::Store,
                     }),
                     stencil_ops: None,
@@ -409,7 +453,7 @@ impl Renderer {
                 rp.begin_pipeline_statistics_query(set, 0);
             }
             if let (Some(arena), true) = (self.residency.arena(), bytes > 0) {
-                rp.set_pipeline(self.draw.pipeline(pass));
+                rp.set_pipeline(self.draw.pipeline(pass, layer));
                 rp.set_bind_group(0, &self.draw_group, &[]);
                 rp.set_vertex_buffer(0, arena.slice(..));
                 rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);

@@ -39,6 +39,10 @@ struct Args {
     /// hidden. 0 is conservative.
     #[arg(long, default_value_t = 0.0)]
     adaptive: f64,
+    /// Occlusion culling on every frame, also where it does not pay (as `osw render
+    /// --always-cull`); else a frame whose culling did not pay skips it for the next ones.
+    #[arg(long)]
+    always_cull: bool,
     /// The cluster tests of OR's and HC's drawing, as `osw render --cluster-tests` (only RVG
     /// has an `occlusion` test).
     #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
@@ -105,6 +109,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
     let mut sw = switch::Switch::new(set.batch, a.full, renderer, io);
     sw.adaptive = a.adaptive;
+    sw.payoff = (!a.always_cull).then(|| osw_cull::payoff::Payoff::new(osw_cull::payoff::CullCost::at(w as u64 * h as u64)));
     let log = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);

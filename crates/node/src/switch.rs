@@ -19,6 +19,8 @@
 use crate::inbox::Inbox;
 use crate::roles::{Display, Duty, Peer, Step, keyframe_to_display};
 use osw_cull::delta::{Assembly, batches, diff};
+use osw_cull::payoff::{CullCounts, Payoff};
+use osw_cull::{AllVisible, hardware_cull};
 use osw_gpu::renderer::Renderer;
 use osw_render::mode::{HcTest, draw_occluders, hc_pass};
 use osw_render::packet;
@@ -34,6 +36,11 @@ pub struct Switch {
     pub full: bool,
     /// Adaptive culling's threshold in HC's exact tests (paper 003 eq. 1; 0: conservative).
     pub adaptive: f64,
+    /// Cost-adaptive culling of the frames this node culls (osw_cull::payoff); None culls
+    /// every frame.
+    pub payoff: Option<Payoff>,
+    /// Whether HC of the next frame culls, decided as OR prepares its depth buffer.
+    next: Option<bool>,
     pub renderer: Renderer,
     pub io: Inbox,
     /// V(i-1), sorted LOD ids.
@@ -46,7 +53,18 @@ pub struct Switch {
 
 impl Switch {
     pub fn new(batch: usize, full: bool, renderer: Renderer, io: Inbox) -> Switch {
-        Switch { batch, full, adaptive: 0.0, renderer, io, visible: Vec::new(), occluders: Vec::new(), peer_eof_received_us: 0 }
+        Switch {
+            batch,
+            full,
+            adaptive: 0.0,
+            payoff: None,
+            next: None,
+            renderer,
+            io,
+            visible: Vec::new(),
+            occluders: Vec::new(),
+            peer_eof_received_us: 0,
+        }
     }
 
     /// Waits for the display, the peer and the first camera. Camera 0 starts the path; a
@@ -105,18 +123,36 @@ impl Switch {
         let (i, t, duty) = (cam.frame, Instant::now(), self.io.roles.duty(cam.frame));
         self.io.sent = [0; 2];
         self.io.send_display(Message::Camera(cam));
+        // Decided when OR prepared this frame's depth buffer, or now.
+        let cull = match self.next.take() {
+            Some(next) if duty != Duty::Solo => next,
+            _ => self.payoff.as_mut().is_none_or(Payoff::cull),
+        };
         let r = &mut self.renderer;
         r.begin_frame();
         let view = r.view(&packet::camera(&cam));
         let mut drawn = 0;
-        if duty == Duty::Solo {
+        if duty == Duty::Solo && cull {
             // The OR pass of paper 004 fig. 5 on this GPU: the front of V(i-1) for camera i.
             drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
         }
         let mut pvs = Vec::new();
-        let hc = hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, self.adaptive, &self.visible, &mut pvs)?;
+        let hc = if cull {
+            hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, self.adaptive, &self.visible, &mut pvs)?
+        } else {
+            // Frustum culled only: occlusion culling did not pay where this node last ran it.
+            let hc = hardware_cull(r.scene.nodes(), &view, cam.tau_px, &mut AllVisible, &mut pvs);
+            pvs.sort_unstable();
+            hc
+        };
+        // A frame without occluders (the first) culls nothing, whatever culling would save.
+        if let Some(p) = self.payoff.as_mut().filter(|_| cull && !self.visible.is_empty()) {
+            let occluder_triangles = osw_cull::payoff::triangles(r.scene.nodes(), &pvs);
+            p.judge(CullCounts { culled_triangles: hc.culled_triangles, occluder_triangles, tests: hc.tests as u64 });
+        }
         let (batches, ids_sent) = self.send_visible_set(i, duty, &pvs);
-        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us: t.elapsed().as_micros() as u64, pvs: pvs.len() as u32 };
+        let hc_us = t.elapsed().as_micros() as u64;
+        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, pvs: pvs.len() as u32, cull_skipped: !cull };
         let clock = LinkStamps { sent_us: now_us(), camera_received_us, peer_eof_received_us: self.peer_eof_received_us };
         let eof = Message::EndOfFrame(EndOfFrame { frame: i, stats, clock });
         if self.io.roles.peer_in_step() {
@@ -136,6 +172,7 @@ impl Switch {
             ms,
             nodes_drawn: drawn,
             tests: hc.tests,
+            cull_skipped: u32::from(!cull),
             ids_sent,
             batches,
             bytes_to_peer,
@@ -184,7 +221,17 @@ impl Switch {
         let max_id = self.renderer.scene.header().node_count;
         self.renderer.begin_frame();
         let view = self.renderer.view(&packet::camera(&cam));
-        let mut drawn = draw_occluders(&mut self.renderer, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
+        // This node is HC of the next frame: whether it culls is decided now, from the last
+        // frame it culled; when it does not, OR draws nothing, and only follows V(i).
+        let cull = self.payoff.as_mut().is_none_or(Payoff::cull);
+        let mut drawn = 0;
+        let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
+            if cull {
+                drawn += draw_occluders(r, &view, ids, cam.tau_px, clear, scratch)?.nodes;
+            }
+            Ok(())
+        };
+        or(&mut self.renderer, &self.visible, true, &mut self.occluders)?;
         let mut next = Assembly::default();
         loop {
             let Some((m, at)) = self.io.peer_message(i)? else {
@@ -204,8 +251,9 @@ impl Switch {
                 }
                 m => anyhow::bail!("frame {i}: unexpected message from the peer: {m:?}"),
             };
-            drawn += draw_occluders(&mut self.renderer, &view, added, cam.tau_px, false, &mut self.occluders)?.nodes;
+            or(&mut self.renderer, added, false, &mut self.occluders)?;
         }
+        self.next = Some(cull);
         self.visible = next.finish(&self.visible);
         self.io.roles.or_done(i);
         let ms = t.elapsed().as_secs_f64() * 1e3;

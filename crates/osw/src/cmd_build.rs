@@ -140,6 +140,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.bucket_triangles
     );
     out!("colours: {} of {} objects have none of their own (drawn in hashed colours)", report.objects_without_color, report.objects);
+    if report.translucent_triangles > 0 {
+        out!(
+            "translucent: {} triangles of {} objects (drawn blended after the opaque, never occluders)",
+            report.translucent_triangles,
+            report.translucent_objects
+        );
+    }
     if report.loose_splits > 0 {
         out!("{} loose splits (--loose-split {}): {} chunks", report.loose_splits, a.loose_split, report.chunks);
     }

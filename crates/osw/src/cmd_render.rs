@@ -40,6 +40,13 @@ pub struct Args {
     /// 1 reads all: conservative).
     #[arg(long, default_value_t = 1, value_name = "S")]
     sampling: u32,
+    /// prev and chc: occlusion culling on every frame, as the papers run it. By default a frame
+    /// whose occlusion culling culled fewer triangles than its occluders, tests and depth
+    /// read-back cost skips it for the next frames (8, then 32, then 64, until it pays
+    /// again), frustum culled only; stats.csv's `cull_skipped` and summary.json's
+    /// `cull_skipped_frames` count those frames.
+    #[arg(long)]
+    always_cull: bool,
     /// Do not write frame PNGs (statistics only).
     #[arg(long)]
     no_frames: bool,
@@ -87,6 +94,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         tau: a.tau,
         hc: a.hc,
         ovc: osw_cull::ovc::OvcOptions { adaptive: a.adaptive, budget: a.budget, sampling: a.sampling },
+        always_cull: a.always_cull,
         out: &a.out,
         write_frames: !a.no_frames,
     };
@@ -114,6 +122,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         s.triangles_backface_culled_mean,
         s.triangles_small_culled_mean
     );
+    if s.cull_skipped_frames > 0 {
+        out!(
+            "left out: occlusion culling on {} of {} frames, which were frustum culled only: where it ran before them it culled fewer triangles than it cost (--always-cull keeps it on)",
+            s.cull_skipped_frames,
+            s.frames
+        );
+    }
     out!(
         "render: {} tau {} over {} frames: frame {:.1} ms median ({:.1} p95), {:.0} triangles, {:.0} nodes, {:.0} tests a frame → {}",
         s.mode,

@@ -57,6 +57,11 @@ pub struct Args {
     /// time bought with error. 0 is conservative.
     #[arg(long, default_value_t = 0.0, value_name = "T")]
     adaptive: f64,
+    /// Occlusion culling on every frame, as the papers run it. By default a node that culled
+    /// fewer triangles than its culling cost frustum culls only for its next frames (as
+    /// `osw render --always-cull`); summary.json's `cull_skipped_frames` counts them.
+    #[arg(long)]
+    always_cull: bool,
     /// Cluster tests of the passes that draw, in the nodes and the display: as `osw render
     /// --cluster-tests` (`occlusion` is RVG's two passes, in the display).
     #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
@@ -151,6 +156,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         if a.adaptive > 0.0 {
             v.extend(["--adaptive".into(), a.adaptive.to_string()]);
+        }
+        if a.always_cull {
+            v.push("--always-cull".into());
         }
         if let Some(t) = a.frame_timeout {
             v.extend(["--frame-timeout".into(), t.to_string()]);

@@ -23,7 +23,7 @@ fn plant() -> Vec<Object> {
 /// vertical and a fractional offset; a non-uniform scale, another rotation and offset), all
 /// under one root node translated by `root` (written as JSON numbers, which carry f64). Each
 /// object's node has a fractional offset of its own.
-fn write_glb(path: &Path, objects: &[Object], root: [f64; 3]) {
+fn write_nested_glb(path: &Path, objects: &[Object], root: [f64; 3]) {
     let (mut bin, mut views, mut accessors, mut meshes, mut nodes) = (Vec::<u8>::new(), vec![], vec![], vec![], vec![]);
     let (r1, r2) = ((0.37f64 / 2.0).sin_cos(), (-0.3691f64 / 2.0).sin_cos());
     nodes.push(json!({"translation": root, "children": [1]}));
@@ -31,34 +31,12 @@ fn write_glb(path: &Path, objects: &[Object], root: [f64; 3]) {
     nodes.push(json!({"rotation": [0.0, r2.0, 0.0, r2.1], "scale": [1.000_3, 0.999_7, 1.000_01], "translation": [-1.718_281_828, 0.25, 0.314_159_265],
         "children": (3..3 + objects.len()).collect::<Vec<_>>()}));
     for (k, o) in objects.iter().enumerate() {
-        let b = o.mesh.bounds();
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": o.mesh.positions.len() * 12}));
-        o.mesh.positions.iter().flatten().for_each(|c| bin.extend(c.to_le_bytes()));
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": o.mesh.indices.len() * 4}));
-        o.mesh.indices.iter().for_each(|i| bin.extend(i.to_le_bytes()));
-        accessors.push(json!({"bufferView": 2 * k, "componentType": 5126, "count": o.mesh.positions.len(), "type": "VEC3",
-            "min": b.min.to_array(), "max": b.max.to_array()}));
-        accessors.push(json!({"bufferView": 2 * k + 1, "componentType": 5125, "count": o.mesh.indices.len(), "type": "SCALAR"}));
-        meshes.push(json!({"primitives": [{"attributes": {"POSITION": 2 * k}, "indices": 2 * k + 1}]}));
+        meshes.push(json!({"primitives": [push_mesh(&mut bin, &mut views, &mut accessors, &o.mesh)]}));
         nodes.push(json!({"name": o.name, "mesh": k, "translation": [k as f64 * 1e-7, 0.0, -(k as f64) * 3.1e-8]}));
     }
     let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": nodes, "meshes": meshes,
-        "accessors": accessors, "bufferViews": views, "buffers": [{"byteLength": bin.len()}]});
-    let mut text = serde_json::to_vec(&doc).unwrap();
-    while !text.len().is_multiple_of(4) {
-        text.push(b' ');
-    }
-    let mut glb = Vec::new();
-    glb.extend(b"glTF");
-    glb.extend(2u32.to_le_bytes());
-    glb.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
-    glb.extend((text.len() as u32).to_le_bytes());
-    glb.extend(b"JSON");
-    glb.extend(&text);
-    glb.extend((bin.len() as u32).to_le_bytes());
-    glb.extend(b"BIN\0");
-    glb.extend(&bin);
-    std::fs::write(path, glb).unwrap();
+        "accessors": accessors, "bufferViews": views});
+    write_glb(path, doc, &bin);
 }
 
 /// A binary PLY with double coordinates: all objects as one mesh, moved by `shift` in f64.
@@ -125,7 +103,7 @@ fn a_gltf_whose_root_is_translated_far_builds_and_renders_as_at_the_origin() {
     let mut scenes = Vec::new();
     for (name, root) in models {
         let glb = d.path().join(format!("{name}.glb"));
-        write_glb(&glb, &objects, root);
+        write_nested_glb(&glb, &objects, root);
         scenes.push(build(&glb));
         walk(&scenes.last().unwrap().0, &d.path().join(name));
     }

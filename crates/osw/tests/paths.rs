@@ -57,8 +57,8 @@ fn segment_hits(p: Vec3, q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
     (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && (0.0..=1.0).contains(&t)
 }
 
-/// Smallest distance from any camera to any full-detail triangle, and how many steps of the
-/// path cross a triangle.
+/// Smallest distance from any camera to any full-detail opaque triangle, and how many steps of
+/// the path cross one (a walk goes through translucent room volumes).
 fn clearance(scene: &SceneFile, cams: &[osw_scene::Camera]) -> (f32, usize) {
     let local: Vec<Vec3> = cams.iter().map(|c| (c.position - scene.origin()).as_vec3()).collect();
     let mut tris = Vec::new();
@@ -66,7 +66,7 @@ fn clearance(scene: &SceneFile, cams: &[osw_scene::Camera]) -> (f32, usize) {
         let n = scene.node(id);
         if n.kind() == NodeKind::Leaf {
             let g = scene.geometry(n.first_lod).unwrap();
-            for t in 0..g.indices.len() / 3 {
+            for t in 0..g.opaque_indices() / 3 {
                 tris.push([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t * 3 + k) as usize])));
             }
         }
@@ -130,6 +130,73 @@ fn walks_stay_out_of_walls_and_paths_are_deterministic() {
         run(args("6", &again));
         assert_ne!(std::fs::read(&csv).unwrap(), std::fs::read(&again).unwrap(), "{kind}: seed ignored");
     }
+}
+
+/// A two-storey building as an IFC export makes one: slabs, outer walls, a partition with a
+/// doorway 1 m wide, a straight stair of 16 steps up through a hole in the upper slab, a roof,
+/// and each storey filled by a translucent room volume (IfcSpace, alpha 0.2).
+fn write_building(path: &std::path::Path) {
+    let mut parts: Vec<([f32; 6], f64)> = vec![
+        ([0.0, -0.3, 0.0, 10.0, 0.0, 8.0], 1.0), // ground slab
+        ([0.0, 2.8, 0.0, 10.0, 3.0, 5.0], 1.0),  // upper slab, less the stairwell
+        ([0.0, 2.8, 5.0, 4.0, 3.0, 8.0], 1.0),
+        ([0.0, 5.8, 0.0, 10.0, 6.0, 8.0], 1.0),   // roof
+        ([-0.2, -0.3, -0.2, 0.0, 6.0, 8.2], 1.0), // outer walls
+        ([10.0, -0.3, -0.2, 10.2, 6.0, 8.2], 1.0),
+        ([0.0, -0.3, -0.2, 10.0, 6.0, 0.0], 1.0),
+        ([0.0, -0.3, 8.0, 10.0, 6.0, 8.2], 1.0),
+        ([2.0, 0.0, 0.0, 2.15, 2.8, 1.0], 1.0), // a partition with a doorway at z 1..2
+        ([2.0, 0.0, 2.0, 2.15, 2.8, 8.0], 1.0),
+        ([2.0, 2.1, 1.0, 2.15, 2.8, 2.0], 1.0), // its lintel
+        ([0.0, 0.0, 0.0, 10.0, 2.8, 8.0], 0.2), // room volumes
+        ([0.0, 3.0, 0.0, 10.0, 5.8, 8.0], 0.2),
+    ];
+    for k in 1..=16 {
+        let x = 4.0 + (16 - k) as f32 * 0.3;
+        parts.push(([x, 0.0, 5.2, x + 0.3, k as f32 * 0.1875, 7.8], 1.0));
+    }
+    let (mut bin, mut views, mut accessors, mut meshes, mut nodes) = (vec![], vec![], vec![], vec![], vec![]);
+    for (k, (b, alpha)) in parts.iter().enumerate() {
+        let mut m = osw_scene::mesh::Mesh::default();
+        osw_scene::generators::shapes::add_box(&mut m, Vec3::new(b[0], b[1], b[2]), Vec3::new(b[3], b[4], b[5]));
+        let mut prim = push_mesh(&mut bin, &mut views, &mut accessors, &m);
+        prim["material"] = serde_json::json!(usize::from(*alpha < 1.0));
+        meshes.push(serde_json::json!({"primitives": [prim]}));
+        nodes.push(serde_json::json!({"mesh": k}));
+    }
+    let materials = serde_json::json!([
+        {"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1.0]}},
+        {"alphaMode": "BLEND", "pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.7, 0.8, 0.2]}},
+    ]);
+    let doc = serde_json::json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes, "meshes": meshes, "materials": materials, "accessors": accessors, "bufferViews": views});
+    write_glb(path, doc, &bin);
+}
+
+#[test]
+fn a_walk_goes_through_doorways_room_volumes_and_up_the_stairs_of_a_building() {
+    let d = tempfile::tempdir().unwrap();
+    let (glb, scene_path, csv) = (d.path().join("house.glb"), d.path().join("house.osw"), d.path().join("walk.csv"));
+    write_building(&glb);
+    osw_ok(&["build", s(&glb), "-o", s(&scene_path)]);
+    osw_ok(&["path", "--scene", s(&scene_path), "--kind", "walk", "--frames", "600", "--seed", "3", "-o", s(&csv)]);
+    let scene = SceneFile::open(&scene_path).unwrap();
+    let cams = osw_scene::path::read(&csv).unwrap();
+    let (min_d, crossings) = clearance(&scene, &cams);
+    assert_eq!(crossings, 0, "the walk passes through walls, slabs or steps");
+    assert!(min_d >= 0.2, "the walk comes within {min_d} m of a surface");
+    // Inside, on both storeys (eyes 1.7 above each floor), and on both sides of the partition.
+    let eye = |c: &osw_scene::Camera| c.position.y as f32;
+    for c in &cams {
+        let p = c.position;
+        assert!(p.x > 0.0 && p.x < 10.0 && p.z > 0.0 && p.z < 8.0, "outside the building at {p}");
+    }
+    let ground = cams.iter().filter(|c| (eye(c) - 1.7).abs() < 0.05).collect::<Vec<_>>();
+    let upper = cams.iter().filter(|c| (eye(c) - 4.7).abs() < 0.05).count();
+    let climbing = cams.len() - ground.len() - upper;
+    eprintln!("{} frames on the ground floor, {upper} upstairs, {climbing} on the stairs", ground.len());
+    assert!(!ground.is_empty() && upper > 0 && climbing > 0, "{} on the ground floor, {upper} upstairs, {climbing} between", ground.len());
+    assert!(ground.iter().any(|c| c.position.x < 2.0) && ground.iter().any(|c| c.position.x > 2.15), "never through the doorway");
 }
 
 #[test]

@@ -1,5 +1,6 @@
 //! The conservative guarantee on models nobody on the project made (`../shared/models/`: game
-//! levels, an IFC house, the Khronos engine): on a walk, an orbit and a flyover of each, prev
+//! levels, an IFC house with glass and translucent room volumes, the Khronos engine): on a
+//! walk (through the house's rooms), an orbit and a flyover of each, prev
 //! and the switch at tau 0 draw frames identical to frustum culling's and cull no leaf that
 //! exact visibility (the item buffer, which shares no test or traversal with them) finds
 //! visible. OpenArena's recorded walk is where HC once culled a visible floor 2.6 km off, a
@@ -22,17 +23,20 @@ fn models() -> Vec<PathBuf> {
     found
 }
 
-/// Checks prev and the switch against vfc and exact visibility on `path` at `size`, tau 0.
-fn check(scene: &Path, path: &Path, size: &str, out: &Path, label: &str) {
+/// Checks prev and the switch (culling every frame) and prev as it runs by default (culling
+/// where it pays) against vfc and exact visibility on `path` at `size`, tau 0. Returns the
+/// frames the default prev skipped.
+fn check(scene: &Path, path: &Path, size: &str, out: &Path, label: &str) -> u64 {
     let frames = osw_scene::path::read(path).unwrap().len();
-    let [exact, vfc, prev, switch] = ["exact", "vfc", "prev", "switch"].map(|n| out.join(n));
+    let [exact, vfc, prev, switch, paying] = ["exact", "vfc", "prev", "switch", "prev-paying"].map(|n| out.join(n));
     let walk = ["--scene", s(scene), "--path", s(path), "--size", size];
     osw_ok(&[&["exact"], &walk[..], &["--out", s(&exact)]].concat());
-    for (mode, dir) in [("vfc", &vfc), ("prev", &prev)] {
-        osw_ok(&[&["render", "--mode", mode, "--tau", "0"], &walk[..], &["--out", s(dir)]].concat());
+    for (mode, dir, always) in [("vfc", &vfc, ""), ("prev", &prev, "--always-cull"), ("prev", &paying, "")] {
+        let args = [&["render", "--mode", mode, "--tau", "0"], &walk[..], &["--out", s(dir)]].concat();
+        osw_ok(&args.into_iter().chain((!always.is_empty()).then_some(always)).collect::<Vec<_>>());
     }
-    osw_ok(&[&["run", "--tau", "0"], &walk[..], &["--out", s(&switch)]].concat());
-    for (name, run) in [("prev", &prev), ("switch", &switch)] {
+    osw_ok(&[&["run", "--tau", "0", "--always-cull"], &walk[..], &["--out", s(&switch)]].concat());
+    for (name, run) in [("prev", &prev), ("switch", &switch), ("prev where culling pays", &paying)] {
         let c = compare(run, &vfc, &exact, &out.join(format!("cmp-{name}")));
         assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{label} {name}: false culling: {c}");
         assert_eq!(c["identical_frames"], frames, "{label} {name}: frames differ from vfc's: {c}");
@@ -42,6 +46,7 @@ fn check(scene: &Path, path: &Path, size: &str, out: &Path, label: &str) {
     // Occlusion culling culls on these models: the checks above compare something.
     let tri = |run: &Path| summary(run).triangles_drawn_mean;
     assert!(tri(&prev) < tri(&vfc), "{label}: prev draws {} triangles, vfc {}", tri(&prev), tri(&vfc));
+    summary(&paying).cull_skipped_frames
 }
 
 #[test]
@@ -59,22 +64,17 @@ fn prev_and_the_switch_are_conservative_on_every_real_model() {
             .map(|e| e.unwrap().path())
             .find(|p| p.file_name().unwrap().to_str().unwrap().starts_with(&format!("{}-walk-", stem.split('-').next().unwrap())));
         if let Some(walk) = &recorded {
-            check(&scene, walk, "512x512", &d.path().join(format!("{stem}-recorded")), &format!("{stem} recorded walk"));
+            let skipped = check(&scene, walk, "512x512", &d.path().join(format!("{stem}-recorded")), &format!("{stem} recorded walk"));
+            // On OpenArena's walk culling keeps 0.4% of vfc's triangles from RVG for 6 ms of
+            // OR and HC (scripts/real-models.sh): it does not pay, and is skipped.
+            assert!(skipped > 0, "{stem}: culling never skipped where it does not pay");
         }
         for kind in ["walk", "orbit", "flyover"] {
             if kind == "walk" && recorded.is_some() {
                 continue;
             }
             let path = d.path().join(format!("{stem}-{kind}.csv"));
-            let made = osw(&["path", "--scene", s(&scene), "--kind", kind, "--frames", "16", "-o", s(&path)]);
-            if !made.status.success() {
-                // A model without free space at eye height (a house whose rooms are filled by
-                // their IfcSpace volumes) says so; every other path must be made.
-                let err = String::from_utf8_lossy(&made.stderr);
-                assert!(kind == "walk" && err.contains("no free space"), "{stem}: osw path --kind {kind}: {err}");
-                eprintln!("{stem}: no walk ({})", err.trim());
-                continue;
-            }
+            osw_ok(&["path", "--scene", s(&scene), "--kind", kind, "--frames", "16", "-o", s(&path)]);
             check(&scene, &path, "256x256", &d.path().join(format!("{stem}-{kind}")), &format!("{stem} {kind}"));
         }
     }

@@ -53,7 +53,8 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
 fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
     let d = tempfile::tempdir().unwrap();
     let scene = build_gen(d.path(), "plant", 300_000, 6);
-    let path = camera_path(&scene, "walk", 30);
+    // Around the plant: more geometry than 1 MiB comes into view.
+    let path = camera_path(&scene, "orbit", 30);
     let run = |name: &str, mib: &str| {
         let out = d.path().join(name);
         osw_ok(&[

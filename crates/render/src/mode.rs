@@ -24,6 +24,7 @@ use osw_cull::delta::diff;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
+use osw_cull::payoff::{Alternating, CullCounts};
 use osw_cull::retest::retest_additions;
 use osw_cull::{AllVisible, HcStats, View, VisibilityTester, hardware_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
@@ -154,6 +155,9 @@ pub struct ModeState {
     /// Paper 003's knobs (ovc), the last frame's render time (eq. 2's T_render) and the frames
     /// so far (which pixel lines sampled tests read).
     pub ovc: OvcOptions,
+    /// Cost-adaptive culling of prev and chc (osw_cull::payoff): frames whose occlusion
+    /// culling does not pay are frustum culled only. None culls every frame (the papers').
+    pub payoff: Option<Alternating>,
     last_render_ms: Option<f64>,
     frames: u32,
 }
@@ -321,6 +325,8 @@ pub fn hc_pass_with(
     };
     pvs.sort_unstable();
     pvs.dedup();
+    // What the traversal found, to count the triangles of what the retests drop.
+    let found = pvs.clone();
     let mut tests = stats.tests;
     // Hidden boxes, and of those the ones only adaptive culling dropped.
     let mut hidden = (0, 0);
@@ -371,7 +377,16 @@ pub fn hc_pass_with(
         }
     }
     let retests = tests - stats.tests;
-    Ok(HcStats { tests, retests, occlusion_culled: stats.occlusion_culled + hidden.0, adaptive_culled: hidden.1, ..stats })
+    let dropped: u64 = found.iter().filter(|id| pvs.binary_search(id).is_err()).map(|&id| nodes[id as usize].triangles as u64).sum();
+    let culled_triangles = stats.culled_triangles + dropped;
+    Ok(HcStats {
+        tests,
+        retests,
+        occlusion_culled: stats.occlusion_culled + hidden.0,
+        adaptive_culled: hidden.1,
+        culled_triangles,
+        ..stats
+    })
 }
 
 /// Tests the boxes of `ids` (sorted, in `pvs`) exactly against the depth buffer as it is and
@@ -420,6 +435,7 @@ impl ModeState {
             chc: None,
             clusters: ClusterHistory::default(),
             ovc: OvcOptions::default(),
+            payoff: None,
             last_render_ms: None,
             frames: 0,
         })
@@ -437,7 +453,13 @@ impl ModeState {
         let scene = std::sync::Arc::clone(&r.scene);
         let nodes = scene.nodes();
         let mut pvs = Vec::new();
-        let hc: HcStats = match self.mode {
+        // Whether this frame's occlusion culling is expected to pay (prev and chc; see
+        // osw_cull::payoff), from the counts of the last frame judged.
+        let frame = self.frames as u64;
+        let cull = !matches!(self.mode, Mode::Prev | Mode::Chc) || self.payoff.as_mut().is_none_or(|p| p.of(frame).cull());
+        s.cull_skipped = u32::from(!cull);
+        // A frame that skips occlusion culling is frustum culled.
+        let hc: HcStats = match if cull { self.mode } else { Mode::Vfc } {
             Mode::Vfc => {
                 let t = Instant::now();
                 let hc = hardware_cull(nodes, view, self.tau, &mut AllVisible, &mut pvs);
@@ -496,6 +518,15 @@ impl ModeState {
         // where surfaces tie in depth.
         pvs.sort_unstable();
         pvs.dedup();
+        // A frame without occluders (prev's first, or one after a view of nothing) culls
+        // nothing, whatever culling would save: it is not judged.
+        let judged = cull && (self.mode == Mode::Chc || (self.mode == Mode::Prev && !self.visible.is_empty()));
+        if let Some(p) = self.payoff.as_mut().filter(|_| judged) {
+            // By the node table, not what cluster tests let through: the judgement is the
+            // switch's. OR draws the PVS next frame; chc draws it as it goes.
+            let occluders = osw_cull::payoff::triangles(nodes, &pvs);
+            p.of(frame).judge(CullCounts { culled_triangles: hc.culled_triangles, occluder_triangles: occluders, tests: hc.tests as u64 });
+        }
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {

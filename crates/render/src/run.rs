@@ -34,6 +34,9 @@ pub struct RunSpec<'a> {
     pub hc: HcTest,
     /// ovc's knobs (paper 003; the other modes ignore them).
     pub ovc: osw_cull::ovc::OvcOptions,
+    /// Occlusion culling on every frame, also where it does not pay (prev and chc as the
+    /// papers run them); else cost-adaptive (osw_cull::payoff).
+    pub always_cull: bool,
     /// Output directory.
     pub out: &'a Path,
     pub write_frames: bool,
@@ -48,6 +51,10 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     }
     let mut state = ModeState::new(mode, tau, spec.hc).map_err(RunError::Mode)?;
     state.ovc = spec.ovc;
+    if !spec.always_cull {
+        let pixels = r.target.width as u64 * r.target.height as u64;
+        state.payoff = Some(osw_cull::payoff::Alternating::new(osw_cull::payoff::CullCost::at(pixels)));
+    }
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
     let mut pvs = String::new();
     for (i, cam) in cams.iter().enumerate() {

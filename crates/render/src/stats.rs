@@ -31,6 +31,9 @@ pub struct FrameStats {
     /// budget was spent (ovc: paper 003 eq. 1 and 2).
     pub adaptive_culled: u32,
     pub over_budget: u32,
+    /// 1 when the frame was frustum culled only because occlusion culling did not pay (prev
+    /// and chc, osw_cull::payoff).
+    pub cull_skipped: u32,
     /// RVG's cluster tests: clusters of the PVS's nodes, and those culled by the frustum, by
     /// the back-face cone and as hidden (osw_cull::cluster); then triangles of the clusters
     /// drawn that face away or cover no pixel centre (osw_cull::triangle).
@@ -95,6 +98,7 @@ impl Summary {
             triangles_drawn_mean: mean(frames.iter().map(|f| f.triangles_drawn as f64)),
             pvs_nodes_mean: mean(frames.iter().map(|f| f.pvs_nodes as f64)),
             tests_mean: mean(frames.iter().map(|f| f.tests as f64)),
+            cull_skipped_frames: frames.iter().map(|f| f.cull_skipped as u64).sum(),
             clusters_mean: mean(frames.iter().map(|f| f.clusters as f64)),
             clusters_frustum_culled_fraction: share(frames, |f| f.clusters_frustum_culled),
             clusters_cone_culled_fraction: share(frames, |f| f.clusters_cone_culled),

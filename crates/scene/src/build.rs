@@ -77,6 +77,10 @@ pub struct BuildReport {
     pub loose_splits: u64,
     /// Objects closed and wound outwards: back faces of their chunks may be culled.
     pub closed_objects: u64,
+    /// Triangles with a translucent colour, and the objects that have any: drawn blended after
+    /// the opaque ones, never occluders (see [`crate::format::BlockRecord::opaque_clusters`]).
+    pub translucent_triangles: u64,
+    pub translucent_objects: u64,
     pub nodes: u64,
     pub leaves: u64,
     pub groups: u64,

@@ -27,7 +27,7 @@
 
 use crate::aabb::Aabb;
 use crate::format::ClusterRecord;
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, is_translucent};
 use glam::{DVec3, Vec3};
 use rustc_hash::FxHashMap;
 
@@ -45,10 +45,11 @@ pub const MAX_VERTICES: usize = 32;
 /// A cone cutoff that no eye passes (meshopt gives 1 for a cone wider than a half-space).
 pub const NO_CONE: f32 = 2.0;
 
-/// `mesh`'s indices in cluster order, and the clusters (index range, sphere, cone, box of
-/// their closed parts). Every triangle is kept exactly once, with its winding. `object`: the
-/// box of the mesh's object when that object as a whole is closed and wound outwards.
-pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRecord>) {
+/// `mesh`'s indices in cluster order, the clusters (index range, sphere, cone, box of their
+/// closed parts), and how many of them come first with the opaque triangles; the translucent
+/// ones follow. Every triangle is kept exactly once, with its winding. `object`: the box of
+/// the mesh's object when that object as a whole is closed and wound outwards.
+pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRecord>, u32) {
     let parts = Parts::of(mesh);
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte positions");
     let space = mesh.bounds();
@@ -57,56 +58,64 @@ pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRe
     let mut order: Vec<(u32, u32)> = Vec::new();
     // Per vertex, the last cluster that used it: counts a cluster's distinct vertices.
     let mut stamp = vec![u32::MAX; mesh.positions.len()];
-    for bin in facing_bins(mesh) {
-        // Along the Morton curve of the triangles' centroids, a cluster ends at MAX_TRIANGLES
-        // triangles or MAX_VERTICES vertices (which keeps it compact where the curve jumps).
-        order.clear();
-        order.extend(
-            bin.chunks_exact(3)
-                .enumerate()
-                .map(|(k, t)| (morton(&space, t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0), k as u32)),
-        );
-        order.sort_unstable();
-        let mut first_index = indices.len() as u32;
-        let mut vertices = 0;
-        for (n, &(_, k)) in order.iter().enumerate() {
-            let t = &bin[k as usize * 3..k as usize * 3 + 3];
-            let id = clusters.len() as u32;
-            let new = t.iter().filter(|&&v| stamp[v as usize] != id).count();
-            let triangles = (indices.len() - first_index as usize) / 3;
-            if triangles == MAX_TRIANGLES || vertices + new > MAX_VERTICES {
-                clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index));
-                first_index = indices.len() as u32;
-                vertices = 0;
+    let mut opaque_clusters = 0;
+    for translucent in [false, true] {
+        // Back faces of a translucent surface show through it: its clusters keep no cone.
+        let closed = if translucent { None } else { Some((&parts, object)) };
+        for bin in facing_bins(mesh, translucent) {
+            // Along the Morton curve of the triangles' centroids, a cluster ends at
+            // MAX_TRIANGLES triangles or MAX_VERTICES vertices (which keeps it compact where the
+            // curve jumps).
+            order.clear();
+            order.extend(
+                bin.chunks_exact(3).enumerate().map(|(k, t)| {
+                    (morton(&space, t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0), k as u32)
+                }),
+            );
+            order.sort_unstable();
+            let mut first_index = indices.len() as u32;
+            let mut vertices = 0;
+            for (n, &(_, k)) in order.iter().enumerate() {
+                let t = &bin[k as usize * 3..k as usize * 3 + 3];
+                let id = clusters.len() as u32;
+                let new = t.iter().filter(|&&v| stamp[v as usize] != id).count();
+                let triangles = (indices.len() - first_index as usize) / 3;
+                if triangles == MAX_TRIANGLES || vertices + new > MAX_VERTICES {
+                    clusters.push(cluster(mesh, &adapter, closed, &indices, first_index));
+                    first_index = indices.len() as u32;
+                    vertices = 0;
+                }
+                let id = clusters.len() as u32;
+                for &v in t {
+                    vertices += usize::from(stamp[v as usize] != id);
+                    stamp[v as usize] = id;
+                }
+                indices.extend_from_slice(t);
+                if n + 1 == order.len() {
+                    clusters.push(cluster(mesh, &adapter, closed, &indices, first_index));
+                }
             }
-            let id = clusters.len() as u32;
-            for &v in t {
-                vertices += usize::from(stamp[v as usize] != id);
-                stamp[v as usize] = id;
-            }
-            indices.extend_from_slice(t);
-            if n + 1 == order.len() {
-                clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index));
-            }
+        }
+        if !translucent {
+            opaque_clusters = clusters.len() as u32;
         }
     }
     debug_assert_eq!(indices.len(), mesh.indices.len());
-    (indices, clusters)
+    (indices, clusters, opaque_clusters)
 }
 
-/// The cluster of `indices[first_index..]`: its bounds and cone (meshopt's), and the box of its
-/// closed parts or object.
+/// The cluster of `indices[first_index..]`: its bounds, and its cone (meshopt's) with the box of
+/// its closed parts or object when `closed` (the mesh's parts, and the object's box) has one.
 fn cluster(
     mesh: &Mesh,
     adapter: &meshopt::VertexDataAdapter,
-    parts: &Parts,
-    object: Option<Aabb>,
+    closed: Option<(&Parts, Option<Aabb>)>,
     indices: &[u32],
     first_index: u32,
 ) -> ClusterRecord {
     let cluster = &indices[first_index as usize..];
     let b = meshopt::compute_cluster_bounds(cluster, adapter);
-    let closed = parts.closed_box(cluster).or(object);
+    let closed = closed.and_then(|(parts, object)| parts.closed_box(cluster).or(object));
     let bbox = Aabb::from_points(cluster.iter().map(|&v| &mesh.positions[v as usize]));
     ClusterRecord {
         center: b.center,
@@ -136,12 +145,12 @@ fn morton(space: &Aabb, p: Vec3) -> u32 {
     spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
 }
 
-/// The triangles of `mesh` in seven bins: by the axis and sign their normal points along most
-/// (+x, -x, +y, -y, +z, -z), and those without a normal. Within one bin a meshlet's normals stay
-/// within about 55 degrees of the axis.
-fn facing_bins(mesh: &Mesh) -> [Vec<u32>; 7] {
+/// The opaque or the translucent triangles of `mesh` in seven bins: by the axis and sign their
+/// normal points along most (+x, -x, +y, -y, +z, -z), and those without a normal. Within one
+/// bin a meshlet's normals stay within about 55 degrees of the axis.
+fn facing_bins(mesh: &Mesh, translucent: bool) -> [Vec<u32>; 7] {
     let mut bins: [Vec<u32>; 7] = Default::default();
-    for t in mesh.indices.chunks_exact(3) {
+    for t in mesh.indices.chunks_exact(3).filter(|t| is_translucent(&mesh.colors, t) == translucent) {
         let n = normal(mesh, t);
         let a = n.abs();
         let bin = if n == DVec3::ZERO {
@@ -167,8 +176,9 @@ fn normal(mesh: &Mesh, t: &[u32]) -> DVec3 {
     (b - a).cross(c - a)
 }
 
-/// The connected parts of a mesh (triangles joined by a shared position), which of them are
-/// closed and wound outwards, and their boxes.
+/// The connected parts of a mesh's opaque triangles (joined by a shared position), which of
+/// them are closed and wound outwards, and their boxes. Translucent triangles close nothing: a
+/// back face behind one is seen through it.
 pub struct Parts {
     /// Per vertex, its part.
     part_of: Vec<u32>,
@@ -192,8 +202,9 @@ impl Parts {
                 *weld.entry(p.map(f32::to_bits)).or_insert(n)
             })
             .collect();
+        let opaque = || mesh.indices.chunks_exact(3).filter(|t| !is_translucent(&mesh.colors, t));
         let mut uf = UnionFind::new(weld.len());
-        for t in mesh.indices.chunks_exact(3) {
+        for t in opaque() {
             uf.join(welded[t[0] as usize], welded[t[1] as usize]);
             uf.join(welded[t[0] as usize], welded[t[2] as usize]);
         }
@@ -207,7 +218,7 @@ impl Parts {
         let mut volume = vec![0.0f64; parts];
         let mut has_triangle = vec![false; parts];
         let mut boxes = vec![Aabb::EMPTY; parts];
-        for t in mesh.indices.chunks_exact(3) {
+        for t in opaque() {
             let v = [t[0], t[1], t[2]].map(|i| welded[i as usize]);
             for k in 0..3 {
                 let (a, b) = (v[k], v[(k + 1) % 3]);
@@ -321,8 +332,9 @@ mod tests {
             add_box(&mut m, o, o + Vec3::ONE);
         }
         let before = sorted_triangles(&m);
-        let clusters;
-        (m.indices, clusters) = clusterize(&m, None);
+        let (clusters, opaque);
+        (m.indices, clusters, opaque) = clusterize(&m, None);
+        assert_eq!(opaque as usize, clusters.len(), "no colours: every triangle opaque");
         assert_eq!(sorted_triangles(&m), before);
         let mut next = 0;
         for c in &clusters {
@@ -346,8 +358,42 @@ mod tests {
     fn an_open_mesh_keeps_no_cone() {
         let mut m = Mesh::default();
         grid_plane(&mut m, Vec3::ZERO, Vec3::ONE, 20, 20);
-        let (_, clusters) = clusterize(&m, None);
+        let (_, clusters, _) = clusterize(&m, None);
         assert!(!clusters.is_empty());
         assert!(clusters.iter().all(|c| c.cone_cutoff == NO_CONE));
+    }
+
+    #[test]
+    fn translucent_triangles_come_last_without_a_cone_and_close_nothing() {
+        // Two closed boxes; the second's front face (z = 1, two triangles) is glass.
+        let mut m = Mesh::default();
+        add_box(&mut m, Vec3::ZERO, Vec3::ONE);
+        add_box(&mut m, Vec3::X * 3.0, Vec3::new(4.0, 1.0, 1.0));
+        m.paint([200, 200, 200, 255]);
+        let (_, all_opaque, _) = clusterize(&m, None);
+        assert!(all_opaque.iter().all(|c| c.cone_cutoff < NO_CONE), "both boxes closed: every cluster keeps its cone");
+        let front: Vec<u32> =
+            m.indices[36..].chunks_exact(3).filter(|t| t.iter().all(|&v| m.positions[v as usize][2] == 1.0)).flatten().copied().collect();
+        assert_eq!(front.len(), 6);
+        for &v in &front {
+            m.colors[v as usize][3] = crate::mesh::alpha(0.2);
+        }
+        let translucent = m.translucent_triangles();
+        let (indices, clusters, opaque) = clusterize(&m, None);
+        let opaque = opaque as usize;
+        assert!(opaque > 0 && opaque < clusters.len());
+        let tris = |c: &ClusterRecord| {
+            indices[c.first_index as usize..(c.first_index + c.index_count) as usize].chunks_exact(3).collect::<Vec<_>>()
+        };
+        for (k, c) in clusters.iter().enumerate() {
+            let glass = tris(c).iter().filter(|t| crate::mesh::is_translucent(&m.colors, t)).count();
+            assert_eq!(glass, if k < opaque { 0 } else { tris(c).len() }, "cluster {k}");
+        }
+        let back: u32 = clusters[opaque..].iter().map(|c| c.index_count / 3).sum();
+        assert_eq!(back as usize, translucent);
+        assert!(clusters[opaque..].iter().all(|c| c.cone_cutoff == NO_CONE));
+        // The glass box is open once its glass is taken out: its back faces show through.
+        let of_glass_box = |c: &&ClusterRecord| tris(c).iter().flat_map(|t| t.iter()).any(|&v| m.positions[v as usize][0] >= 3.0);
+        assert!(clusters[..opaque].iter().filter(of_glass_box).all(|c| c.cone_cutoff == NO_CONE));
     }
 }

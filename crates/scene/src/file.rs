@@ -44,6 +44,15 @@ pub struct Geometry<'a> {
     /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
     pub indices: Indices<'a>,
     pub clusters: &'a [ClusterRecord],
+    /// `clusters[..opaque]` are opaque, the rest translucent ([`BlockRecord::opaque_clusters`]).
+    pub opaque: usize,
+}
+
+impl Geometry<'_> {
+    /// Indices of the opaque clusters: they come first, `0..opaque_indices()`.
+    pub fn opaque_indices(&self) -> usize {
+        self.clusters.get(self.opaque).map_or(self.indices.len(), |c| c.first_index as usize)
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -134,6 +143,12 @@ impl SceneFile {
         blocks_of(&self.map, &self.header)
     }
 
+    /// Whether LOD node `lod` has translucent triangles (false for other nodes).
+    pub fn has_translucent(&self, lod: NodeId) -> bool {
+        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
+        self.blocks().get(block as usize).is_some_and(BlockRecord::has_translucent)
+    }
+
     /// The geometry of LOD node `lod`, checked on first read.
     pub fn geometry(&self, lod: NodeId) -> Result<Geometry<'_>, SceneError> {
         let node = self
@@ -171,6 +186,7 @@ fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
         colors: bytemuck::cast_slice(colors),
         indices,
         clusters: bytemuck::cast_slice(clusters),
+        opaque: rec.opaque_clusters as usize,
     }
 }
 
@@ -242,6 +258,7 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
         let ok = b.offset.is_multiple_of(BLOCK_ALIGN)
             && (b.index_bytes == 2 || b.index_bytes == 4)
             && (b.color_bytes == 0 || b.color_bytes == 4)
+            && b.opaque_clusters <= b.cluster_count
             && b.index_count.is_multiple_of(3)
             && b.vertex_count <= MAX_BLOCK_VERTICES
             && b.offset.checked_add(b.byte_len()).is_some_and(|e| e <= h.blob_bytes);

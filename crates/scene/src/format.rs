@@ -1,4 +1,4 @@
-//! The scene file format, version 4: one file that the three processes of the cluster map into
+//! The scene file format, version 5: one file that the three processes of the cluster map into
 //! memory and read in place (paper 000, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
@@ -34,8 +34,9 @@ pub const NONE: u32 = u32::MAX;
 pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// 2: geometry blocks may carry the model's colours (version 1 had none). 3: each block's
 /// triangles are grouped into clusters with bounds and normal cones (see [`ClusterRecord`]).
-/// 4: the tables follow the blob (an out-of-core build writes them last).
-pub const VERSION: u32 = 4;
+/// 4: the tables follow the blob (an out-of-core build writes them last). 5: a block's
+/// translucent triangles are its last clusters ([`BlockRecord::opaque_clusters`]).
+pub const VERSION: u32 = 5;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -157,7 +158,10 @@ pub struct BlockRecord {
     pub color_bytes: u32,
     /// Clusters after the indices; together they hold every triangle once.
     pub cluster_count: u32,
-    pub reserved: u32,
+    /// Clusters `0..opaque_clusters` hold the opaque triangles, the rest the translucent ones
+    /// (see [`crate::mesh::is_translucent`]): drawn blended after everything opaque, never into
+    /// OR's depth, so that a translucent surface occludes nothing.
+    pub opaque_clusters: u32,
 }
 
 impl BlockRecord {
@@ -170,6 +174,10 @@ impl BlockRecord {
     /// Bytes of the whole block.
     pub fn byte_len(&self) -> u64 {
         self.clusters_at() + self.cluster_count as u64 * CLUSTER_BYTES
+    }
+
+    pub fn has_translucent(&self) -> bool {
+        self.opaque_clusters < self.cluster_count
     }
 }
 

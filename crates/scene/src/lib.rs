@@ -32,6 +32,7 @@ pub mod import;
 pub mod limits;
 pub mod lod;
 pub mod mesh;
+pub mod nav;
 pub mod path;
 pub mod path_gen;
 pub mod place;

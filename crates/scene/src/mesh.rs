@@ -16,13 +16,28 @@ pub struct Mesh {
     pub positions: Vec<[f32; 3]>,
     pub indices: Vec<u32>,
     /// The model's colour per vertex, RGBA8 as displayed (sRGB), or empty when the model gives
-    /// none. Alpha is 255 for a colour and 0 for [`NO_COLOR`] (a vertex of a mesh merged with
-    /// an uncoloured one), which is drawn in the object's hashed colour.
+    /// none. Alpha is 255 for an opaque colour, 1 to 254 for a translucent one (its coverage,
+    /// see [`alpha`]), and 0 for [`NO_COLOR`] (a vertex of a mesh merged with an uncoloured
+    /// one), which is drawn opaque in the object's hashed colour.
     pub colors: Vec<[u8; 4]>,
 }
 
 /// A vertex without a colour from the model, in a mesh whose other vertices have one.
 pub const NO_COLOR: [u8; 4] = [0; 4];
+
+/// The alpha byte of a colour of coverage `a` (0 to 1): 255 when opaque, else 1 to 254, so that
+/// a fully transparent surface stays a translucent one and never reads as [`NO_COLOR`].
+pub fn alpha(a: f32) -> u8 {
+    let a = (a.clamp(0.0, 1.0) * 255.0).round() as u8;
+    if a == 255 { 255 } else { a.max(1) }
+}
+
+/// Whether a triangle with these vertex colours is translucent: drawn blended after everything
+/// opaque, and never an occluder. One translucent corner is enough (a simplified level may
+/// join a translucent vertex to an opaque one).
+pub fn is_translucent(colors: &[[u8; 4]], t: &[u32]) -> bool {
+    !colors.is_empty() && t.iter().any(|&v| (1..255).contains(&colors[v as usize][3]))
+}
 
 /// One input object: a named mesh and where it stands in the world. Objects are what chunks are
 /// cut from; each keeps its index so that renderers can colour by object.
@@ -180,9 +195,14 @@ impl Mesh {
         }
     }
 
-    /// Gives every vertex the colour `c` (alpha forced to 255: osw draws opaque surfaces).
+    /// Gives every vertex the colour `c`; an alpha of 0 is made 1 (see [`alpha`]).
     pub fn paint(&mut self, c: [u8; 4]) {
-        self.colors = vec![[c[0], c[1], c[2], 255]; self.positions.len()];
+        self.colors = vec![[c[0], c[1], c[2], c[3].max(1)]; self.positions.len()];
+    }
+
+    /// Triangles with a translucent corner (see [`is_translucent`]).
+    pub fn translucent_triangles(&self) -> usize {
+        self.indices.chunks_exact(3).filter(|t| is_translucent(&self.colors, t)).count()
     }
 
     /// Adds a triangle by its three corners (no welding).
@@ -256,7 +276,7 @@ mod tests {
     #[test]
     fn colours_follow_their_vertices_through_append_clean_and_weld() {
         let mut red = quad();
-        red.paint([255, 0, 0, 7]);
+        red.paint([255, 0, 0, 255]);
         let mut m = quad();
         m.append(&red);
         assert_eq!(m.colors.len(), 8);
@@ -273,6 +293,20 @@ mod tests {
         assert_eq!(both.welded().positions.len(), 8);
         m.colors.pop();
         assert_eq!(m.validate(), Err(MeshError::Colors { colors: 7, vertices: 8 }));
+    }
+
+    #[test]
+    fn a_triangle_is_translucent_when_a_corner_is() {
+        assert_eq!([alpha(0.0), alpha(0.12), alpha(0.99), alpha(0.999), alpha(2.0)], [1, 31, 252, 255, 255]);
+        let mut m = quad();
+        assert_eq!(m.translucent_triangles(), 0, "no colours: opaque");
+        m.paint([9, 9, 9, 255]);
+        assert_eq!(m.translucent_triangles(), 0);
+        m.colors[m.indices[0] as usize] = NO_COLOR;
+        assert_eq!(m.translucent_triangles(), 0, "no colour is opaque");
+        m.colors[m.indices[0] as usize][3] = alpha(0.5);
+        let shared = m.indices[3..].contains(&m.indices[0]);
+        assert_eq!(m.translucent_triangles(), 1 + usize::from(shared));
     }
 
     #[test]

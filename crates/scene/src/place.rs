@@ -141,7 +141,7 @@ mod tests {
         let m = DAffine3::from_scale_rotation_translation(
             DVec3::new(0.3048, 1.7, 0.01),
             glam::DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 2.9),
-            DVec3::new(0.123_456_789, -17.000_000_1, 3.141_592_653_589_793),
+            DVec3::new(0.123_456_789, -17.000_000_1, 3.333_333_333_333_7),
         );
         let (near, o0) = place(vec![object(&pts, DVec3::ZERO, m), object(&pts, DVec3::new(3.0, 0.0, -2.0), m)]);
         for t in [DVec3::new(1e7, 1e7, -1e7), DVec3::new(-1e9, 1e9, 1e9), DVec3::new(4_503_599_627_370_496.0, 0.0, -1.0)] {

@@ -64,12 +64,12 @@ pub fn stream(
                 .map(|(o, stats)| {
                     let closed = crate::cluster::Parts::of(&o.mesh).all_closed().then(|| o.mesh.bounds());
                     let chunks = (!o.mesh.is_empty()).then(|| crate::chunk::split(&o.mesh, split));
-                    (o.name, o.mesh.colors.is_empty(), stats, closed, chunks)
+                    (o.name, o.mesh.colors.is_empty(), o.mesh.translucent_triangles() as u64, stats, closed, chunks)
                 })
                 .collect()
         });
         times.run("spill", || -> Result<(), BuildError> {
-            for (name, uncolored, stats, closed, split) in split {
+            for (name, uncolored, translucent, stats, closed, split) in split {
                 clean_stats.add(stats);
                 let Some(split) = split else {
                     empty.push(name);
@@ -78,6 +78,8 @@ pub fn stream(
                 let object = closed_objects.len() as u32;
                 closed_objects.push(closed);
                 report.objects_without_color += u64::from(uncolored);
+                report.translucent_triangles += translucent;
+                report.translucent_objects += u64::from(translucent > 0);
                 report.loose_splits += split.loose_splits as u64;
                 for m in &split.meshes {
                     let spill = spill.append(m).map_err(|e| BuildError::temp(spill.path(), e))?;
@@ -93,7 +95,7 @@ pub fn stream(
     report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
     report.degenerate_triangles_dropped = clean_stats.degenerate_triangles;
     if colors_dropped > 0 {
-        report.left_out.push(format!("the model's colours of {colors_dropped} objects (--colors hashed)"));
+        report.left_out.push(format!("the model's colours and translucency of {colors_dropped} objects (--colors hashed)"));
     }
     if clean_stats.degenerate_triangles > 0 {
         report

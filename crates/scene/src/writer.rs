@@ -21,7 +21,7 @@ pub struct Encoded {
 /// when every index fits, else u32), padding to 4 bytes and the clusters. `object`: the box of
 /// the block's object when that is closed (see [`crate::cluster::clusterize`]).
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
-    let (indices, clusters) = crate::cluster::clusterize(mesh, object);
+    let (indices, clusters, opaque_clusters) = crate::cluster::clusterize(mesh, object);
     let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters.as_slice()));
     bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
     bytes.extend_from_slice(mesh.colors.as_flattened());
@@ -42,7 +42,7 @@ pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
         index_bytes,
         color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
         cluster_count: clusters.len() as u32,
-        reserved: 0,
+        opaque_clusters,
     };
     debug_assert_eq!(record.byte_len(), bytes.len() as u64);
     Encoded { bytes, record }

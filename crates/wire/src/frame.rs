@@ -89,7 +89,7 @@ mod tests {
             Message::Delta(Delta { frame: 7, added: IdList::from_ids(&[1, 5, 900]), removed: IdList::from_ids(&[2]) }),
             Message::EndOfFrame(EndOfFrame {
                 frame: 7,
-                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, pvs: 3 },
+                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, pvs: 3, cull_skipped: false },
                 clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3 },
             }),
             Message::Ping(Ping { sent_us: 9 }),
@@ -111,20 +111,21 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_7() {
+    fn golden_bytes_of_version_8() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 7);
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 8);
         // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), token
         // "t", and last the serving flag (protocol 6).
         let mut b = Vec::new();
         encode_frame(&samples()[0], &mut b);
         assert_eq!(b, vec![11, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, b't', 1]);
-        // An end of frame: length 9, variant 3, frame 7, tests 10, levels 2, hc_us 5, pvs 3,
-        // then the link stamps 1, 2, 3 (bincode standard: varint integers; protocol 7 dropped
-        // an OR time that was always 0).
+        // An end of frame: length 10, variant 3, frame 7, tests 10, levels 2, hc_us 5, pvs 3,
+        // culling not skipped, then the link stamps 1, 2, 3 (bincode standard: varint
+        // integers; protocol 7 dropped an OR time that was always 0, protocol 8 added the
+        // skipped flag).
         let mut b = Vec::new();
         encode_frame(&samples()[3], &mut b);
-        assert_eq!(b, vec![9, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 2, 3]);
+        assert_eq!(b, vec![10, 0, 0, 0, 3, 7, 10, 2, 5, 3, 0, 1, 2, 3]);
         // A camera: variant 1, frame 7, eight f64 (position, orientation, fovy) and tau as
         // little-endian IEEE doubles, then sampled_us 123: 2 + 9 * 8 + 1 = 75 bytes, the
         // paper's 72 (sec. 3.5) plus tau, the frame number and the stamp.

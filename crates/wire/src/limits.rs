@@ -1,7 +1,7 @@
 //! Protocol version and limits, each with its reason.
 
 /// Bumped whenever a message's encoding changes; the handshake refuses a different one.
-pub const PROTOCOL_VERSION: u32 = 7;
+pub const PROTOCOL_VERSION: u32 = 8;
 
 /// Largest frame payload: a keyframe of every node of a 20M-triangle scene (about 300K ids at
 /// up to 5 bytes) fits with room to spare; anything larger is refused before allocating.

@@ -86,6 +86,8 @@ pub struct HcWireStats {
     pub levels: u32,
     pub hc_us: u64,
     pub pvs: u32,
+    /// The frame was frustum culled only: occlusion culling did not pay where it last ran.
+    pub cull_skipped: bool,
 }
 
 /// The end of frame `frame` (the paper's sentinel).

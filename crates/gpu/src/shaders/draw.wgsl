@@ -10,7 +10,7 @@ struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) rel: vec3<f32>,
     @location(1) @interpolate(flat) node: u32,
-    // The model's colour; alpha 0 where it has none.
+    // The model's colour; alpha 0 where it has none, below 1 where it is translucent.
     @location(2) color: vec4<f32>,
     // The object's colour (or the pass's tint), the same at every vertex of a node: made once
     // per vertex rather than per pixel (lavapipe shades on the CPU; measured).
@@ -37,17 +37,27 @@ fn hash(v: u32) -> u32 {
     return (word >> 22u) ^ word;
 }
 
-@fragment
-fn fs_color(in: VertexOut) -> @location(0) vec4<f32> {
+fn shade(in: VertexOut) -> vec3<f32> {
     // Flat shading from screen-space derivatives: no normals stored in the scene file.
     let n = normalize(cross(dpdx(in.rel), dpdy(in.rel)));
     var base = in.base;
-    if (in.color.a > 0.5) {
+    if (in.color.a > 0.0) {
         base = in.color.rgb;
     }
     if (view.tint.x != 0u) {
         base = unpack4x8unorm(view.tint.x).rgb;
     }
     let light = 0.35 + 0.65 * abs(dot(n, normalize(vec3<f32>(0.4, 0.8, 0.3))));
-    return vec4<f32>(base * light, 1.0);
+    return base * light;
+}
+
+@fragment
+fn fs_color(in: VertexOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(shade(in), 1.0);
+}
+
+// Translucent triangles, blended with the model's alpha.
+@fragment
+fn fs_blend(in: VertexOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(shade(in), in.color.a);
 }

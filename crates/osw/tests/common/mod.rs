@@ -162,8 +162,10 @@ pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// Renders with occlusion culling on every frame (`--always-cull`): the tests judge HC's.
 pub fn render(scene: &Path, path: &Path, (mode, hc): (&str, &str), tau: &str, out: &Path) {
-    osw_ok(&["render", "--scene", s(scene), "--path", s(path), "--mode", mode, "--hc", hc, "--tau", tau, "--size", SIZE, "--out", s(out)]);
+    let args = ["render", "--scene", s(scene), "--path", s(path), "--mode", mode, "--hc", hc, "--tau", tau, "--size", SIZE];
+    osw_ok(&[&args[..], &["--always-cull", "--out", s(out)]].concat());
 }
 
 pub fn compare(a: &Path, b: &Path, exact: &Path, out: &Path) -> serde_json::Value {
@@ -199,4 +201,45 @@ pub fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) ->
         assert!(!summary.contains("NaN") && !summary.contains("null"), "{label} {mode}: {summary}");
     }
     run
+}
+
+/// Appends `mesh`'s positions and indices to the GLB buffer `bin`, with a view and an accessor
+/// each; returns the primitive's attributes (`{"POSITION": .., "indices": ..}`).
+pub fn push_mesh(
+    bin: &mut Vec<u8>,
+    views: &mut Vec<serde_json::Value>,
+    accessors: &mut Vec<serde_json::Value>,
+    mesh: &osw_scene::mesh::Mesh,
+) -> serde_json::Value {
+    let b = mesh.bounds();
+    let k = accessors.len();
+    views.push(serde_json::json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": mesh.positions.len() * 12}));
+    mesh.positions.iter().flatten().for_each(|c| bin.extend(c.to_le_bytes()));
+    views.push(serde_json::json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": mesh.indices.len() * 4}));
+    mesh.indices.iter().for_each(|i| bin.extend(i.to_le_bytes()));
+    accessors.push(serde_json::json!({"bufferView": views.len() - 2, "componentType": 5126, "count": mesh.positions.len(), "type": "VEC3",
+        "min": b.min.to_array(), "max": b.max.to_array()}));
+    accessors
+        .push(serde_json::json!({"bufferView": views.len() - 1, "componentType": 5125, "count": mesh.indices.len(), "type": "SCALAR"}));
+    serde_json::json!({"attributes": {"POSITION": k}, "indices": k + 1})
+}
+
+/// Writes a GLB of the glTF document `doc` (its one buffer's length is set) and buffer `bin`.
+pub fn write_glb(path: &Path, mut doc: serde_json::Value, bin: &[u8]) {
+    doc["buffers"] = serde_json::json!([{"byteLength": bin.len()}]);
+    let mut text = serde_json::to_vec(&doc).unwrap();
+    while !text.len().is_multiple_of(4) {
+        text.push(b' ');
+    }
+    let mut glb = Vec::new();
+    glb.extend(b"glTF");
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
+    glb.extend((text.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(&text);
+    glb.extend((bin.len() as u32).to_le_bytes());
+    glb.extend(b"BIN\0");
+    glb.extend(bin);
+    std::fs::write(path, glb).unwrap();
 }

@@ -33,6 +33,8 @@ pub struct DisplayFrame {
     pub pvs_nodes: u32,
     pub triangles_drawn: u64,
     pub tests: u32,
+    /// 1 when HC frustum culled only (cost-adaptive culling).
+    pub cull_skipped: u32,
     /// RVG's cluster tests (as `osw render`'s stats.csv).
     pub clusters: u64,
     pub clusters_frustum_culled: u64,

@@ -23,6 +23,8 @@ pub struct NodeFrame {
     pub ms: f64,
     pub nodes_drawn: u32,
     pub tests: u32,
+    /// 1 when HC frustum culled only (cost-adaptive culling).
+    pub cull_skipped: u32,
     pub ids_sent: u64,
     /// Delta batches and bytes (frames as encoded) this node sent as HC, per link.
     pub batches: u32,

@@ -18,6 +18,10 @@ pub struct Summary {
     pub triangles_drawn_mean: f64,
     pub pvs_nodes_mean: f64,
     pub tests_mean: f64,
+    /// Frames frustum culled only because occlusion culling culled fewer triangles than it
+    /// cost (cost-adaptive culling, osw_cull::payoff; `--always-cull` turns it off).
+    #[serde(default)]
+    pub cull_skipped_frames: u64,
     /// RVG's clusters a frame, and the share culled by the frustum, the cone and as hidden.
     pub clusters_mean: f64,
     pub clusters_frustum_culled_fraction: f64,

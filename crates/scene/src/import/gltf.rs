@@ -3,7 +3,9 @@
 //! every triangle primitive (list, strip or fan; indexed or not; sparse or not) becomes part
 //! of one object per mesh instance (a node, or each instance of EXT_mesh_gpu_instancing);
 //! POSITION may be float or KHR_mesh_quantization's (normalized) integers; views may be
-//! EXT_meshopt_compression streams. Points and lines are skipped with a warning; Draco is
+//! EXT_meshopt_compression streams. Colours are COLOR_0 times the material's factor; a BLEND
+//! material's alpha makes its triangles translucent, a MASK material's discards those below
+//! its cutoff (see [`crate::mesh::Mesh::colors`]). Points and lines are skipped with a warning; Draco is
 //! refused with how to re-export. Images are never decoded. Every accessor is checked against
 //! its buffer before it is read.
 //!
@@ -16,6 +18,7 @@ use super::{ImportError, Imported};
 use crate::mesh::{Mesh, Object};
 use glam::{DAffine3, DMat4, DQuat, DVec3, Vec3};
 use gltf::accessor::{Accessor, DataType, Dimensions, Item};
+use gltf::material::AlphaMode;
 use gltf::mesh::Mode;
 use std::path::Path;
 
@@ -81,6 +84,9 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
         }
         stack.extend(node.children().map(|c| (c, anchor, world, depth + 1)));
     }
+    // A mesh's notes once, however many nodes use it.
+    let mut seen = std::collections::HashSet::new();
+    out.skipped.retain(|s| seen.insert(s.clone()));
     Ok(out)
 }
 
@@ -140,12 +146,15 @@ fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], skipped: &mut Vec<String>) -> R
             skipped.push(format!("mesh {} primitive {}: mode {:?} has no triangles", mesh.index(), prim.index(), prim.mode()));
             continue;
         }
-        m.append(&primitive(&prim, buffers).map_err(|e| format!("primitive {}: {e}", prim.index()))?);
+        let (p, notes) = primitive(&prim, buffers).map_err(|e| format!("primitive {}: {e}", prim.index()))?;
+        skipped.extend(notes.into_iter().map(|n| format!("mesh {} primitive {}: {n}", mesh.index(), prim.index())));
+        m.append(&p);
     }
     Ok(m)
 }
 
-fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<Mesh, String> {
+/// A primitive's triangles and colours, and what of its material was left out.
+fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<String>), String> {
     let pos = prim.get(&gltf::Semantic::Positions).ok_or("no POSITION attribute")?;
     if pos.dimensions() != Dimensions::Vec3 {
         return Err(format!("POSITION is {:?}, expected VEC3", pos.dimensions()));
@@ -159,19 +168,43 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<Mesh, String> 
         }
         None => (0..positions.len() as u32).collect(),
     };
-    let colors = colors(prim, buffers, positions.len())?;
-    Ok(Mesh { positions, indices: triangle_list(prim.mode(), &order), colors })
+    let mut indices = triangle_list(prim.mode(), &order);
+    let Some(rgba) = colors(prim, buffers, positions.len())? else {
+        return Ok((Mesh { positions, indices, colors: Vec::new() }, Vec::new()));
+    };
+    let material = prim.material();
+    let mut notes = Vec::new();
+    let name = || material.name().map_or_else(|| format!("{:?}", material.index()), |n| format!("'{n}'"));
+    let encode = |c: [f32; 4], a: u8| [srgb8(c[0]), srgb8(c[1]), srgb8(c[2]), a];
+    let colors = match material.alpha_mode() {
+        AlphaMode::Opaque => rgba.iter().map(|&c| encode(c, 255)).collect(),
+        AlphaMode::Blend => rgba.iter().map(|&c| encode(c, crate::mesh::alpha(c[3]))).collect(),
+        // Alpha testing (glTF 2.0 sec. 3.9.4) without textures: a triangle whose alpha is below
+        // the cutoff at every corner is discarded whole, the rest drawn opaque.
+        AlphaMode::Mask => {
+            let cutoff = material.alpha_cutoff().unwrap_or(0.5);
+            let before = indices.len() / 3;
+            indices = indices.chunks_exact(3).filter(|t| t.iter().any(|&v| rgba[v as usize][3] >= cutoff)).flatten().copied().collect();
+            if indices.len() / 3 < before {
+                notes.push(format!("{} triangles below material {}'s alpha cutoff {cutoff} (MASK)", before - indices.len() / 3, name()));
+            }
+            rgba.iter().map(|&c| encode(c, 255)).collect()
+        }
+    };
+    if material.alpha_mode() != AlphaMode::Opaque && material.pbr_metallic_roughness().base_color_texture().is_some() {
+        notes.push(format!("the alpha of material {}'s texture (textures are not read; its factor and COLOR_0 are)", name()));
+    }
+    Ok((Mesh { positions, indices, colors }, notes))
 }
 
-/// The primitive's colour per vertex: COLOR_0 times the material's baseColorFactor, both
-/// linear (glTF 2.0 sec. 3.9.2), encoded as sRGB bytes as osw displays them. None (empty) for a
-/// primitive with neither a material nor COLOR_0 (glTF's default material is plain white,
-/// which would hide the objects from each other).
-fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<Vec<[u8; 4]>, String> {
+/// The primitive's linear colour per vertex: COLOR_0 times the material's baseColorFactor
+/// (glTF 2.0 sec. 3.9.2). None for a primitive with neither a material nor COLOR_0 (glTF's
+/// default material is plain white, which would hide the objects from each other).
+fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<Option<Vec<[f32; 4]>>, String> {
     let material = prim.material();
     let color0 = prim.get(&gltf::Semantic::Colors(0));
     if material.index().is_none() && color0.is_none() {
-        return Ok(Vec::new());
+        return Ok(None);
     }
     let base = material.pbr_metallic_roughness().base_color_factor();
     let per_vertex: Vec<[f32; 4]> = match color0 {
@@ -189,11 +222,7 @@ fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<
             rgba
         }
     };
-    let encode = |c: [f32; 4]| {
-        let e = |k: usize| srgb8(c[k] * base[k]);
-        [e(0), e(1), e(2), 255]
-    };
-    Ok(per_vertex.into_iter().map(encode).collect())
+    Ok(Some(per_vertex.into_iter().map(|c| [0, 1, 2, 3].map(|k| c[k] * base[k])).collect()))
 }
 
 /// A linear colour channel as an sRGB byte.

@@ -1,7 +1,8 @@
 //! Wavefront OBJ reader (through `tobj`, positions in f64): every object (`o`) and group (`g`)
 //! becomes an object, polygons are fanned into triangles, negative (relative) indices are
 //! resolved; points and lines are skipped. The material libraries it names (`mtllib`, beside
-//! the file) must be readable; an object's material gives its colour (Kd). All objects of a file share one f32 anchor (see
+//! the file) must be readable; an object's material gives its colour (Kd) and, with d below 1,
+//! its translucency. All objects of a file share one f32 anchor (see
 //! [`crate::place`]).
 
 use super::{ImportError, Imported};
@@ -47,10 +48,13 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, S
         .map(|(i, m)| {
             let p: Vec<[f64; 3]> = m.mesh.positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
             let mut mesh = Mesh { positions: crate::place::relative(&p, anchor), indices: m.mesh.indices, colors: Vec::new() };
-            // Kd, the diffuse colour, as display values (what OBJ viewers show).
-            if let Some(kd) = m.mesh.material_id.and_then(|id| materials.get(id)).and_then(|mat| mat.diffuse) {
+            // Kd, the diffuse colour, as display values (what OBJ viewers show); d below 1 is
+            // translucent.
+            let material = m.mesh.material_id.and_then(|id| materials.get(id));
+            if let Some(kd) = material.and_then(|mat| mat.diffuse) {
                 let c = |k: usize| (kd[k].clamp(0.0, 1.0) * 255.0).round() as u8;
-                mesh.paint([c(0), c(1), c(2), 255]);
+                let d = material.and_then(|mat| mat.dissolve).unwrap_or(1.0);
+                mesh.paint([c(0), c(1), c(2), crate::mesh::alpha(d as f32)]);
             }
             let name = if m.name.is_empty() { format!("object {i}") } else { m.name };
             Object::placed(name, mesh, anchor, DAffine3::IDENTITY)

@@ -1,8 +1,9 @@
 //! PLY reader (ASCII, binary little- and big-endian): the `vertex` element's x, y, z (float or
 //! double: survey and scan tools write large coordinates as double, which are kept in f64 up to
 //! the scene's origin, see [`crate::place`]) and the `face` element's vertex index list;
-//! polygons are fanned into triangles; the vertices' `red`, `green`, `blue` (bytes, or floats
-//! from 0 to 1) are their colours; every other element and property is skipped.
+//! polygons are fanned into triangles; the vertices' `red`, `green`, `blue` and `alpha` (bytes,
+//! or floats from 0 to 1) are their colours, an alpha below 1 translucent; every other element
+//! and property is skipped.
 
 use super::ImportError;
 use crate::mesh::{Mesh, Object};
@@ -163,8 +164,8 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
     let mut colors: Vec<[u8; 4]> = Vec::new();
     for el in &elements {
         let xyz = ["x", "y", "z"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
-        let rgb = ["red", "green", "blue"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
-        let has_rgb = el.name == "vertex" && rgb.iter().all(Option::is_some);
+        let rgb = ["red", "green", "blue", "alpha"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
+        let has_rgb = el.name == "vertex" && rgb[..3].iter().all(Option::is_some);
         let faces = el.props.iter().position(|p| (p.name == "vertex_indices" || p.name == "vertex_index") && p.list.is_some());
         if el.name == "vertex" && xyz.iter().any(Option::is_none) {
             return Err("vertex element without x, y, z".into());
@@ -185,7 +186,8 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
                             p[axis] = v;
                         } else if let Some(ch) = rgb.iter().position(|&a| a == Some(k)) {
                             let unit = matches!(prop.ty, Scalar::F32 | Scalar::F64);
-                            c[ch] = if unit { v * 255.0 } else { v }.round().clamp(0.0, 255.0) as u8;
+                            let v = if unit { v } else { v / 255.0 };
+                            c[ch] = if ch == 3 { crate::mesh::alpha(v as f32) } else { (v * 255.0).round().clamp(0.0, 255.0) as u8 };
                         }
                     }
                     Some(count_ty) => {

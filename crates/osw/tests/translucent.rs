@@ -1,0 +1,131 @@
+//! Translucent surfaces (glTF alphaMode BLEND): drawn blended over what lies behind them, in
+//! the same order in every mode, and never an occluder. A red box stands behind a pane of
+//! glass that covers it on screen, a green box behind an opaque wall. Every mode shows the red
+//! box through the glass, with frames identical to frustum culling's; exact visibility counts
+//! the red box (and the glass) visible and the green box hidden; no mode culls what exact
+//! visibility sees, while the occlusion modes do cull the green box.
+
+mod common;
+use common::*;
+use osw_render::output::{frame_path, read_png};
+use osw_scene::SceneFile;
+use osw_scene::generators::shapes::add_box;
+use osw_scene::mesh::Mesh;
+use serde_json::json;
+use std::path::Path;
+
+const RED: [f64; 4] = [0.8, 0.05, 0.05, 1.0];
+const GLASS: [f64; 4] = [0.1, 0.3, 0.9, 0.3];
+
+/// One node per (name, box, material colour, blended) under the root.
+fn write_scene(path: &Path, boxes: &[(&str, [f32; 6], [f64; 4], bool)]) {
+    let (mut bin, mut views, mut accessors, mut meshes, mut nodes, mut materials) = (vec![], vec![], vec![], vec![], vec![], vec![]);
+    for (k, &(name, b, color, blend)) in boxes.iter().enumerate() {
+        let mut m = Mesh::default();
+        add_box(&mut m, glam::Vec3::new(b[0], b[1], b[2]), glam::Vec3::new(b[3], b[4], b[5]));
+        let mut prim = push_mesh(&mut bin, &mut views, &mut accessors, &m);
+        prim["material"] = json!(k);
+        meshes.push(json!({"primitives": [prim]}));
+        nodes.push(json!({"name": name, "mesh": k}));
+        let mode = if blend { "BLEND" } else { "OPAQUE" };
+        materials.push(json!({"name": name, "alphaMode": mode, "pbrMetallicRoughness": {"baseColorFactor": color}}));
+    }
+    let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes, "meshes": meshes, "materials": materials, "accessors": accessors, "bufferViews": views});
+    write_glb(path, doc, &bin);
+}
+
+/// Four frames from near the origin looking down -z, sliding sideways.
+fn write_path(path: &Path) {
+    let rows: String = (0..4).map(|i| format!("{i},{},0.1,2,0,0,0,1,50\n", i as f64 * 0.05)).collect();
+    std::fs::write(path, format!("frame,px,py,pz,qx,qy,qz,qw,fovy_deg\n{rows}")).unwrap();
+}
+
+/// The leaf whose box lies within `lo..hi` (world), found from the node table.
+fn leaf_in(scene: &SceneFile, lo: [f64; 3], hi: [f64; 3]) -> u32 {
+    let o = scene.origin();
+    (0..scene.bvh_count())
+        .find(|&id| {
+            let n = scene.node(id);
+            n.kind() == osw_scene::format::NodeKind::Leaf
+                && (0..3).all(|k| n.bbox_min[k] as f64 + o[k] >= lo[k] - 1e-3 && n.bbox_max[k] as f64 + o[k] <= hi[k] + 1e-3)
+        })
+        .expect("a leaf in the box")
+}
+
+/// Per frame, the ids of a run's `file` (pvs.txt, exact_leaves.txt).
+fn sets(file: &Path) -> Vec<Vec<u32>> {
+    std::fs::read_to_string(file).unwrap().lines().map(|l| l.split_whitespace().map(|t| t.parse().unwrap()).collect()).collect()
+}
+
+fn centre(run: &Path, frame: u64) -> [u8; 4] {
+    let (w, h, px) = read_png(&frame_path(run, frame)).unwrap();
+    let i = ((h / 2) * w + w / 2) as usize * 4;
+    [px[i], px[i + 1], px[i + 2], px[i + 3]]
+}
+
+#[test]
+fn a_box_behind_glass_is_seen_through_it_in_every_mode_and_the_glass_culls_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let red = ("red", [-1.0, -1.0, -12.0, 1.0, 1.0, -10.0], RED, false);
+    let glass = ("glass", [-4.0, -4.0, -5.05, 4.0, 4.0, -5.0], GLASS, true);
+    let wall = ("wall", [2.0, -3.0, -6.0, 9.0, 3.0, -5.5], [0.5, 0.5, 0.5, 1.0], false);
+    let green = ("green", [5.0, -1.0, -12.0, 7.0, 1.0, -10.0], [0.05, 0.8, 0.05, 1.0], false);
+    let path = d.path().join("path.csv");
+    write_path(&path);
+    let build = |name: &str, boxes: &[(&str, [f32; 6], [f64; 4], bool)]| {
+        let (glb, scene) = (d.path().join(format!("{name}.glb")), d.path().join(format!("{name}.osw")));
+        write_scene(&glb, boxes);
+        osw_ok(&["build", s(&glb), "-o", s(&scene)]);
+        scene
+    };
+    let scene = build("scene", &[red, glass, wall, green]);
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(scene.with_extension("build.json")).unwrap()).unwrap();
+    assert_eq!((report["translucent_triangles"].as_u64(), report["translucent_objects"].as_u64()), (Some(12), Some(1)), "{report}");
+    let file = SceneFile::open(&scene).unwrap();
+    let red_leaf = leaf_in(&file, [-1.0, -1.0, -12.0], [1.0, 1.0, -10.0]);
+    let glass_leaf = leaf_in(&file, [-4.0, -4.0, -5.05], [4.0, 4.0, -5.0]);
+    let green_leaf = leaf_in(&file, [5.0, -1.0, -12.0], [7.0, 1.0, -10.0]);
+
+    let walk = ["--scene", s(&scene), "--path", s(&path), "--size", "96x96"];
+    let exact = d.path().join("exact");
+    osw_ok(&[&["exact"], &walk[..], &["--out", s(&exact)]].concat());
+    for (f, leaves) in sets(&exact.join("exact_leaves.txt")).iter().enumerate() {
+        assert!(
+            leaves.contains(&red_leaf) && leaves.contains(&glass_leaf),
+            "frame {f}: exact misses what is behind or is the glass: {leaves:?}"
+        );
+        assert!(!leaves.contains(&green_leaf), "frame {f}: the green box is behind an opaque wall");
+    }
+
+    // The red box shows through the glass: the centre pixel is the glass over red, not over sky.
+    let vfc = d.path().join("vfc");
+    osw_ok(&[&["render", "--mode", "vfc"], &walk[..], &["--out", s(&vfc)]].concat());
+    let without = build("without", &[glass, wall, green]);
+    let sky = d.path().join("sky");
+    osw_ok(&["render", "--mode", "vfc", "--scene", s(&without), "--path", s(&path), "--size", "96x96", "--out", s(&sky)]);
+    let (through, over_sky) = (centre(&vfc, 0), centre(&sky, 0));
+    assert!(through[0] > through[2] && over_sky[2] > over_sky[0], "glass over red {through:?}, over sky {over_sky:?}");
+
+    let mut runs: Vec<(String, std::path::PathBuf)> = Vec::new();
+    for mode in ["sw", "chc", "hzb", "prev", "ovc"] {
+        let out = d.path().join(mode);
+        osw_ok(&[&["render", "--mode", mode, "--always-cull"], &walk[..], &["--out", s(&out)]].concat());
+        runs.push((mode.into(), out));
+    }
+    let switch = d.path().join("switch");
+    osw_ok(&[&["run", "--tau", "0", "--always-cull"], &walk[..], &["--out", s(&switch)]].concat());
+    runs.push(("switch".into(), switch));
+    for (mode, run) in &runs {
+        let c = compare(run, &vfc, &exact, &d.path().join(format!("cmp-{mode}")));
+        assert_eq!(c["identical_frames"], 4, "{mode}: frames differ from vfc's: {c}");
+        assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{mode}: culls what exact visibility sees: {c}");
+        assert_eq!(centre(run, 0), through, "{mode}");
+    }
+    // The occlusion tests ran against the wall and not against the glass: the green box is
+    // culled in the frames after the first (HC tests against the previous frame's set).
+    let prev = &runs.iter().find(|(m, _)| m == "prev").unwrap().1;
+    let pvs = sets(&prev.join("pvs.txt"));
+    let lod = |leaf: u32| file.node(leaf).first_lod;
+    assert!(pvs[1..].iter().all(|p| p.contains(&lod(red_leaf)) && !p.contains(&lod(green_leaf))), "prev's PVS: {pvs:?}");
+}

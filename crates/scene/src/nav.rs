@@ -1,0 +1,289 @@
+//! Where a person can stand in a scene, for walks (see [`crate::path_gen`]): a grid over the
+//! ground plane whose cells hold one or more floors, so that a walk goes up stairs and through
+//! the storeys of a building, through the rooms of a game level and between a plant's units.
+//!
+//! A floor is the height of an opaque surface facing up (or down: imported models are wound
+//! either way) at a cell's centre, or the scene's lowest point, which every cell has (the ground
+//! of a model without one). Floors closer than [`MERGE`] are one floor, the higher (a slab's top
+//! over its bottom). A floor is blocked when an opaque triangle whose xz bounds cover the cell
+//! (conservative) reaches into the slab from [`SLAB_LOW`] to [`SLAB_HIGH`] above it; it is
+//! roofed when an opaque surface lies above that slab at the cell's centre. Translucent
+//! surfaces (glass, a building's room volumes) neither carry nor block: a person walks through
+//! a room's volume and looks through its windows.
+//!
+//! A walker steps between 4-neighbouring cells onto the floor nearest its own within [`CLIMB`]
+//! (a stair's riser), and keeps a clearance from blocked floors, measured in cells over the
+//! floors it could walk.
+
+use crate::file::{SceneError, SceneFile};
+use crate::format::NodeKind;
+use glam::{Vec2, Vec3};
+use std::collections::VecDeque;
+
+/// Eye height above a floor, and the slab [low, high] above it in which geometry blocks a
+/// walker (below: kerbs and stair steps; above: doorways' lintels and overhead pipes).
+pub const EYE: f32 = 1.7;
+pub const SLAB_LOW: f32 = 0.4;
+pub const SLAB_HIGH: f32 = 1.9;
+/// Floors closer than this in one cell are one.
+pub const MERGE: f32 = 0.5;
+/// Most a walker climbs or descends from one cell to the next.
+pub const CLIMB: f32 = 0.45;
+/// A surface is a floor when its normal is within about 45 degrees of vertical.
+const FLAT: f32 = 0.7;
+
+/// A grid over the ground plane: `nx` by `nz` square cells from `min`.
+pub struct Grid {
+    pub min: Vec3,
+    pub cell_size: f32,
+    pub nx: usize,
+    pub nz: usize,
+}
+
+/// The floors of a scene on a grid. A floor is a node: `height[i]` in cell `cell[i]`.
+pub struct Floors {
+    pub grid: Grid,
+    /// Per cell, its floors `start[c]..start[c + 1]`, lowest first.
+    start: Vec<u32>,
+    pub cell: Vec<u32>,
+    pub height: Vec<f32>,
+    pub blocked: Vec<bool>,
+    pub roofed: Vec<bool>,
+}
+
+impl Floors {
+    /// The floors of `scene`'s full-detail opaque triangles.
+    pub fn of(scene: &SceneFile) -> Result<Floors, SceneError> {
+        let root = scene.node(scene.root()).aabb();
+        // At most 4096 cells a side (16M cells); at least 0.2 m so a small scene is not over-resolved.
+        let cell_size = (root.extent().x.max(root.extent().z) / 4096.0).max(0.2);
+        let (nx, nz) = (((root.extent().x / cell_size) as usize + 1).max(1), ((root.extent().z / cell_size) as usize + 1).max(1));
+        let grid = Grid { min: root.min, cell_size, nx, nz };
+        let mut found: Vec<(u32, f32)> = Vec::new();
+        for_each_opaque_triangle(scene, |p| {
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            if n.y.abs() >= FLAT * n.length() {
+                grid.for_each_centre_in(p, |c, h| found.push((c as u32, h)));
+            }
+        })?;
+        let mut f = Floors { grid, start: Vec::new(), cell: Vec::new(), height: Vec::new(), blocked: Vec::new(), roofed: Vec::new() };
+        found.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        let mut next = found.iter().peekable();
+        for c in 0..nx * nz {
+            f.start.push(f.height.len() as u32);
+            let first = f.height.len();
+            f.cell.push(c as u32);
+            f.height.push(root.min.y);
+            while let Some(&(_, h)) = next.next_if(|(k, _)| *k as usize == c) {
+                if h - f.height[f.height.len() - 1] < MERGE {
+                    *f.height.last_mut().expect("a floor") = h.max(f.height[f.height.len() - 1]);
+                } else {
+                    f.cell.push(c as u32);
+                    f.height.push(h);
+                }
+            }
+            debug_assert!(f.height.len() > first);
+        }
+        f.start.push(f.height.len() as u32);
+        f.blocked = vec![false; f.height.len()];
+        f.roofed = vec![false; f.height.len()];
+        let Floors { grid, start, height, blocked, roofed, .. } = &mut f;
+        for_each_opaque_triangle(scene, |p| {
+            let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+            let reaches = |i: usize, (y0, y1): (f32, f32)| y1 >= height[i] + SLAB_LOW && y0 <= height[i] + SLAB_HIGH;
+            let one_cell = grid.cells_under(lo, hi).nth(1).is_none();
+            for c in grid.cells_under(lo, hi) {
+                let floors = start[c] as usize..start[c + 1] as usize;
+                if !floors.clone().any(|i| !blocked[i] && reaches(i, (lo.y, hi.y))) {
+                    continue;
+                }
+                // A triangle over several cells, within each cell's column (a roof sloping over
+                // a whole storey, or a rafter's side, blocks only where it comes down).
+                let ys = match one_cell {
+                    true => (lo.y, hi.y),
+                    // Within the triangle's own heights: a clipped corner may round past them.
+                    false => match heights_in(p, grid.cell_min(c), grid.cell_min(c) + grid.cell_size) {
+                        Some((y0, y1)) => (y0.max(lo.y), y1.min(hi.y)),
+                        None => continue,
+                    },
+                };
+                for i in floors {
+                    blocked[i] |= reaches(i, ys);
+                }
+            }
+            if lo.y > root.min.y + SLAB_HIGH {
+                grid.for_each_centre_in(p, |c, y| {
+                    for i in start[c] as usize..start[c + 1] as usize {
+                        roofed[i] |= y > height[i] + SLAB_HIGH;
+                    }
+                });
+            }
+        })?;
+        Ok(f)
+    }
+
+    pub fn len(&self) -> usize {
+        self.height.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.height.is_empty()
+    }
+
+    /// Floors of cell `c`.
+    pub fn floors_of(&self, c: usize) -> std::ops::Range<usize> {
+        self.start[c] as usize..self.start[c + 1] as usize
+    }
+
+    /// Where a walker stands on floor `i`.
+    pub fn point(&self, i: usize) -> Vec3 {
+        let c = self.grid.centre(self.cell[i] as usize);
+        Vec3::new(c.x, self.height[i], c.y)
+    }
+
+    /// The floor nearest `p` within CLIMB in the cell under it.
+    pub fn floor_at(&self, p: Vec3) -> Option<usize> {
+        let g = &self.grid;
+        let (x, z) = ((p.x - g.min.x) / g.cell_size, (p.z - g.min.z) / g.cell_size);
+        let inside = x >= 0.0 && z >= 0.0 && (x as usize) < g.nx && (z as usize) < g.nz;
+        inside.then(|| self.nearest(z as usize * g.nx + x as usize, p.y)).flatten()
+    }
+
+    fn nearest(&self, c: usize, y: f32) -> Option<usize> {
+        self.floors_of(c)
+            .filter(|&i| (self.height[i] - y).abs() <= CLIMB)
+            .min_by(|&a, &b| (self.height[a] - y).abs().total_cmp(&(self.height[b] - y).abs()))
+    }
+
+    /// The cells next to floor `i`'s, 4 (`diagonal` false) or 8 of them, each with the floor a
+    /// walker steps onto from `i`, or None where there is none within CLIMB (a ledge).
+    fn steps(&self, i: usize, diagonal: bool) -> impl Iterator<Item = Option<usize>> + '_ {
+        let (c, nx, nz) = (self.cell[i] as usize, self.grid.nx, self.grid.nz);
+        let (x, z) = ((c % nx) as i64, (c / nx) as i64);
+        let around: &[(i64, i64)] = if diagonal {
+            &[(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)]
+        } else {
+            &[(-1, 0), (1, 0), (0, -1), (0, 1)]
+        };
+        around.iter().filter_map(move |&(dx, dz)| {
+            let (x, z) = (x + dx, z + dz);
+            let inside = x >= 0 && z >= 0 && (x as usize) < nx && (z as usize) < nz;
+            inside.then(|| self.nearest(z as usize * nx + x as usize, self.height[i]))
+        })
+    }
+
+    /// The floors a walker steps onto from floor `i` (4-neighbours).
+    pub fn neighbours(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        self.steps(i, false).flatten()
+    }
+
+    /// Per floor, its distance in cells (8-neighbour steps over the floors) to the nearest
+    /// blocked floor, up to `most` (more is `most + 1`). A ledge needs none: no step leads
+    /// over it.
+    pub fn clearance(&self, most: u32) -> Vec<u32> {
+        let d0 = |blocked: &bool| if *blocked { 0 } else { most + 1 };
+        let mut d: Vec<u32> = self.blocked.iter().map(d0).collect();
+        let mut q: VecDeque<usize> = (0..self.len()).filter(|&i| self.blocked[i]).collect();
+        while let Some(i) = q.pop_front() {
+            if d[i] >= most {
+                continue;
+            }
+            // Only to floors that step back onto this one: a floor buried in a stair's solid
+            // keeps no clearance from the steps beside it.
+            let back = |j: usize| self.nearest(self.cell[i] as usize, self.height[j]) == Some(i);
+            for j in self.steps(i, true).flatten().filter(|&j| back(j)) {
+                if d[j] > d[i] + 1 {
+                    d[j] = d[i] + 1;
+                    q.push_back(j);
+                }
+            }
+        }
+        d
+    }
+}
+
+impl Grid {
+    /// The centre of cell `c`, in xz.
+    pub fn centre(&self, c: usize) -> Vec2 {
+        self.cell_min(c) + 0.5 * self.cell_size
+    }
+
+    /// The corner of cell `c` with the least x and z.
+    pub fn cell_min(&self, c: usize) -> Vec2 {
+        Vec2::new(self.min.x, self.min.z) + Vec2::new((c % self.nx) as f32, (c / self.nx) as f32) * self.cell_size
+    }
+
+    /// The cells whose columns the box `lo..hi` overlaps or touches (in xz): a wall's face on
+    /// the border of two cells blocks both.
+    fn cells_under(&self, lo: Vec3, hi: Vec3) -> impl Iterator<Item = usize> + use<> {
+        let eps = self.cell_size * 1e-3;
+        let (lo, hi) = (lo - eps, hi + eps);
+        let to = |v: f32, m: f32, n: usize| (((v - m) / self.cell_size).max(0.0) as usize).min(n - 1);
+        let (x0, x1) = (to(lo.x, self.min.x, self.nx), to(hi.x, self.min.x, self.nx));
+        let (z0, z1) = (to(lo.z, self.min.z, self.nz), to(hi.z, self.min.z, self.nz));
+        let nx = self.nx;
+        (z0..=z1).flat_map(move |z| (x0..=x1).map(move |x| z * nx + x))
+    }
+
+    /// Calls `f(cell, height)` for every cell whose centre lies in triangle `p` seen from
+    /// above, with the triangle's height there.
+    fn for_each_centre_in(&self, p: [Vec3; 3], mut f: impl FnMut(usize, f32)) {
+        let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+        let q = p.map(|v| Vec2::new(v.x, v.z));
+        let area = (q[1] - q[0]).perp_dot(q[2] - q[0]);
+        if area == 0.0 {
+            return;
+        }
+        for c in self.cells_under(lo, hi) {
+            let centre = self.centre(c);
+            // Barycentric coordinates of the centre.
+            let w1 = (centre - q[0]).perp_dot(q[2] - q[0]) / area;
+            let w2 = (q[1] - q[0]).perp_dot(centre - q[0]) / area;
+            let w0 = 1.0 - w1 - w2;
+            if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
+                f(c, w0 * p[0].y + w1 * p[1].y + w2 * p[2].y);
+            }
+        }
+    }
+}
+
+/// The heights of triangle `p` within the column over the xz rectangle `lo..hi` (None when it
+/// misses it): the triangle clipped to the column (Sutherland-Hodgman).
+fn heights_in(p: [Vec3; 3], lo: Vec2, hi: Vec2) -> Option<(f32, f32)> {
+    let mut poly: Vec<Vec3> = p.to_vec();
+    let mut next = Vec::with_capacity(8);
+    // Each side of the column as (axis, bound, keep the side above it).
+    for (axis, bound, above) in [(0, lo.x, true), (0, hi.x, false), (2, lo.y, true), (2, hi.y, false)] {
+        let inside = |v: &Vec3| if above { v[axis] >= bound } else { v[axis] <= bound };
+        next.clear();
+        for (k, a) in poly.iter().enumerate() {
+            let b = poly[(k + 1) % poly.len()];
+            if inside(a) {
+                next.push(*a);
+            }
+            if inside(a) != inside(&b) {
+                next.push(a.lerp(b, (bound - a[axis]) / (b[axis] - a[axis])));
+            }
+        }
+        std::mem::swap(&mut poly, &mut next);
+        if poly.is_empty() {
+            return None;
+        }
+    }
+    Some(poly.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| (l.min(v.y), h.max(v.y))))
+}
+
+/// Calls `f` with the corners of every opaque triangle of every leaf at full detail.
+fn for_each_opaque_triangle(scene: &SceneFile, mut f: impl FnMut([Vec3; 3])) -> Result<(), SceneError> {
+    for id in 0..scene.bvh_count() {
+        let n = scene.node(id);
+        if n.kind() != NodeKind::Leaf {
+            continue;
+        }
+        let g = scene.geometry(n.first_lod)?;
+        for t in 0..g.opaque_indices() / 3 {
+            f([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t * 3 + k) as usize])));
+        }
+    }
+    Ok(())
+}
