@@ -136,6 +136,10 @@ impl Plan<'_> {
         if adaptive > 0.0 {
             args.extend(["--adaptive".into(), adaptive.to_string()]);
         }
+        // CHC as paper 001 runs it: every frame culled (cost-adaptive culling is osw's).
+        if mode == Mode::Chc {
+            args.push("--always-cull".into());
+        }
         osw(&args, &dir.join("run.log"))?;
         let compare = [
             "compare",
