@@ -8,8 +8,9 @@ pub struct Args {
     /// Scene file.
     #[arg(long)]
     scene: PathBuf,
-    /// walk (eye height, stays out of walls), orbit (around, looking at the centre) or
-    /// flyover (above, looking ahead and down).
+    /// walk (at eye height over the model's floors, up stairs and through doorways, out of
+    /// walls, on the ground floor of a building or level where there is one), orbit (around,
+    /// looking at the centre) or flyover (above, looking ahead and down).
     #[arg(long)]
     kind: PathKind,
     #[arg(long, default_value_t = 300)]
