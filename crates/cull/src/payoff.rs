@@ -71,24 +71,27 @@ pub struct Payoff {
     /// Frames still to skip, and how many the next time culling does not pay.
     skip: u32,
     next_skip: u32,
-    /// Frames skipped so far, and frames that culled and did not pay.
-    pub skipped: u64,
-    pub not_paying: u64,
 }
 
 impl Payoff {
     pub fn new(cost: CullCost) -> Payoff {
-        Payoff { cost, skip: 0, next_skip: FIRST_SKIP, skipped: 0, not_paying: 0 }
+        Payoff { cost, skip: 0, next_skip: FIRST_SKIP }
     }
 
-    /// Whether this frame is occlusion culled; a frame that is not is counted as skipped.
+    /// Whether this frame is occlusion culled.
     pub fn cull(&mut self) -> bool {
         if self.skip == 0 {
             return true;
         }
         self.skip -= 1;
-        self.skipped += 1;
         false
+    }
+
+    /// Judges a frame HC culled into `pvs` with counts `hc`: the occluders OR draws next are
+    /// the PVS, by the node table (not what cluster tests let through, so that every process
+    /// judges alike).
+    pub fn judge_hc(&mut self, nodes: &[osw_scene::NodeRecord], hc: &crate::HcStats, pvs: &[osw_scene::NodeId]) {
+        self.judge(CullCounts { culled_triangles: hc.culled_triangles, occluder_triangles: triangles(nodes, pvs), tests: hc.tests as u64 });
     }
 
     /// Judges a culled frame by its counts; a frame that does not pay skips the next ones.
@@ -97,7 +100,6 @@ impl Payoff {
         if c.culled_triangles as f64 >= cost {
             self.next_skip = FIRST_SKIP;
         } else {
-            self.not_paying += 1;
             self.skip = self.next_skip;
             self.next_skip = (self.next_skip * GROWTH).min(MAX_SKIP);
         }
@@ -116,10 +118,6 @@ impl Alternating {
     pub fn of(&mut self, frame: u64) -> &mut Payoff {
         &mut self.0[(frame % 2) as usize]
     }
-
-    pub fn skipped(&self) -> u64 {
-        self.0.iter().map(|p| p.skipped).sum()
-    }
 }
 
 #[cfg(test)]
@@ -135,7 +133,6 @@ mod tests {
             assert!(p.cull());
             p.judge(CullCounts { culled_triangles: 100_000, occluder_triangles: 20_000, tests: 4000 });
         }
-        assert_eq!((p.skipped, p.not_paying), (0, 0));
     }
 
     #[test]
@@ -155,7 +152,6 @@ mod tests {
         let back = culled.iter().position(|&f| f >= 100).unwrap();
         assert!(culled[back] <= 100 + MAX_SKIP as usize);
         assert_eq!(culled.len() - back, 200 - culled[back]);
-        assert_eq!(p.skipped as usize + culled.len(), 200);
     }
 
     #[test]
@@ -175,6 +171,5 @@ mod tests {
         a.of(0).judge(CullCounts::default());
         assert!(!a.of(2).cull());
         assert!(a.of(1).cull());
-        assert_eq!(a.skipped(), 1);
     }
 }

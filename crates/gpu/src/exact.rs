@@ -140,8 +140,9 @@ impl Renderer {
 }
 
 /// The triangles, numbered as in the one draw of `ids` (which drew each block's opaque
-/// clusters whole and in order), of the clusters holding the visible `items` (sorted [node id + 1, triangle index]),
-/// in that order; `None` if an index falls outside its node's triangles.
+/// clusters whole and in order), of the clusters holding the visible `items` (sorted
+/// [node id + 1, triangle index]), in that order; `None` if an index falls outside its node's
+/// triangles.
 fn visible_clusters(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> Result<Option<Vec<Range<u32>>>, RenderError> {
     let mut clusters = Vec::new();
     let mut first = 0u64;

@@ -19,7 +19,7 @@
 use crate::inbox::Inbox;
 use crate::roles::{Display, Duty, Peer, Step, keyframe_to_display};
 use osw_cull::delta::{Assembly, batches, diff};
-use osw_cull::payoff::{CullCounts, Payoff};
+use osw_cull::payoff::Payoff;
 use osw_cull::{AllVisible, hardware_cull};
 use osw_gpu::renderer::Renderer;
 use osw_render::mode::{HcTest, draw_occluders, hc_pass};
@@ -147,8 +147,7 @@ impl Switch {
         };
         // A frame without occluders (the first) culls nothing, whatever culling would save.
         if let Some(p) = self.payoff.as_mut().filter(|_| cull && !self.visible.is_empty()) {
-            let occluder_triangles = osw_cull::payoff::triangles(r.scene.nodes(), &pvs);
-            p.judge(CullCounts { culled_triangles: hc.culled_triangles, occluder_triangles, tests: hc.tests as u64 });
+            p.judge_hc(r.scene.nodes(), &hc, &pvs);
         }
         let (batches, ids_sent) = self.send_visible_set(i, duty, &pvs);
         let hc_us = t.elapsed().as_micros() as u64;

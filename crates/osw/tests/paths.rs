@@ -241,3 +241,18 @@ fn a_walk_through_an_offset_scene_is_the_same_walk_moved() {
         assert_eq!(x.orientation, y.orientation);
     }
 }
+
+#[test]
+fn a_model_with_nowhere_to_stand_is_refused_by_name() {
+    // One wall, 10 m square: every floor of the grid (the wall's foot) is blocked by it.
+    let d = tempfile::tempdir().unwrap();
+    let (ply, scene) = (d.path().join("wall.ply"), d.path().join("wall.osw"));
+    let header = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    std::fs::write(&ply, format!("{header}0 0 0\n10 0 0\n10 10 0\n0 10 0\n4 0 1 2 3\n")).unwrap();
+    osw_ok(&["build", s(&ply), "-o", s(&scene)]);
+    let csv = d.path().join("walk.csv");
+    osw_err(&["path", "--scene", s(&scene), "--kind", "walk", "-o", s(&csv)], "no free space to walk in at eye height");
+    assert!(!csv.exists(), "no path written");
+    // Orbits and flyovers need no floor.
+    osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "4", "-o", s(&csv)]);
+}

@@ -24,7 +24,7 @@ use osw_cull::delta::diff;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, Footprint, HzbTester, Pyramid, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
-use osw_cull::payoff::{Alternating, CullCounts};
+use osw_cull::payoff::Alternating;
 use osw_cull::retest::retest_additions;
 use osw_cull::{AllVisible, HcStats, View, VisibilityTester, hardware_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
@@ -325,8 +325,8 @@ pub fn hc_pass_with(
     };
     pvs.sort_unstable();
     pvs.dedup();
-    // What the traversal found, to count the triangles of what the retests drop.
-    let found = pvs.clone();
+    // The triangles of what the traversal found: the retests only drop from it.
+    let found = osw_cull::payoff::triangles(nodes, pvs);
     let mut tests = stats.tests;
     // Hidden boxes, and of those the ones only adaptive culling dropped.
     let mut hidden = (0, 0);
@@ -377,8 +377,7 @@ pub fn hc_pass_with(
         }
     }
     let retests = tests - stats.tests;
-    let dropped: u64 = found.iter().filter(|id| pvs.binary_search(id).is_err()).map(|&id| nodes[id as usize].triangles as u64).sum();
-    let culled_triangles = stats.culled_triangles + dropped;
+    let culled_triangles = stats.culled_triangles + found - osw_cull::payoff::triangles(nodes, pvs);
     Ok(HcStats {
         tests,
         retests,
@@ -522,10 +521,7 @@ impl ModeState {
         // nothing, whatever culling would save: it is not judged.
         let judged = cull && (self.mode == Mode::Chc || (self.mode == Mode::Prev && !self.visible.is_empty()));
         if let Some(p) = self.payoff.as_mut().filter(|_| judged) {
-            // By the node table, not what cluster tests let through: the judgement is the
-            // switch's. OR draws the PVS next frame; chc draws it as it goes.
-            let occluders = osw_cull::payoff::triangles(nodes, &pvs);
-            p.of(frame).judge(CullCounts { culled_triangles: hc.culled_triangles, occluder_triangles: occluders, tests: hc.tests as u64 });
+            p.of(frame).judge_hc(nodes, &hc, &pvs);
         }
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
