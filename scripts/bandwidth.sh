@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Bandwidth of the occlusion switch: runs the walk twice, sending deltas and then the whole
 # visible set every frame (--full), and compares bytes and ids per frame on each link with
-# paper 000's model 8n + nh/b + 3(72 + h) (osw bandwidth). Plots over the frames as in the
+# occlusion switch's model 8n + nh/b + 3(72 + h) (osw bandwidth). Plots over the frames as in the
 # paper's fig. 3.
 #
 #   scripts/bandwidth.sh [--scene S --path P] [--tau PX] [--size WxH] [--netns] [--out DIR]
@@ -22,7 +22,7 @@ while (($#)); do
     --size) size=$2; shift 2 ;;
     --netns) netns=1; shift ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
     *) echo "bandwidth: unknown argument $1" >&2; exit 2 ;;
   esac
 done

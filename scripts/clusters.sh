@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Culling inside the visible nodes (issue 16): triangles drawn over triangles exactly visible,
+# Culling inside the visible nodes: triangles drawn over triangles exactly visible,
 # and frame time, in its two settings. The small plant's walk at tau 0 (prev) and the large
 # plant's walk at tau 5 (vfc, prev and the switch), each compared with exact visibility at full
 # detail (and at tau 5, `--exact-lod`, so that LOD error is not read as false culling).
@@ -23,7 +23,7 @@ while (($#)); do
     --frames) frames=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
     *) echo "clusters: unknown argument $1" >&2; exit 2 ;;
   esac
 done

@@ -5,20 +5,35 @@
 # the same tau: its speed-up, the image error of its frames, and its culling error against
 # exact visibility of the scene as drawn at that tau (so LOD error, which both share, is not
 # counted as culling error). It ends with a small `osw report` on the walk's first frames:
-# vfc, prev, the switch and ovc (paper 003, also with adaptive culling) at a few taus, each
+# vfc, prev, the switch and ovc (Bartz 1999, also with adaptive culling) at a few taus, each
 # run in a line at a glance and the error-against-time plot with its Pareto front.
-# Frames and the report land in out/demo (OUT=...). Sizes: TRIANGLES (default 20M: the
-# smallest plant of `scripts/scale.sh` where the switch is clearly ahead of vfc, 3.1x at tau 1;
-# at 2M it is 1.5x), FRAMES (default 300), TAU (pixels of error, default 1), SIZE (default
-# 1024x1024).
+#
+#   scripts/demo.sh [--triangles N] [--frames N] [--tau PX] [--size WxH] [--out DIR]
+#
+# Frames and the report land in out/demo. --triangles: the plant's size (default 20M: the
+# smallest plant of `scripts/scale.sh` where the switch is clearly ahead of vfc, 3.1x at tau
+# 1; at 2M it is 1.5x); --frames: the walk's length (default 300); --tau: pixels of error
+# (default 1); --size: the image (default 1024x1024). The variables TRIANGLES, FRAMES, TAU,
+# SIZE and OUT set the same.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-source scripts/tools.sh
 out="${OUT:-out/demo}"
 triangles="${TRIANGLES:-20000000}"
 frames="${FRAMES:-300}"
 tau="${TAU:-1}"
 size="${SIZE:-1024x1024}"
+while (($#)); do
+  case "$1" in
+    --triangles) triangles="$2"; shift 2 ;;
+    --frames) frames="$2"; shift 2 ;;
+    --tau) tau="$2"; shift 2 ;;
+    --size) size="$2"; shift 2 ;;
+    --out) out="$2"; shift 2 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
+    *) echo "demo: unknown argument $1 (see --help)" >&2; exit 2 ;;
+  esac
+done
+source scripts/tools.sh
 mkdir -p "$out"
 $osw build --gen plant --triangles "$triangles" --seed 1 -o "$out/plant.osw"
 $osw path --scene "$out/plant.osw" --kind walk --frames "$frames" --seed 1 -o "$out/walk.csv"

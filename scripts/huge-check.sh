@@ -13,7 +13,7 @@ while (($#)); do
     --out) out=$(realpath -m "$2"); shift 2 ;;
     --frames) frames=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
-    -h|--help) sed -n '2,7p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
     *) echo "huge-check: unknown argument $1" >&2; exit 2 ;;
   esac
 done

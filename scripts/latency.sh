@@ -22,7 +22,7 @@ while (($#)); do
     --netns) netns=1; shift ;;
     --delays) delays=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
     *) echo "latency: unknown argument $1" >&2; exit 2 ;;
   esac
 done

@@ -19,7 +19,7 @@ set -euo pipefail
 scene="" path="" out="" tau=1 size=1024x1024 rate=100mbit delay=0.2ms loss=0 extra_display=() extra_node=()
 bin="$(cd "$(dirname "$0")/.." && pwd)/target/release"
 config="$(cd "$(dirname "$0")/.." && pwd)/configs/three-hosts.toml"
-usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
+usage() { sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit "${1:-2}"; }
 while (($#)); do
   case "$1" in
     --scene) scene=$2; shift 2 ;;

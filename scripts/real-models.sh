@@ -18,7 +18,7 @@ while (($#)); do
     --frames) frames=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
     -*) echo "real-models: unknown argument $1" >&2; exit 2 ;;
     *) models+=("$(realpath "$1")"); shift ;;
   esac

@@ -17,7 +17,7 @@ while (($#)); do
     --huge) args+=("$1"); shift ;;
     --sizes|--taus|--modes|--frames|--size) args+=("$1" "$2"); shift 2 ;;
     --out) out=$(realpath -m "$2"); shift 2 ;;
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
     *) echo "scale: unknown argument $1" >&2; exit 2 ;;
   esac
 done

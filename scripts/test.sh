@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs every test of the workspace (release build: one target dir shared with the tools, and
-# the scene tests work at the issues' real sizes). Exits non-zero when any test fails.
+# the scene tests work at real sizes). Exits non-zero when any test fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh

@@ -1,4 +1,4 @@
-//! Coherent hierarchical culling (paper 001 fig. 2), the `chc` baseline. Nodes visible last
+//! Coherent hierarchical culling (CHC fig. 2), the `chc` baseline. Nodes visible last
 //! frame are drawn without waiting (leaves) or opened without a test (interior nodes); every
 //! other node in the frustum is queried, and the traversal goes on while queries are in
 //! flight; a query that returns visible pulls visibility up to the root and resumes the

@@ -1,4 +1,4 @@
-//! Visible-set deltas (paper 000 sec. 3.4): HC sends δ(i,i-1) = V(i) - V(i-1) (added) and
+//! Visible-set deltas (occlusion switch sec. 3.4): HC sends δ(i,i-1) = V(i) - V(i-1) (added) and
 //! δ(i-1,i) = V(i-1) - V(i) (removed); OR and RVG rebuild V(i) = (V(i-1) - removed) ∪ added.
 //! Sets are sorted, distinct id lists.
 
@@ -48,35 +48,74 @@ pub fn batches<'a>(added: &'a [u32], removed: &'a [u32], b: usize) -> impl Itera
     (0..n).map(move |k| (part(added, k), part(removed, k)))
 }
 
-/// V(i) as the messages of frame i build it (paper 000 sec. 3.4), the same for OR and RVG:
+/// V(i) as the messages of frame i build it (occlusion switch sec. 3.4), the same for OR and RVG:
 /// batches of deltas against V(i-1), or a keyframe, the whole V(i).
 #[derive(Debug, Default)]
 pub struct Assembly {
     added: Vec<u32>,
     removed: Vec<u32>,
+    keyframe: Option<KeyframeParts>,
+}
+
+/// A keyframe as its parts come.
+#[derive(Debug)]
+struct KeyframeParts {
+    /// The ids so far, and the additions of deltas after it.
+    all: Vec<u32>,
+    next: u32,
+    parts: u32,
 }
 
 impl Assembly {
     /// A batch of deltas; returns its additions (what OR draws at once).
     pub fn delta(&mut self, added: Vec<u32>, removed: Vec<u32>) -> &[u32] {
+        if let Some(k) = self.keyframe.as_mut() {
+            k.all.extend_from_slice(&added);
+        }
         let start = self.added.len();
         self.added.extend(added);
         self.removed.extend(removed);
         &self.added[start..]
     }
 
-    /// A keyframe: V(i) whole, replacing what deltas built so far; returns what it adds to
-    /// `previous`, V(i-1).
-    pub fn keyframe(&mut self, previous: &[u32], all: &[u32]) -> &[u32] {
-        diff(previous, all, &mut self.added, &mut self.removed);
-        &self.added
+    /// Part `part` of `parts` of a keyframe, the next run of V(i)'s sorted ids; its first part
+    /// replaces what came before. Returns what the part adds to `previous`, V(i-1). A part out
+    /// of order is an error.
+    pub fn keyframe(&mut self, previous: &[u32], part: u32, parts: u32, ids: Vec<u32>) -> Result<&[u32], String> {
+        if part == 0 {
+            self.keyframe = Some(KeyframeParts { all: Vec::new(), next: 0, parts });
+            self.added.clear();
+            self.removed.clear();
+        }
+        let k = match self.keyframe.as_mut() {
+            Some(k) if k.next == part && k.parts == parts => k,
+            k => return Err(format!("keyframe part {part} of {parts} after {:?}", k.map(|k| (k.next, k.parts)))),
+        };
+        if let (Some(&last), Some(&first)) = (k.all.last(), ids.first())
+            && first <= last
+        {
+            return Err(format!("keyframe part {part} of {parts} starts at id {first}, not after {last}"));
+        }
+        k.next += 1;
+        k.all.extend_from_slice(&ids);
+        let start = self.added.len();
+        self.added.extend(ids.into_iter().filter(|id| previous.binary_search(id).is_err()));
+        Ok(&self.added[start..])
     }
 
-    /// V(i) from `previous`, V(i-1).
-    pub fn finish(mut self, previous: &[u32]) -> Vec<u32> {
-        self.added.sort_unstable();
+    /// V(i) from `previous`, V(i-1); an error where a keyframe stopped short of its last part.
+    pub fn finish(mut self, previous: &[u32]) -> Result<Vec<u32>, String> {
         self.removed.sort_unstable();
-        apply(previous, &self.removed, &self.added)
+        if let Some(mut k) = self.keyframe {
+            if k.next != k.parts {
+                return Err(format!("a keyframe ended after {} of its {} parts", k.next, k.parts));
+            }
+            k.all.sort_unstable();
+            k.all.dedup();
+            return Ok(apply(&k.all, &self.removed, &[]));
+        }
+        self.added.sort_unstable();
+        Ok(apply(previous, &self.removed, &self.added))
     }
 }
 
@@ -91,11 +130,28 @@ mod tests {
         let mut a = Assembly::default();
         assert_eq!(a.delta(vec![9], vec![7]), &[9]);
         assert_eq!(a.delta(vec![3], vec![1]), &[3]);
-        assert_eq!(a.finish(&prev), vec![2, 3, 5, 9]);
+        assert_eq!(a.finish(&prev).unwrap(), vec![2, 3, 5, 9]);
         let mut k = Assembly::default();
         k.delta(vec![4], vec![]);
-        assert_eq!(k.keyframe(&prev, &[2, 3, 5, 9]), &[3, 9], "a keyframe replaces earlier batches");
-        assert_eq!(k.finish(&prev), vec![2, 3, 5, 9]);
+        assert_eq!(k.keyframe(&prev, 0, 1, vec![2, 3, 5, 9]).unwrap(), &[3, 9], "a keyframe replaces earlier batches");
+        assert_eq!(k.finish(&prev).unwrap(), vec![2, 3, 5, 9]);
+    }
+
+    #[test]
+    fn a_keyframe_in_parts_gives_the_next_set_and_refuses_parts_out_of_order() {
+        let prev = [1, 2, 5, 7];
+        let mut k = Assembly::default();
+        assert_eq!(k.keyframe(&prev, 0, 3, vec![2, 3]).unwrap(), &[3]);
+        assert_eq!(k.keyframe(&prev, 1, 3, vec![5]).unwrap(), &[] as &[u32]);
+        assert_eq!(k.keyframe(&prev, 2, 3, vec![9, 11]).unwrap(), &[9, 11]);
+        assert_eq!(k.finish(&prev).unwrap(), vec![2, 3, 5, 9, 11]);
+        let mut short = Assembly::default();
+        short.keyframe(&prev, 0, 2, vec![2]).unwrap();
+        assert!(short.finish(&prev).unwrap_err().contains("1 of its 2 parts"));
+        let mut skipped = Assembly::default();
+        assert!(skipped.keyframe(&prev, 1, 2, vec![2]).is_err(), "a second part first");
+        skipped.keyframe(&prev, 0, 2, vec![5]).unwrap();
+        assert!(skipped.keyframe(&prev, 1, 2, vec![3]).is_err(), "ids not after the first part's");
     }
 
     #[test]

@@ -1,4 +1,4 @@
-//! Front-to-back order for the hierarchical traversals of paper 001 (S&W and CHC): nodes pop
+//! Front-to-back order for the hierarchical traversals of CHC's paper (S&W and CHC): nodes pop
 //! nearest first, by the distance from the eye to their box.
 
 use glam::DVec3;

@@ -1,4 +1,4 @@
-//! The front update (paper 000 sec. 4.6): last frame's visible set re-selected for a new
+//! The front update (occlusion switch sec. 4.6): last frame's visible set re-selected for a new
 //! camera before it is drawn as occluders. Each visible LOD is one of:
 //! - over-refined (its owner's parent also meets tau): replaced by the highest ancestor's HLOD
 //!   that meets tau;

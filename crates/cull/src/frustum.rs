@@ -96,7 +96,7 @@ impl Frustum {
     /// True when the box as it would be tested ([`crate::view::grow_for_test`]) contains the
     /// eye, reaches in front of the near plane, or is so large for its depth that its faces
     /// reach beyond the rasteriser's guard band: such a box cannot be tested by rasterising it
-    /// (paper 004 sec. 4: clamp or accept) and counts as visible.
+    /// (Yoon 2003 sec. 5.3.2: clamp or accept) and counts as visible.
     pub fn needs_no_test(&self, b: &Aabb) -> bool {
         let (lo, hi) = crate::view::grow_for_test(b.min.as_dvec3() - self.eye, b.max.as_dvec3() - self.eye, self.eye, self.focal_px);
         let q = DVec3::select(self.forward.cmpge(DVec3::ZERO), lo, hi);

@@ -1,4 +1,4 @@
-//! The hardware cull (HC): paper 000 alg. 4.1, breadth first with one batch of occlusion tests
+//! The hardware cull (HC): occlusion switch alg. 4.1, breadth first with one batch of occlusion tests
 //! per round (sec. 4.7.1), LOD selection by projected error against tau (sec. 4.1) and the
 //! pixel-count stop (sec. 4.7.2).
 //!
@@ -9,7 +9,7 @@
 //! parent) or form the next one (tested parent). A visible group whose box shows fewer than tau
 //! pixels stops at its HLOD: its error cannot show in more pixels than are visible (sec. 4.7.2).
 //!
-//! Coherence (sec. 4.6, and the pull-up of paper 001's CHC): the nodes above V(i-1) were
+//! Coherence (sec. 4.6, and CHC's pull-up): the nodes above V(i-1) were
 //! visible last frame and nearly always still are; testing them again is what made a frame's
 //! tests follow the scene's depth rather than what is visible. Taking them as visible is
 //! conservative (their children are still tested), LOD selection still starts at the root
@@ -49,9 +49,9 @@ pub struct HcStats {
     pub culled_triangles: u64,
     /// Groups that stopped at their HLOD because few of their pixels are visible.
     pub pixel_stops: u32,
-    /// Boxes seen but counted as occluded by adaptive culling (paper 003 eq. 1).
+    /// Boxes seen but counted as occluded by adaptive culling (Bartz 1999 eq. 1).
     pub adaptive_culled: u32,
-    /// Boxes taken as visible untested because the culling budget was spent (paper 003 eq. 2).
+    /// Boxes taken as visible untested because the culling budget was spent (Bartz 1999 eq. 2).
     pub over_budget: u32,
 }
 

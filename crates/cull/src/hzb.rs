@@ -1,4 +1,4 @@
-//! The software Z pyramid of the `hzb` baseline (GigaWalk, paper 002 sec. 5.3 eq. 4): the
+//! The software Z pyramid of the `hzb` baseline (Peng 2014 sec. 5.3 eq. 4): the
 //! occluders' depth is read back, reduced on the CPU to a pyramid of farthest depths, and
 //! boxes are tested on the CPU against the 2x2 texels of the level where the box's screen
 //! rectangle spans at most two texels. Reversed Z: farther is smaller, so each texel keeps the
@@ -15,12 +15,12 @@ use crate::view::View;
 use glam::{DMat4, DVec3, DVec4};
 use osw_scene::{Aabb, NodeId, NodeRecord};
 
-/// Size of the active occluder set: paper 002 fixes it so that the cost per frame does not
+/// Size of the active occluder set: Peng 2014 fixes it so that the cost per frame does not
 /// change at run time; 128 full-detail leaves of at most 4096 triangles cost at most ~0.5M
 /// triangles of depth-only drawing.
 pub const ACTIVE_OCCLUDERS: usize = 128;
 
-/// The active occluder set of paper 002 sec. 5.2: leaves in the frustum weighted by eq. 3,
+/// The active occluder set of Peng 2014 sec. 5.2: leaves in the frustum weighted by eq. 3,
 /// weight = V |N . E| / D^3 (V the box volume, N the normal of the box's largest face, E the
 /// view direction, D the distance from the eye to the box), the `count` heaviest at full detail
 /// (their level 0). The compactness pre-selection (eq. 2) is left out: every leaf is a
@@ -84,7 +84,7 @@ impl Pyramid {
 
     /// Farthest depth over the level-0 pixel rectangle [x0, x1] x [y0, y1] (inclusive), read
     /// at the level where the rectangle spans at most 2^(1 + finer) texels a side (finer = 0:
-    /// GigaWalk's 2x2): conservative, the texels cover the rectangle.
+    /// Peng 2014's 2x2): conservative, the texels cover the rectangle.
     pub fn farthest(&self, x0: u32, y0: u32, x1: u32, y1: u32, finer: u32) -> f32 {
         let span = (x1 - x0).max(y1 - y0) + 1;
         let level = (u32::BITS - (span.max(1) - 1).leading_zeros()).saturating_sub(finer) as usize;
@@ -101,11 +101,17 @@ impl Pyramid {
     }
 }
 
+/// Levels below Peng 2014's 2x2-texel choice that the pyramid box tests read, on the GPU
+/// (`BoxTest::Pyramid`, as the shader's `finer`) and in the hybrid HC's traversal on the CPU:
+/// a box spans at most 16 texels a side. Behind a near occluder with gaps, 2x2 coarse texels
+/// almost always see a gap.
+pub const PYRAMID_FINER: u32 = 3;
+
 /// Tests boxes against a [`Pyramid`] on the CPU.
 pub struct HzbTester<'a> {
     pub nodes: &'a [NodeRecord],
     pub pyramid: &'a Pyramid,
-    /// Levels below GigaWalk's 2x2-texel choice to read (see [`Pyramid::farthest`]).
+    /// Levels below Peng 2014's 2x2-texel choice to read (see [`Pyramid::farthest`]).
     pub finer: u32,
 }
 
@@ -179,7 +185,7 @@ impl HzbTester<'_> {
 }
 
 /// Whether any of box `b` may be nearer than the farthest depth under its screen rectangle
-/// (read `finer` levels below GigaWalk's 2x2 texels): false only when all of it is hidden.
+/// (read `finer` levels below Peng 2014's 2x2 texels): false only when all of it is hidden.
 /// `vp`: the view's camera-relative view-projection in f64.
 pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, finer: u32) -> bool {
     let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of_box(vp, view, b) else { return true };

@@ -1,4 +1,4 @@
-//! OpenGL-assisted visibility culling (paper 003, Bartz, Meißner and Hüttner), the `ovc` mode:
+//! OpenGL-assisted visibility culling (Bartz 1999, Bartz, Meißner and Hüttner), the `ovc` mode:
 //! the hierarchy in a depth-ordered list (sec. 3.5's Depth-List), each node popped nearest first,
 //! tested against the virtual occlusion buffer (sec. 3.3: its box rasterised against the depth
 //! of what was drawn so far) and, when visible, drawn at once if it is a leaf (here: if a LOD
@@ -28,7 +28,7 @@ use osw_scene::error_metric::select_lod;
 use osw_scene::{Aabb, NodeId, NodeRecord};
 
 /// Paper 003's knobs. `OvcOptions::default()` is conservative with no budget: the
-/// hierarchical stop-and-wait of paper 001 sec. 3.3 (the `sw` mode), which is the same
+/// hierarchical stop-and-wait of CHC sec. 3.3 (the `sw` mode), which is the same
 /// front-to-back interleaved traversal.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OvcOptions {

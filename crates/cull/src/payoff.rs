@@ -3,7 +3,7 @@
 //! On a model that is cheap to draw, or seen where little is hidden (a game level's open
 //! courtyards, a small engine), OR's pass, the depth read-back and HC's tests cost more than
 //! the triangles they save RVG. CHC++ (Mattausch et al. 2008) skips the tests that do not pay;
-//! paper 003's eq. 2 stops them after a time budget. Here a frame that culls is judged by its
+//! Bartz 1999's eq. 2 stops them after a time budget. Here a frame that culls is judged by its
 //! counts: the triangles occlusion culling kept from RVG against what it cost, in triangles'
 //! worth ([`CullCost`]). While it does not pay, frames are frustum culled only, for a number of
 //! frames that grows each time a probe finds it still does not pay (up to [`MAX_SKIP`]), so

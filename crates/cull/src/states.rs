@@ -1,4 +1,4 @@
-//! Nodes by culling state, as in paper 000's colour plate: what a viewer sees at tau, each
+//! Nodes by culling state, as in the occlusion switch's colour plate: what a viewer sees at tau, each
 //! node marked visible, frustum-culled or occlusion-culled for another (frozen) culling camera.
 //! The display draws the three sets in three colours, so a person can fly out of the culling
 //! camera's view and look at what HC kept and what it dropped.

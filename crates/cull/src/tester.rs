@@ -10,13 +10,13 @@ pub struct Visibility {
     /// Some part of the box passes the depth test: conservative (never false when any
     /// geometry inside could be visible).
     pub visible: bool,
-    /// Pixels of the box that pass, when the tester counts them (paper 000 sec. 4.7.2).
+    /// Pixels of the box that pass, when the tester counts them (occlusion switch sec. 4.7.2).
     pub pixels: Option<u32>,
 }
 
 pub trait VisibilityTester {
     /// Tests the boxes of BVH nodes `ids` for `view`; appends one answer per id to `out`, in
-    /// order. One call is one batch: paper 000 sec. 4.7.1 issues a whole level at once.
+    /// order. One call is one batch: occlusion switch sec. 4.7.1 issues a whole level at once.
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>);
 
     /// Offered after each round but the last: LODs of this frame's PVS not in V(i-1) (OR drew
@@ -34,7 +34,7 @@ pub trait VisibilityTester {
     }
 }
 
-/// A tester that also draws: the interleaved traversals of paper 001 (S&W, CHC) draw visible
+/// A tester that also draws: the interleaved traversals of CHC's paper (S&W, CHC) draw visible
 /// nodes into the occluder depth buffer as they find them.
 pub trait Occluders: VisibilityTester {
     /// Adds LOD nodes to the occluder depth buffer; every test issued afterwards sees them.

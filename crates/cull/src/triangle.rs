@@ -1,7 +1,7 @@
 //! Triangle tests inside the clusters a pass draws, as niagara's meshlet shader makes them per
 //! triangle, here on the CPU while the pass gathers its indices (lavapipe sets up every
 //! triangle it is given on the CPU too; measured, the tests cost a small part of what the
-//! triangles they drop did: issue 16's closing note):
+//! triangles they drop did: docs/measurements/2026-12-02-clusters.md):
 //!
 //! - back faces: a triangle of a closed part wound outwards that faces away from an eye
 //!   outside the part is hidden by the part's front faces (the cone test's rule, per triangle);

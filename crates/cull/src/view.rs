@@ -1,6 +1,6 @@
 //! A camera turned into what culling and drawing need, in the scene's local coordinates.
 //!
-//! Precision (issue 3, paper 004 sec. 5): the eye is kept in f64 relative to the scene origin;
+//! Precision (Yoon 2003 sec. 5.4, conservative up to screen precision): the eye is kept in f64 relative to the scene origin;
 //! everything sent to the GPU is camera-relative f32, so a scene 1e7 units from the world
 //! origin renders like one at the origin.
 

@@ -1,11 +1,12 @@
 //! The display's connections to the two nodes: each is made (handshake, clock probes), run
 //! until it fails or falls silent, and made again with backoff, for as long as the display
 //! runs. What happens on them reaches the frame loop as [`Note`]s on one channel, so that it
-//! reads whichever node has the frame (issue 6: a node lost, a node rejoining).
+//! reads whichever node has the frame (failover: a node lost, a node rejoining).
 
 use osw_wire::clock::Offset;
 use osw_wire::messages::{Hello, Message};
 use osw_wire::net::{NetError, connect, handshake, probe_clock, run_connection};
+use osw_wire::{Frame, WireError};
 use std::sync::mpsc::Sender;
 use std::time::Duration;
 use tokio::sync::mpsc::UnboundedSender;
@@ -18,7 +19,7 @@ pub const NAMES: [&str; 2] = ["a", "b"];
 #[derive(Debug)]
 pub enum Note {
     /// Node `node` is connected: send to it through `out`; its clock is `clock`.
-    Up { node: usize, out: UnboundedSender<Message>, clock: Offset },
+    Up { node: usize, out: UnboundedSender<Frame>, clock: Offset },
     /// A message from node `node`, its frame bytes and arrival time.
     Message { node: usize, m: Message, bytes: u64, at: u64 },
     /// Node `node`'s connection failed or ended (or could not be made: `ever_up` false).
@@ -67,11 +68,11 @@ pub async fn keep_node(node: usize, addr: String, me: Hello, notes: Sender<Note>
 #[derive(Default)]
 pub struct Cluster {
     /// Where to send to each node while it is connected.
-    pub nodes: [Option<UnboundedSender<Message>>; 2],
+    pub nodes: [Option<UnboundedSender<Frame>>; 2],
     pub clocks: [Offset; 2],
     ever_up: [bool; 2],
     /// The last two cameras sent: a node that reconnects gets them.
-    recent: std::collections::VecDeque<Message>,
+    recent: std::collections::VecDeque<Frame>,
     pub losses: u32,
     pub rejoins: u32,
 }
@@ -109,15 +110,17 @@ impl Cluster {
         }
     }
 
-    pub fn send_camera(&mut self, m: Message) {
-        self.recent.push_back(m.clone());
+    pub fn send_camera(&mut self, m: &Message) -> Result<(), WireError> {
+        let f = Frame::new(m)?;
+        self.recent.push_back(f.clone());
         if self.recent.len() > 2 {
             self.recent.pop_front();
         }
-        self.send_all(m);
+        self.send_all(f);
+        Ok(())
     }
 
-    pub fn send_all(&self, m: Message) {
-        self.nodes.iter().flatten().for_each(|n| drop(n.send(m.clone())));
+    pub fn send_all(&self, f: Frame) {
+        self.nodes.iter().flatten().for_each(|n| drop(n.send(f.clone())));
     }
 }

@@ -1,4 +1,4 @@
-//! `osw-display`: the display client, RVG (paper 000 sec. 4.5). Connects to both switch nodes,
+//! `osw-display`: the display client, RVG (occlusion switch sec. 4.5). Connects to both switch nodes,
 //! sends them cameras (frame k's camera is the path's row k, or in a walk the camera as the
 //! person has moved it; camera k+2 goes out once frame k is in), receives from the HC node of
 //! each frame its camera, the visible-set deltas and the end of frame, rebuilds
@@ -18,7 +18,6 @@ mod ui;
 mod window;
 
 use clap::Parser;
-use osw_gpu::draw::Pass;
 use osw_render::output::{frame_path, push_ids, write_png};
 use osw_render::results::DisplayFrame;
 use osw_scene::Camera;
@@ -57,12 +56,12 @@ struct Args {
     /// Do not write frame PNGs.
     #[arg(long)]
     no_frames: bool,
-    /// RVG's cluster tests, as `osw render --cluster-tests` (`occlusion` adds its two passes).
-    #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
-    cluster_tests: osw_cull::cluster::ClusterTests,
+    /// The settings the nodes run with (the display draws with the cluster tests).
+    #[command(flatten)]
+    agreed: osw_render::settings::Agreed,
     /// Longest wait for one frame, seconds (a first frame at full detail of a huge scene may
     /// need more than the default).
-    #[arg(long, default_value_t = receive::WAIT.as_secs_f64(), value_name = "SECS")]
+    #[arg(long, default_value_t = osw_wire::limits::FRAME_WAIT.as_secs_f64(), value_name = "SECS")]
     frame_timeout: f64,
     /// Output directory: frames/NNNNN.png, stats.csv, pvs.txt, summary.json; paths/ and
     /// screenshots/ from the window.
@@ -109,7 +108,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let addrs = &node_addresses(a, &set)?;
     let path = a.path.as_deref().map(osw_scene::path::read).transpose()?.unwrap_or_default();
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
-    let me = Hello::new(scene.content_hash(), "display", Role::Display, set.token.clone());
+    a.agreed.check().map_err(anyhow::Error::msg)?;
+    let me = Hello::new(scene.content_hash(), "display", Role::Display, set.token.clone(), a.agreed.said(set.size));
     let (mut ui, gpu) = if a.window || a.interactive {
         let (window, gpu) = window::Window::open("osw walkthrough", w, h, a.cluster.adapter.as_deref())?;
         let controls = a.interactive.then(|| {
@@ -121,7 +121,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         (None, osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?)
     };
     let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
-    r.cluster_tests = a.cluster_tests;
+    r.cluster_tests = a.agreed.cluster_tests;
     // The next frame's gather overlaps this frame's draw (5M plant walk, tau 5: four pairs of
     // runs took 57.8 / 64.4, 56.3 / 59.9, 57.5 / 56.4 and 58.4 / 59.2 ms a frame, with /
     // without). RVG's stage time then ends when its draw is submitted, the previous one done.
@@ -150,7 +150,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let mut requested = 0;
     for k in 0..2 {
         match next_camera(k, &mut ui) {
-            Some(m) => frames.cluster.send_camera(m),
+            Some(m) => frames.cluster.send_camera(&m)?,
             None => break,
         }
         requested = k + 1;
@@ -166,10 +166,10 @@ fn run(a: &Args) -> anyhow::Result<()> {
         })?;
         let t = Instant::now();
         r.begin_frame();
-        let camera = Camera { position: cam.position.into(), orientation: glam_quat(cam.orientation), fovy_deg: cam.fovy_deg };
+        let camera = osw_render::packet::camera(&cam);
         let view = r.view(&camera);
-        // RVG as prev's: hidden clusters culled in two passes (osw_gpu::Renderer::draw_visible).
-        let drawn = r.draw_visible(&view, &frames.visible, Pass::Color, &mut clusters)?;
+        // RVG as prev's (hidden clusters culled where HC culled).
+        let drawn = osw_render::pass::rvg(&mut r, &view, &frames.visible, row.cull_skipped == 0, &mut clusters)?;
         row.rvg_ms = t.elapsed().as_secs_f64() * 1e3;
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
         let c = drawn.clusters;
@@ -196,7 +196,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         if i + 2 == requested
             && let Some(m) = next_camera(i + 2, &mut ui)
         {
-            frames.cluster.send_camera(m);
+            frames.cluster.send_camera(&m)?;
             requested += 1;
         }
         i += 1;
@@ -204,13 +204,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
     if let Some(u) = ui.as_mut() {
         u.finish();
     }
-    frames.cluster.send_all(Message::Goodbye(Goodbye { reason: "walk done".into() }));
+    frames.cluster.send_all(osw_wire::Frame::new(&Message::Goodbye(Goodbye { reason: "walk done".into() }))?);
     write_outputs(a, &set, &scene, &rows, &pvs_txt, &frames.cluster)?;
     std::thread::sleep(Duration::from_millis(50));
     rt.shutdown_timeout(Duration::from_millis(200));
     Ok(())
-}
-
-fn glam_quat(q: [f64; 4]) -> osw_scene::camera::DQuat {
-    osw_scene::camera::DQuat::from_array(q).normalize()
 }

@@ -1,5 +1,5 @@
 //! Receiving one frame: the camera, the visible-set deltas (or a keyframe) and the end of
-//! frame from the node that is HC for it, and V(i) = (V(i-1) - removed) ∪ added (paper 000
+//! frame from the node that is HC for it, and V(i) = (V(i-1) - removed) ∪ added (occlusion switch
 //! sec. 3.4).
 
 use crate::links::{self, Cluster, Note};
@@ -9,11 +9,6 @@ use osw_wire::messages::{CameraPacket, Message};
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
-
-/// Longest wait for a frame (or for the nodes to connect) unless the display is told
-/// another (`--frame-timeout`: a first frame at full detail of a billion triangles takes
-/// longer).
-pub const WAIT: Duration = Duration::from_secs(30);
 
 /// How often a wait hands control back (a window keeps answering while the frame comes in).
 const SLICE: Duration = Duration::from_millis(15);
@@ -40,9 +35,9 @@ impl Frames {
     /// Waits until both nodes are connected; a frame may then take up to `wait`.
     pub fn connect(notes: Receiver<Note>, max_id: u32, wait: Duration, idle: &mut dyn FnMut()) -> anyhow::Result<Frames> {
         let mut f = Frames { notes, cluster: Cluster::default(), visible: Vec::new(), max_id, prev_eof: None, held: VecDeque::new(), wait };
-        let deadline = Instant::now() + WAIT;
+        let deadline = Instant::now() + wait;
         while f.cluster.nodes.iter().any(Option::is_none) {
-            let note = f.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("the nodes did not connect within {WAIT:?}"))?;
+            let note = f.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("the nodes did not connect within {wait:?}"))?;
             f.cluster.note(note)?;
         }
         Ok(f)
@@ -118,15 +113,16 @@ impl Frames {
                     next.delta(ad, rm);
                 }
                 Message::Keyframe(k) if k.frame == i => {
-                    // The whole V(i): replaces V(i-1) and what deltas would have built.
+                    // A part of the whole V(i): replaces V(i-1) and what deltas would have built.
                     (row.bytes, row.id_bytes) = (row.bytes + bytes, row.id_bytes + bytes);
-                    let all = k.ids.ids(max_id)?;
-                    row.ids_sent += all.len() as u64;
-                    next.keyframe(&self.visible, &all);
+                    let part = k.ids.ids(max_id)?;
+                    row.ids_sent += part.len() as u64;
+                    next.keyframe(&self.visible, k.part, k.parts, part).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
                 }
                 Message::EndOfFrame(e) if e.frame == i => {
                     row.bytes += bytes;
                     row.hc_ms = e.stats.hc_us as f64 / 1e3;
+                    [row.hc_traversal_ms, row.hc_second_look_ms, row.hc_retest_ms] = e.stats.passes_us.map(|us| us as f64 / 1e3);
                     (row.tests, row.cull_skipped) = (e.stats.tests, u32::from(e.stats.cull_skipped));
                     let (hc, cam) = source.expect("from the source");
                     // Every stamp on the display's clock. The end of frame is stamped when HC
@@ -151,7 +147,7 @@ impl Frames {
             }
         }
         let cam = source.expect("a complete frame has a camera").1;
-        self.visible = next.finish(&self.visible);
+        self.visible = next.finish(&self.visible).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
         row.ids_full = self.visible.len() as u64;
         Ok((cam, row))
     }

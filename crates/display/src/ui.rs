@@ -15,7 +15,7 @@ use std::io::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Colours by state (paper 000's colour plate): visible, occlusion-culled, frustum-culled.
+/// Colours by state (the occlusion switch's colour plate): visible, occlusion-culled, frustum-culled.
 const VISIBLE: [u8; 3] = [70, 200, 80];
 const OCCLUDED: [u8; 3] = [220, 60, 50];
 const OUTSIDE: [u8; 3] = [70, 110, 230];
@@ -225,6 +225,15 @@ impl Ui {
             format!("frame {}  {:.1} fps  latency {:.0} ms", row.frame, self.fps, row.latency_ms),
             format!("HC node {node}{}", if row.degraded == 1 { "  DEGRADED: one node runs both roles" } else { "" }),
             format!("PVS {} nodes  {} triangles  {} B/frame  tau {tau} px", row.pvs_nodes, row.triangles_drawn, row.bytes),
+            format!(
+                "HC {:.1} ms (traversal {:.1}, second look {:.1}, retest {:.1}{})  RVG {:.1} ms",
+                row.hc_ms,
+                row.hc_traversal_ms,
+                row.hc_second_look_ms,
+                row.hc_retest_ms,
+                if row.cull_skipped == 1 { ", culling skipped" } else { "" },
+                row.rvg_ms
+            ),
         ];
         let mut state =
             vec![if self.state_colours { "colours: green visible, red occluded, blue outside" } else { "colours: by object" }.to_string()];

@@ -1,4 +1,4 @@
-//! The display's window (issue 7): a winit window on X11 with a wgpu surface on the renderer's
+//! The display's window (docs/window.md): a winit window on X11 with a wgpu surface on the renderer's
 //! device. Frames are rendered offscreen as always (they are also written as PNGs), read back,
 //! given the overlay and copied into the surface: on lavapipe every "GPU" copy is a CPU copy
 //! anyway, and the window shows exactly the pixels a screenshot saves.

@@ -1,4 +1,4 @@
-//! The HC primitive (paper 000 sec. 4.2 and alg. 4.1 line 6): node bounding boxes rasterised
+//! The HC primitive (occlusion switch sec. 4.2 and alg. 4.1 line 6): node bounding boxes rasterised
 //! against the occluder depth buffer, one instance per box, with forced early depth so that
 //! only passing fragments write (see shaders/boxtest.wgsl). Exact per pixel: a box is visible
 //! when any of its pixels is nearer than the occluders. With `count_pixels` each box gets its

@@ -1,4 +1,4 @@
-//! Exact visibility by item buffer (paper 000 sec. 5): the scene drawn with each LOD node's id
+//! Exact visibility by item buffer (occlusion switch sec. 5): the scene drawn with each LOD node's id
 //! and each triangle's index; the ids left in the image are exactly the visible nodes and
 //! triangles at this resolution. At tau 0 that is every leaf at full detail (the paper's
 //! reference); at tau > 0 it is the image a person sees at that tau, so that culling error can
@@ -34,14 +34,14 @@ pub struct ExactFrame {
     /// surface in some pixel).
     pub triangles: u64,
     /// Triangles of the clusters that hold a visible triangle: the fewest that culling whole
-    /// clusters can draw, however exact its tests (issue 16). `None` when the item buffer was
+    /// clusters can draw, however exact its tests. `None` when the item buffer was
     /// drawn in more than one call (a triangle's index then restarts).
     pub cluster_triangles: Option<u64>,
     /// Triangles drawn into the item buffer (the scene's full-detail count for the independent
     /// reference at tau 0).
     pub drawn_triangles: u64,
     /// Milliseconds to draw in colour only the visible triangles, submit to done: the least
-    /// any culling lets RVG's draw take at this size and tau (issue 16). Drawn last: its image
+    /// any culling lets RVG's draw take at this size and tau. Drawn last: its image
     /// is the item pass's, in colour (`Renderer::read_color`). `None` like `cluster_triangles`.
     pub visible_draw_ms: Option<f64>,
     /// The same for the triangles of `cluster_triangles`: the least culling whole clusters

@@ -6,10 +6,10 @@
 //! - [`target`]: the offscreen colour, depth and item-buffer attachments and their readback.
 //! - [`draw`]: drawing a set of LOD nodes (colour for RVG, depth only for OR, item ids for
 //!   exact visibility).
-//! - [`boxtest`]: the HC primitive: node boxes tested against the depth buffer (paper 000
+//! - [`boxtest`]: the HC primitive: node boxes tested against the depth buffer (occlusion switch
 //!   sec. 4.2), exact per pixel with forced early depth, optionally counting pixels (4.7.2).
 //! - [`pyramid`]: the fast HC test: a farthest-depth pyramid and a compute box test.
-//! - [`exact`]: item-buffer exact visibility (paper 000 sec. 5) for verification.
+//! - [`exact`]: item-buffer exact visibility (occlusion switch sec. 5) for verification.
 //! - [`renderer`]: the above bound to one scene and one image size.
 
 pub mod boxtest;

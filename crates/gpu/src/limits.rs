@@ -1,7 +1,7 @@
 //! Budgets of the GPU crate, each with its reason.
 
 /// Default geometry residency budget: 1 GiB holds a 20M-triangle scene's vertices at all its
-/// LODs (16 B each: position and node id) several times over; lavapipe's "GPU memory" is
+/// LODs (20 B each: position, node id and colour) several times over; lavapipe's "GPU memory" is
 /// host memory, so the budget is what keeps a process's footprint bounded.
 pub const RESIDENCY_BYTES: u64 = 1 << 30;
 

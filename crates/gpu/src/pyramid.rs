@@ -1,7 +1,7 @@
 //! The fast HC test: a farthest-depth pyramid built from the occluder depth buffer by compute
 //! passes (shaders/depthreduce.comp.wgsl), and boxes tested against it by one compute dispatch
 //! per batch (shaders/boxcull.comp.wgsl). Conservative, like the exact test, but it cannot count
-//! visible pixels, so the LOD stop of paper 000 sec. 4.7.2 does not apply with it.
+//! visible pixels, so the LOD stop of occlusion switch sec. 4.7.2 does not apply with it.
 
 use crate::device::Gpu;
 use crate::target::Target;
@@ -75,21 +75,22 @@ impl Pyramid {
         });
 
         let module = |label: &str, src: &str| crate::shaders::module(d, label, "", src);
-        let pipeline = |label: &str, layout: &wgpu::BindGroupLayout, m: &wgpu::ShaderModule, entry_point: &str| {
-            let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(label),
-                bind_group_layouts: &[Some(layout)],
-                immediate_size: 0,
-            });
-            d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pl),
-                module: m,
-                entry_point: Some(entry_point),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let pipeline =
+            |label: &str, layout: &wgpu::BindGroupLayout, m: &wgpu::ShaderModule, entry_point: &str, constants: &[(&str, f64)]| {
+                let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(label),
+                    bind_group_layouts: &[Some(layout)],
+                    immediate_size: 0,
+                });
+                d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&pl),
+                    module: m,
+                    entry_point: Some(entry_point),
+                    compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+                    cache: None,
+                })
+            };
 
         let reduce_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("depthreduce"),
@@ -104,6 +105,7 @@ impl Pyramid {
             &reduce_layout,
             &module("depthreduce.comp.wgsl", include_str!("shaders/depthreduce.comp.wgsl")),
             "reduce",
+            &[],
         );
         // One small uniform per dispatch naming its levels (1 and 2, 3 and 4, ...): the
         // dispatches of one frame go in one submission, so each needs its own.
@@ -141,7 +143,13 @@ impl Pyramid {
                 entry(5, buffer(B::Uniform)),
             ],
         });
-        let cull = pipeline("boxcull", &cull_layout, &module("boxcull.comp.wgsl", include_str!("shaders/boxcull.comp.wgsl")), "cull");
+        let cull = pipeline(
+            "boxcull",
+            &cull_layout,
+            &module("boxcull.comp.wgsl", include_str!("shaders/boxcull.comp.wgsl")),
+            "cull",
+            &[("finer", osw_cull::hzb::PYRAMID_FINER as f64)],
+        );
         let cull_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("boxcull"),
             layout: &cull_layout,

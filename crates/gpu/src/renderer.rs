@@ -30,16 +30,16 @@ pub enum RenderError {
     TooManyTriangles(u64, u64),
 }
 
-/// How the GPU tests boxes against the occluders (issue 3: measured, see its closing note).
+/// How the GPU tests boxes against the occluders (measured: docs/measurements/2026-12-01-scene-and-renderer.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BoxTest {
     /// Rasterised boxes against the depth buffer, exact per pixel (forced early depth).
     Exact,
-    /// As `Exact`, counting each box's visible pixels (paper 000 sec. 4.7.2).
+    /// As `Exact`, counting each box's visible pixels (occlusion switch sec. 4.7.2).
     ExactCount,
     /// The farthest-depth pyramid in a compute pass: conservative, no pixel counts.
     Pyramid,
-    /// One occlusion query per box (paper 000 sec. 4.7.1: GL_NV_occlusion_query), the
+    /// One occlusion query per box (occlusion switch sec. 4.7.1: GL_NV_occlusion_query), the
     /// paper-faithful reference. wgpu documents only zero / non-zero results.
     Queries,
 }
@@ -83,7 +83,7 @@ pub struct Renderer {
     /// The cluster tests of colour and depth passes (the item pass, exact visibility's
     /// reference, draws every triangle).
     pub cluster_tests: ClusterTests,
-    /// Exact box tests read one pixel line in `.0`, from line `.1` (paper 003 sec. 3.3's
+    /// Exact box tests read one pixel line in `.0`, from line `.1` (Bartz 1999 sec. 3.3's
     /// interleaved sampling, see shaders/boxtest.wgsl); (1, 0) reads every line.
     pub sampling: (u32, u32),
     /// Count each draw's fragments ([`DrawStats::fragments`]): a pipeline-statistics query
@@ -143,9 +143,9 @@ fn gather_node<I: Copy + Into<u32>>(
     }
 }
 
-/// RVG's cluster occlusion test reads the pyramid this many levels finer than GigaWalk's 2x2
+/// RVG's cluster occlusion test reads the pyramid this many levels finer than Peng 2014's 2x2
 /// texels: a box spans at most 64 texels a side. On the 5M plant walk at tau 5, 2 levels left
-/// 10,246 of 13,451 triangles a frame, 5 levels 8,960 (issue 16's closing notes).
+/// 10,246 of 13,451 triangles a frame, 5 levels 8,960 (docs/measurements/2026-12-02-clusters.md).
 const CLUSTER_FINER: u32 = 5;
 
 impl Renderer {
@@ -316,7 +316,7 @@ impl Renderer {
     /// niagara: first the clusters of `ids` that `history` says were visible in the last frame,
     /// then every cluster's box is tested against the farthest-depth pyramid of what that drew
     /// (read back; on lavapipe the exact GPU box test per cluster took RVG from 43 to 63 ms,
-    /// this one breaks even: issue 16's closing notes), and those visible and not yet drawn
+    /// this one breaks even: docs/measurements/2026-12-02-clusters.md), and those visible and not yet drawn
     /// are drawn. Conservative: a cluster is skipped only when geometry drawn this frame hides
     /// all of its box. `history` then holds this frame's visible clusters. Without the
     /// occlusion test, [`Renderer::draw`].

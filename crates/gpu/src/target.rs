@@ -69,7 +69,7 @@ impl Target {
     }
 
     /// The depth attachment (reversed Z), row by row: the readback the `hzb` baseline makes
-    /// (paper 002 sec. 5.3; paper 000 avoids it).
+    /// (Peng 2014 sec. 5.3; occlusion switch avoids it).
     pub fn read_depth(&self, gpu: &Gpu) -> Result<Vec<f32>, GpuError> {
         self.read(gpu, &self.depth_tex)
     }

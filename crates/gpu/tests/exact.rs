@@ -1,4 +1,4 @@
-//! RVG's floor (issue 16): exact visibility draws only the triangles its item buffer found
+//! RVG's floor: exact visibility draws only the triangles its item buffer found
 //! visible, and only their clusters, in colour, and times each. Every pixel keeps the triangle
 //! that won it, so the image of the visible ones (drawn last) must be the image of every
 //! triangle drawn, pixel for pixel: a missed visible triangle, or one taken from the wrong place

@@ -3,20 +3,20 @@
 
 use crate::link::{CameraGate, Event, MAX_CAMERAS};
 use crate::roles::{self, Display, Forget, Roles};
-use osw_wire::messages::{CameraPacket, Keyframe, Message, Role};
+use osw_cull::delta::Assembly;
+use osw_scene::NodeId;
+use osw_wire::messages::{CameraPacket, Message, Role};
+use osw_wire::{Frame, WireError};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc::UnboundedSender;
 
-/// Longest wait for a camera or a peer message before the node gives up.
-pub const WAIT: Duration = Duration::from_secs(30);
-
 /// A connection the frame loop sends on, and which one it is.
 struct Link {
     id: u64,
-    out: UnboundedSender<Message>,
+    out: UnboundedSender<Frame>,
 }
 
 pub struct Inbox {
@@ -32,6 +32,8 @@ pub struct Inbox {
     /// Cameras by frame, with their arrival times.
     cameras: BTreeMap<u64, (CameraPacket, u64)>,
     peer_queue: VecDeque<(Message, u64)>,
+    /// The parts of a rejoin's keyframe so far, and its frame.
+    rejoin: Option<(u64, Assembly)>,
     /// Cameras dropped here (the oldest, when more than MAX_CAMERAS are held); the gate
     /// counts those dropped on arrival.
     old_cameras_dropped: u64,
@@ -41,7 +43,7 @@ impl Inbox {
     pub fn new(index: u64, events: Receiver<Event>, gate: Arc<CameraGate>) -> Inbox {
         Inbox {
             roles: Roles::new(index),
-            wait: WAIT,
+            wait: osw_wire::limits::FRAME_WAIT,
             sent: [0; 2],
             events,
             gate,
@@ -49,6 +51,7 @@ impl Inbox {
             display: None,
             cameras: BTreeMap::new(),
             peer_queue: VecDeque::new(),
+            rejoin: None,
             old_cameras_dropped: 0,
         }
     }
@@ -221,28 +224,44 @@ impl Inbox {
         }
     }
 
-    /// The keyframe the peer sent in answer to a rejoin, if it came; what it sent before
-    /// belongs to frames this node did not follow.
-    pub fn keyframe(&mut self) -> Option<Keyframe> {
+    /// V(k) and k, once every part of the keyframe the peer sent in answer to a rejoin has
+    /// come; what it sent before belongs to frames this node did not follow.
+    pub fn keyframe(&mut self, max_id: u32) -> Result<Option<(u64, Vec<NodeId>)>, WireError> {
         while let Some((m, _)) = self.peer_queue.pop_front() {
             if let Message::Keyframe(k) = m {
-                return Some(k);
+                let ids = k.ids.ids(max_id)?;
+                let at = self.rejoin.get_or_insert_with(|| (k.frame, Assembly::default()));
+                if at.0 != k.frame {
+                    *at = (k.frame, Assembly::default());
+                }
+                at.1.keyframe(&[], k.part, k.parts, ids).map_err(WireError::BadIds)?;
+                if k.part + 1 == k.parts {
+                    let (frame, parts) = self.rejoin.take().expect("held above");
+                    return Ok(Some((frame, parts.finish(&[]).map_err(WireError::BadIds)?)));
+                }
             }
         }
-        None
+        Ok(None)
     }
 
-    pub fn send_peer(&mut self, m: Message) {
-        if let Some(l) = &self.peer {
-            self.sent[0] += osw_wire::frame_len(&m) as u64;
-            let _ = l.out.send(m);
+    /// Sends `m`, encoded once, to the peer and the display as asked, where connected, and
+    /// counts its bytes on each link. A message too large for a frame is an error.
+    pub fn send(&mut self, m: &Message, to_peer: bool, to_display: bool) -> Result<(), WireError> {
+        let f = Frame::new(m)?;
+        for (k, (on, link)) in [(to_peer, &self.peer), (to_display, &self.display)].into_iter().enumerate() {
+            if let (true, Some(l)) = (on, link) {
+                self.sent[k] += f.len() as u64;
+                let _ = l.out.send(f.clone());
+            }
         }
+        Ok(())
     }
 
-    pub fn send_display(&mut self, m: Message) {
-        if let Some(l) = &self.display {
-            self.sent[1] += osw_wire::frame_len(&m) as u64;
-            let _ = l.out.send(m);
-        }
+    pub fn send_peer(&mut self, m: &Message) -> Result<(), WireError> {
+        self.send(m, true, false)
+    }
+
+    pub fn send_display(&mut self, m: &Message) -> Result<(), WireError> {
+        self.send(m, false, true)
     }
 }

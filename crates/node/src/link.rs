@@ -23,7 +23,7 @@ pub enum Event {
         name: String,
         serving: bool,
         id: u64,
-        out: UnboundedSender<Message>,
+        out: UnboundedSender<osw_wire::Frame>,
     },
     FromDisplay(Message, u64),
     FromPeer(Message, u64),
@@ -41,7 +41,7 @@ pub const HANDSHAKE: Duration = Duration::from_secs(10);
 pub const MAX_CAMERAS: usize = 8;
 
 /// Bounds the display's cameras between the connection and the frame loop: the camera
-/// receiver of paper 000 sec. 4.8.1 keeps only what the frame loop can use, so a flood of
+/// receiver of occlusion switch sec. 4.8.1 keeps only what the frame loop can use, so a flood of
 /// cameras is dropped as it arrives and counted, and fills neither memory nor the event queue
 /// (which the peer's messages share), however far the frame loop falls behind. It drops
 /// only when MAX_CAMERAS arrive within one frame's work; a display sends one a frame.

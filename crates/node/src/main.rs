@@ -1,4 +1,4 @@
-//! `osw-node`: one switch node (paper 000 sec. 3.2). Run two, named a and b: a listens, b
+//! `osw-node`: one switch node (occlusion switch sec. 3.2). Run two, named a and b: a listens, b
 //! listens and connects to a; the display connects to both. Prints `listening on ADDR` on
 //! stdout once its socket is bound (so that a launcher can use port 0).
 //!
@@ -34,23 +34,16 @@ struct Args {
     /// Send the whole visible set every frame (a keyframe) instead of deltas.
     #[arg(long)]
     full: bool,
-    /// Adaptive culling (paper 003 eq. 1) in HC's exact tests: a box whose visible pixels, as
-    /// a share of its screen rectangle and discounted by its depth, fall below this counts as
-    /// hidden. 0 is conservative.
-    #[arg(long, default_value_t = 0.0)]
-    adaptive: f64,
-    /// Occlusion culling on every frame, also where it does not pay (as `osw render
-    /// --always-cull`); else a frame whose culling did not pay skips it for the next ones.
-    #[arg(long)]
-    always_cull: bool,
-    /// The cluster tests of OR's and HC's drawing, as `osw render --cluster-tests` (only RVG
-    /// has an `occlusion` test).
-    #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
-    cluster_tests: osw_cull::cluster::ClusterTests,
+    #[command(flatten)]
+    agreed: osw_render::settings::Agreed,
     /// Longest wait for the peer or the display, seconds (a first frame at full detail of a
     /// huge scene may need more than the default).
-    #[arg(long, default_value_t = inbox::WAIT.as_secs_f64(), value_name = "SECS")]
+    #[arg(long, default_value_t = osw_wire::limits::FRAME_WAIT.as_secs_f64(), value_name = "SECS")]
     frame_timeout: f64,
+    /// Largest coding of a keyframe part's ids, bytes [default: what fits a frame]: smaller
+    /// to test keyframes in parts.
+    #[arg(long, hide = true, default_value_t = osw_wire::limits::KEYFRAME_PART_BYTES, value_name = "BYTES")]
+    keyframe_part_bytes: usize,
     /// Write this node's per-frame statistics (CSV) here.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -88,10 +81,11 @@ fn run(a: &Args) -> anyhow::Result<()> {
     };
     let (w, h) = set.size;
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
-    let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone());
+    a.agreed.check().map_err(anyhow::Error::msg)?;
+    let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone(), a.agreed.said(set.size));
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let mut renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
-    renderer.cluster_tests = a.cluster_tests;
+    renderer.cluster_tests = a.agreed.cluster_tests;
 
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (events_tx, events) = std::sync::mpsc::channel();
@@ -108,8 +102,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
     io.wait =
         std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
     let mut sw = switch::Switch::new(set.batch, a.full, renderer, io);
-    sw.adaptive = a.adaptive;
-    sw.payoff = (!a.always_cull).then(|| osw_cull::payoff::Payoff::new(osw_cull::payoff::CullCost::at(w as u64 * h as u64)));
+    sw.adaptive = a.agreed.adaptive;
+    sw.keyframe_part_bytes = a.keyframe_part_bytes.clamp(5, osw_wire::limits::KEYFRAME_PART_BYTES);
+    sw.payoff = (!a.agreed.always_cull).then(|| osw_cull::payoff::Payoff::new(osw_cull::payoff::CullCost::at(w as u64 * h as u64)));
     let log = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);

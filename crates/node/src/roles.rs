@@ -3,9 +3,9 @@
 //! it what to do next ([`Roles::step`], [`Roles::duty`]).
 //!
 //! Paper 000 alg. 4.2: frame parity decides the role, node a (index 0) is HC on even frames
-//! and node b on odd ones, while the other is OR. The paper has no failover (issue 6): a node
+//! and node b on odd ones, while the other is OR. The paper has no failover (docs/switch.md): a node
 //! whose peer is gone, or not in step, runs both roles in turn alone (the single-GPU loop of
-//! paper 004 fig. 5) and sends RVG keyframes. A restarted peer asks to rejoin; at the end of
+//! Yoon 2003 fig. 5) and sends RVG keyframes. A restarted peer asks to rejoin; at the end of
 //! its frame k this node hands it V(k) and runs frame k+1 alone once more (its depth buffer
 //! holds camera k's occluders) while the peer is OR in frame k+1 (camera k+2); the roles
 //! alternate from there.

@@ -1,4 +1,4 @@
-//! The switch node's frame loop (paper 000 alg. 4.2); who does what in a frame, and failover,
+//! The switch node's frame loop (occlusion switch alg. 4.2); who does what in a frame, and failover,
 //! are [`Roles`](crate::roles)'s.
 //!
 //! - HC for frame i: send camera i to RVG first (alg. 4.2 line 6), test the hierarchy against
@@ -9,7 +9,7 @@
 //!   V(i-1) updated for it (sec. 4.6) into the depth buffer at once, then each batch of
 //!   additions (updated for it too) as it arrives, until end of frame; then V(i) =
 //!   (V(i-1) - removed) ∪ added (sec. 3.4).
-//! - Solo (no peer in step): the OR pass of paper 004 fig. 5 on this GPU, then HC.
+//! - Solo (no peer in step): the OR pass of Yoon 2003 fig. 5 on this GPU, then HC.
 //!
 //! Cameras: in path playback every camera carries its frame number and frame k uses the
 //! camera numbered k (deterministic runs); RVG sends camera k+2 after it has frame k, so a node
@@ -22,8 +22,8 @@ use osw_cull::delta::{Assembly, batches, diff};
 use osw_cull::payoff::Payoff;
 use osw_cull::{AllVisible, hardware_cull};
 use osw_gpu::renderer::Renderer;
-use osw_render::mode::{HcTest, draw_occluders, hc_pass};
 use osw_render::packet;
+use osw_render::pass::{self, HcOptions, HcPass};
 use osw_render::results::NodeFrame;
 use osw_scene::NodeId;
 use osw_wire::clock::now_us;
@@ -34,7 +34,9 @@ pub struct Switch {
     pub batch: usize,
     /// Send keyframes (the whole V(i)) instead of deltas.
     pub full: bool,
-    /// Adaptive culling's threshold in HC's exact tests (paper 003 eq. 1; 0: conservative).
+    /// Largest coding of a keyframe part's ids (osw_wire::limits::KEYFRAME_PART_BYTES).
+    pub keyframe_part_bytes: usize,
+    /// Adaptive culling's threshold in HC's exact tests (Bartz 1999 eq. 1; 0: conservative).
     pub adaptive: f64,
     /// Cost-adaptive culling of the frames this node culls (osw_cull::payoff); None culls
     /// every frame.
@@ -56,6 +58,7 @@ impl Switch {
         Switch {
             batch,
             full,
+            keyframe_part_bytes: osw_wire::limits::KEYFRAME_PART_BYTES,
             adaptive: 0.0,
             payoff: None,
             next: None,
@@ -122,7 +125,7 @@ impl Switch {
         let Some((cam, camera_received_us)) = self.io.camera(i, newest_wins)? else { return Ok(None) };
         let (i, t, duty) = (cam.frame, Instant::now(), self.io.roles.duty(cam.frame));
         self.io.sent = [0; 2];
-        self.io.send_display(Message::Camera(cam));
+        self.io.send_display(&Message::Camera(cam))?;
         // Decided when OR prepared this frame's depth buffer, or now.
         let cull = match self.next.take() {
             Some(next) if duty != Duty::Solo => next,
@@ -131,69 +134,62 @@ impl Switch {
         let r = &mut self.renderer;
         r.begin_frame();
         let view = r.view(&packet::camera(&cam));
-        let mut drawn = 0;
+        let mut f = NodeFrame { frame: i, duty, cull_skipped: u32::from(!cull), ..NodeFrame::default() };
         if duty == Duty::Solo && cull {
-            // The OR pass of paper 004 fig. 5 on this GPU: the front of V(i-1) for camera i.
-            drawn = draw_occluders(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
+            // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
+            let t = Instant::now();
+            f.nodes_drawn = pass::or(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
+            f.or_ms = ms(t);
         }
         let mut pvs = Vec::new();
         let hc = if cull {
-            hc_pass(r, &view, cam.tau_px, HcTest::Hybrid, self.adaptive, &self.visible, &mut pvs)?
+            pass::hc(r, &view, cam.tau_px, HcOptions { adaptive: self.adaptive, ..HcOptions::default() }, &self.visible, &mut pvs)?
         } else {
             // Frustum culled only: occlusion culling did not pay where this node last ran it.
-            let hc = hardware_cull(r.scene.nodes(), &view, cam.tau_px, &mut AllVisible, &mut pvs);
+            let stats = hardware_cull(r.scene.nodes(), &view, cam.tau_px, &mut AllVisible, &mut pvs);
             pvs.sort_unstable();
-            hc
+            HcPass { stats, ..HcPass::default() }
         };
+        let (hc, times) = (hc.stats, hc.times);
+        (f.hc_traversal_ms, f.hc_second_look_ms, f.hc_retest_ms) = (times.traversal_ms, times.second_look_ms, times.retest_ms);
         // A frame without occluders (the first) culls nothing, whatever culling would save.
         if let Some(p) = self.payoff.as_mut().filter(|_| cull && !self.visible.is_empty()) {
             p.judge_hc(r.scene.nodes(), &hc, &pvs);
         }
-        let (batches, ids_sent) = self.send_visible_set(i, duty, &pvs);
+        (f.batches, f.ids_sent) = self.send_visible_set(i, duty, &pvs)?;
         let hc_us = t.elapsed().as_micros() as u64;
-        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, pvs: pvs.len() as u32, cull_skipped: !cull };
+        let passes_us = [times.traversal_ms, times.second_look_ms, times.retest_ms].map(|ms| (ms * 1e3) as u64);
+        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull };
         let clock = LinkStamps { sent_us: now_us(), camera_received_us, peer_eof_received_us: self.peer_eof_received_us };
         let eof = Message::EndOfFrame(EndOfFrame { frame: i, stats, clock });
-        if self.io.roles.peer_in_step() {
-            self.io.send_peer(eof.clone());
-        }
-        self.io.send_display(eof);
+        self.io.send(&eof, self.io.roles.peer_in_step(), true)?;
         if self.io.roles.hc_done(i) {
-            self.io.send_peer(keyframe_of(i, &pvs));
+            for part in self.keyframe(i, &pvs) {
+                self.io.send_peer(&part)?;
+            }
             tracing::warn!("handed the peer V({i}): the switch resumes at frame {}", i + 2);
         }
         self.visible = pvs;
-        let [bytes_to_peer, bytes_to_display] = self.io.sent;
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        Ok(Some(NodeFrame {
-            frame: i,
-            duty,
-            ms,
-            nodes_drawn: drawn,
-            tests: hc.tests,
-            cull_skipped: u32::from(!cull),
-            ids_sent,
-            batches,
-            bytes_to_peer,
-            bytes_to_display,
-            rss_kb: rss_kb(),
-        }))
+        [f.bytes_to_peer, f.bytes_to_display] = self.io.sent;
+        (f.ms, f.tests, f.rss_kb) = (ms(t), hc.tests, rss_kb());
+        Ok(Some(f))
     }
 
     /// Streams V(i) as HC: to the peer when it is in step, as deltas in batches of b ids (or
     /// keyframes with `--full`); to RVG the same, or the whole set when it may not hold this
-    /// node's V(i-1). Returns the batches and the ids sent to RVG.
-    fn send_visible_set(&mut self, i: u64, duty: Duty, pvs: &[NodeId]) -> (u32, u64) {
+    /// node's V(i-1); a keyframe goes in parts, each within a frame. Returns the batches and
+    /// the ids sent to RVG.
+    fn send_visible_set(&mut self, i: u64, duty: Duty, pvs: &[NodeId]) -> Result<(u32, u64), osw_wire::WireError> {
         let to_peer = self.io.roles.peer_in_step();
         let keyframe_to_display = self.full || keyframe_to_display(i, duty);
-        if keyframe_to_display {
-            self.io.send_display(keyframe_of(i, pvs));
-        }
-        if self.full {
-            if to_peer {
-                self.io.send_peer(keyframe_of(i, pvs));
+        if keyframe_to_display || self.full {
+            let parts = self.keyframe(i, pvs);
+            for part in &parts {
+                self.io.send(part, self.full && to_peer, keyframe_to_display)?;
             }
-            return (1, pvs.len() as u64);
+            if self.full {
+                return Ok((parts.len() as u32, pvs.len() as u64));
+            }
         }
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         diff(&self.visible, pvs, &mut added, &mut removed);
@@ -202,14 +198,16 @@ impl Switch {
             let delta = Message::Delta(Delta { frame: i, added: IdList::from_ids(a), removed: IdList::from_ids(rm) });
             if !keyframe_to_display {
                 ids += (a.len() + rm.len()) as u64;
-                self.io.send_display(delta.clone());
             }
-            if to_peer {
-                self.io.send_peer(delta);
-            }
+            self.io.send(&delta, to_peer, !keyframe_to_display)?;
             n += 1;
         }
-        (n, ids)
+        Ok((n, ids))
+    }
+
+    /// V(i) as keyframe parts.
+    fn keyframe(&self, i: u64, pvs: &[NodeId]) -> Vec<Message> {
+        Keyframe::parts(i, pvs, self.keyframe_part_bytes)
     }
 
     /// OR in frame i (camera i+1) while the peer is HC for frame i. When the peer is lost
@@ -223,10 +221,12 @@ impl Switch {
         // This node is HC of the next frame: whether it culls is decided now, from the last
         // frame it culled; when it does not, OR draws nothing, and only follows V(i).
         let cull = self.payoff.as_mut().is_none_or(Payoff::cull);
-        let mut drawn = 0;
+        let (mut drawn, mut or_ms) = (0, 0.0);
         let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
-                drawn += draw_occluders(r, &view, ids, cam.tau_px, clear, scratch)?.nodes;
+                let t = Instant::now();
+                drawn += pass::or(r, &view, ids, cam.tau_px, clear, scratch)?.nodes;
+                or_ms += ms(t);
             }
             Ok(())
         };
@@ -243,7 +243,9 @@ impl Switch {
             let added = match m {
                 Message::Delta(d) if d.frame == i => next.delta(d.added.ids(max_id)?, d.removed.ids(max_id)?),
                 // The whole V(i): draw what V(i-1) lacks, as the deltas would have.
-                Message::Keyframe(k) if k.frame == i => next.keyframe(&self.visible, &k.ids.ids(max_id)?),
+                Message::Keyframe(k) if k.frame == i => {
+                    next.keyframe(&self.visible, k.part, k.parts, k.ids.ids(max_id)?).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?
+                }
                 Message::EndOfFrame(e) if e.frame == i => {
                     self.peer_eof_received_us = at;
                     break;
@@ -253,25 +255,24 @@ impl Switch {
             or(&mut self.renderer, added, false, &mut self.occluders)?;
         }
         self.next = Some(cull);
-        self.visible = next.finish(&self.visible);
+        self.visible = next.finish(&self.visible).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
         self.io.roles.or_done(i);
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        Ok(Some(NodeFrame { frame: i, duty: Duty::Or, ms, nodes_drawn: drawn, rss_kb: rss_kb(), ..NodeFrame::default() }))
+        Ok(Some(NodeFrame { frame: i, duty: Duty::Or, ms: ms(t), or_ms, nodes_drawn: drawn, rss_kb: rss_kb(), ..NodeFrame::default() }))
     }
 
-    /// Asks the peer for its visible set and waits for it (issue 6); `next` is the first frame
+    /// Asks the peer for its visible set and waits for it (failover, docs/switch.md); `next` is the first frame
     /// this node has not served. From the frame after the keyframe's this node is OR, the
     /// peer alone once more. Returns that frame, or `None` when the wait ends without one
     /// (see [`Roles::awaiting_keyframe`](crate::roles::Roles::awaiting_keyframe)); a
     /// `running` node then goes on alone rather than leave the display with neither.
     fn rejoin(&mut self, next: u64, running: bool) -> anyhow::Result<Option<u64>> {
-        self.io.send_peer(Message::Rejoin(Rejoin { next }));
+        self.io.send_peer(&Message::Rejoin(Rejoin { next }))?;
         self.io.roles.asked();
         let deadline = Instant::now() + self.io.wait;
         loop {
-            if let Some(k) = self.io.keyframe() {
-                self.visible = k.ids.ids(self.renderer.scene.header().node_count)?;
-                let first = self.io.roles.rejoined(k.frame);
+            if let Some((frame, visible)) = self.io.keyframe(self.renderer.scene.header().node_count)? {
+                self.visible = visible;
+                let first = self.io.roles.rejoined(frame);
                 tracing::warn!("rejoined at frame {first}");
                 return Ok(Some(first));
             }
@@ -299,14 +300,13 @@ impl Switch {
 
     /// Tells everyone this node is leaving.
     pub fn goodbye(&mut self, reason: &str) {
-        let m = Message::Goodbye(Goodbye { reason: reason.to_owned() });
-        self.io.send_peer(m.clone());
-        self.io.send_display(m);
+        // A reason is a few words: it always fits a frame.
+        let _ = self.io.send(&Message::Goodbye(Goodbye { reason: reason.to_owned() }), true, true);
     }
 }
 
-fn keyframe_of(frame: u64, ids: &[NodeId]) -> Message {
-    Message::Keyframe(Keyframe { frame, ids: IdList::from_ids(ids) })
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
 }
 
 fn rss_kb() -> u64 {

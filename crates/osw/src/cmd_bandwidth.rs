@@ -1,5 +1,5 @@
 //! `osw bandwidth`: bytes and ids per frame on each link of a switch run (`osw run`), next to
-//! paper 000's model (sec. 3.5): 8n + nh/b + 3(72 + h) bytes a frame, for n ids sent, h bytes
+//! occlusion switch's model (sec. 3.5): 8n + nh/b + 3(72 + h) bytes a frame, for n ids sent, h bytes
 //! of header per packet and b ids per packet; with a `--full` run beside it, the saving of
 //! incremental transmission and a plot of both over the frames (the form of fig. 3).
 //!
@@ -89,8 +89,8 @@ impl Traffic {
             batches,
             hc_to_rvg,
             hc_to_or,
-            rvg_cameras: 2.0 * osw_wire::frame_len(&camera) as f64,
-            header: osw_wire::frame_len(&empty) as f64,
+            rvg_cameras: 2.0 * osw_wire::Frame::new(&camera)?.len() as f64,
+            header: osw_wire::Frame::new(&empty)?.len() as f64,
             batch: sw.batch as f64,
             frame_ms_median: summary.frame_ms_median,
         })
@@ -231,7 +231,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ids.push(series("exact visibility: leaves entering + leaving (no LOD switches)", over_frames(&|i| churn[i])));
     }
     crate::plot::write(
-        &Chart { title: "Node ids per frame, incremental and full (paper 000 fig. 3)", x: "frame", y: "ids", series: ids },
+        &Chart { title: "Node ids per frame, incremental and full (occlusion switch fig. 3)", x: "frame", y: "ids", series: ids },
         &a.out.join("bandwidth_ids"),
     )?;
     let mut bytes = vec![

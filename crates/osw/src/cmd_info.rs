@@ -1,5 +1,6 @@
-//! `osw info`: open and validate a scene file; print its header, the time to open it and this
-//! process's resident memory (to show that opening reads the tables, not the geometry).
+//! `osw info`: the adapter osw renders with; with `--scene`, open and validate a scene file and
+//! print its header, the time to open it and this process's resident memory (to show that
+//! opening reads the tables, not the geometry).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -8,21 +9,35 @@ use std::time::Instant;
 pub struct Args {
     /// Scene file.
     #[arg(long)]
-    scene: PathBuf,
+    scene: Option<PathBuf>,
+    /// Adapter: the first whose name contains this text [default: a GPU, else lavapipe].
+    #[arg(long, value_name = "NAME")]
+    adapter: Option<String>,
     /// Also read and check every geometry block (reads the whole file).
     #[arg(long)]
     check_geometry: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    // Without a scene the adapter is the question, and not having one is the answer's error.
+    match osw_gpu::Gpu::new(a.adapter.as_deref()) {
+        Ok(g) => {
+            let i = &g.info;
+            out!("adapter: {} ({:?}, {:?}, driver {} {})", i.name, i.device_type, i.backend, i.driver, i.driver_info);
+            out!("device_type: {:?}", i.device_type);
+        }
+        Err(e) if a.scene.is_some() => out!("adapter: none ({e})"),
+        Err(e) => return Err(e.into()),
+    }
+    let Some(path) = &a.scene else { return Ok(()) };
     let rss_before = osw_render::stats::resident_bytes();
     let t = Instant::now();
-    let scene = osw_scene::SceneFile::open(&a.scene)?;
+    let scene = osw_scene::SceneFile::open(path)?;
     let open_ms = t.elapsed().as_secs_f64() * 1e3;
     let rss_open = osw_render::stats::resident_bytes();
     let h = scene.header();
     let file_bytes = h.file_bytes;
-    out!("scene: {}", a.scene.display());
+    out!("scene: {}", path.display());
     out!("content_hash: {}", osw_scene::format::hash_hex(h.content_hash));
     out!(
         "nodes: {} ({} BVH, {} LOD/HLOD), leaves: {}, objects: {}, full-detail triangles: {}",

@@ -2,7 +2,7 @@
 
 use crate::walk_args::WalkArgs;
 use osw_render::Mode;
-use osw_render::mode::HcTest;
+use osw_render::pass::HcTest;
 use osw_render::run::{RunSpec, render_path};
 use std::path::PathBuf;
 
@@ -11,8 +11,8 @@ pub struct Args {
     #[command(flatten)]
     walk: WalkArgs,
     /// Culling mode: vfc (frustum only), sw (stop and wait), chc (coherent hierarchical
-    /// culling), hzb (software Z pyramid, GigaWalk-like), prev (the switch's algorithm on
-    /// one GPU) or ovc (paper 003: depth-ordered interleaved culling; see --adaptive, --budget
+    /// culling), hzb (software Z pyramid, Peng 2014), prev (the switch's algorithm on
+    /// one GPU) or ovc (Bartz 1999: depth-ordered interleaved culling; see --adaptive, --budget
     /// and --sampling).
     #[arg(long)]
     mode: Mode,
@@ -23,20 +23,20 @@ pub struct Args {
     /// on the CPU, then the PVS's boxes that are small on screen again, read finer), pyramid (a
     /// farthest-depth pyramid in compute, conservative, a GPU round trip per round),
     /// exact (boxes rasterised against the depth buffer, exact per pixel, with pixel counts
-    /// for the LOD stop of paper 000 sec. 4.7.2 when tau > 0) or queries (one occlusion query
+    /// for the LOD stop of occlusion switch sec. 4.7.2 when tau > 0) or queries (one occlusion query
     /// per box, as the paper; the slow reference).
     #[arg(long, default_value = "hybrid")]
     hc: HcTest,
-    /// ovc and prev: adaptive culling's threshold (paper 003 eq. 1): a box whose visible
+    /// ovc and prev: adaptive culling's threshold (Bartz 1999 eq. 1): a box whose visible
     /// pixels, as a share of its screen rectangle and discounted by its depth, fall below it
     /// counts as occluded (prev: in HC's exact tests). 0 is off (conservative).
     #[arg(long, default_value_t = 0.0, value_name = "T")]
     adaptive: f64,
-    /// ovc: cost-adaptive culling (paper 003 eq. 2): occlusion tests stop after F times the
+    /// ovc: cost-adaptive culling (Bartz 1999 eq. 2): occlusion tests stop after F times the
     /// previous frame's render time; the remaining nodes are only frustum culled. Off by default.
     #[arg(long, value_name = "F")]
     budget: Option<f64>,
-    /// ovc: the box tests read one in S pixel lines a frame, interleaved (paper 003 sec. 3.3;
+    /// ovc: the box tests read one in S pixel lines a frame, interleaved (Bartz 1999 sec. 3.3;
     /// 1 reads all: conservative).
     #[arg(long, default_value_t = 1, value_name = "S")]
     sampling: u32,
@@ -74,11 +74,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         anyhow::bail!("--sampling must be at least 1");
     }
     if a.mode != Mode::Ovc && (a.budget.is_some() || a.sampling > 1) {
-        anyhow::bail!("--budget and --sampling are ovc's (paper 003); --mode is {}", a.mode.name());
+        anyhow::bail!("--budget and --sampling are ovc's (Bartz 1999); --mode is {}", a.mode.name());
     }
     a.mode.on_one_gpu().map_err(anyhow::Error::msg)?;
     if !a.mode.adaptive() && a.adaptive > 0.0 {
-        anyhow::bail!("--adaptive is ovc's and prev's (paper 003 eq. 1); --mode is {}", a.mode.name());
+        anyhow::bail!("--adaptive is ovc's and prev's (Bartz 1999 eq. 1); --mode is {}", a.mode.name());
     }
     let (cams, mut r) = a.walk.open()?;
     r.count_fragments = a.fragments;

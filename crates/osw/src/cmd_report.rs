@@ -2,7 +2,7 @@
 //! (each run a child `osw render`, the switch a child `osw run`), compares each with exact
 //! visibility (`osw exact`: at full detail for PVS/exact, and at the run's tau for culling error
 //! apart from LOD error) and with the full-detail frustum-only images (`vfc` at tau 0), and
-//! writes report.md (tables in the form of paper 000 tables 1-3 and paper 001 table 1),
+//! writes report.md (tables in the form of occlusion switch tables 1-3 and CHC table 1),
 //! report.json and error_vs_time.png/.svg.
 //!
 //! Every run keeps its own directory under DIR/runs; a run whose results are there for the
@@ -28,7 +28,7 @@ pub struct Args {
     /// Modes to run: vfc, sw, chc, hzb, prev, ovc (single process) and switch (`osw run`).
     #[arg(long, value_delimiter = ',', default_value = "vfc,sw,chc,hzb,prev,switch,ovc")]
     modes: Vec<Mode>,
-    /// Adaptive-culling thresholds (paper 003 eq. 1) to run ovc, prev and the switch at, each a
+    /// Adaptive-culling thresholds (Bartz 1999 eq. 1) to run ovc, prev and the switch at, each a
     /// point of its own (0: conservative).
     #[arg(long, value_delimiter = ',', default_value = "0")]
     adaptive: Vec<f64>,
@@ -136,7 +136,7 @@ impl Plan<'_> {
         if adaptive > 0.0 {
             args.extend(["--adaptive".into(), adaptive.to_string()]);
         }
-        // CHC as paper 001 runs it: every frame culled (cost-adaptive culling is osw's).
+        // CHC as CHC runs it: every frame culled (cost-adaptive culling is osw's).
         if mode == Mode::Chc {
             args.push("--always-cull".into());
         }
@@ -432,14 +432,14 @@ fn markdown(r: &Report, a: &Args) -> String {
          detail, `osw exact`): on average {:.0} leaves and {:.0} triangles are visible.\n",
         r.scene, r.path, r.frames, r.width, r.height, r.exact_leaves_mean, r.exact_triangles_mean
     );
-    md.push_str("## Frame rate (paper 000, table 1)\n\nFrames per second from the median frame time.\n\n");
+    md.push_str("## Frame rate (occlusion switch, table 1)\n\nFrames per second from the median frame time.\n\n");
     let (h, rows) = by_tau("fps", &|e| format!("{:.1}", 1000.0 / e.frame_ms_median.max(1e-9)), None);
     table(&mut md, &h, &rows);
-    md.push_str("## Triangles drawn against exactly visible triangles (paper 000, table 2)\n\nMeans per frame.\n\n");
+    md.push_str("## Triangles drawn against exactly visible triangles (occlusion switch, table 2)\n\nMeans per frame.\n\n");
     let (h, rows) = by_tau("triangles", &|e| format!("{:.0}", e.triangles_drawn_mean), Some(&|_| format!("{:.0}", r.exact_triangles_mean)));
     table(&mut md, &h, &rows);
     md.push_str(
-        "## Objects drawn against exactly visible objects (paper 000, table 3)\n\nLeaves drawn per exactly visible leaf \
+        "## Objects drawn against exactly visible objects (occlusion switch, table 3)\n\nLeaves drawn per exactly visible leaf \
          at full detail (PVS/exact; an HLOD counts for the visible leaves it stands for), then the culling error over \
          the whole path: nodes visible in the scene as drawn at that tau (`osw exact --tau`) that the method does not \
          draw (0 for a conservative method at every tau), and after the slash leaves visible at full detail that it \
@@ -453,7 +453,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     );
     table(&mut md, &h, &rows);
     md.push_str(
-        "## Per-method statistics (paper 001, table 1)\n\nMeans per frame; times are medians in ms; HC tests/s is tests \
+        "## Per-method statistics (CHC, table 1)\n\nMeans per frame; times are medians in ms; HC tests/s is tests \
          over the HC time; speedup is vfc's median frame time at the same tau over this method's.\n\n",
     );
     let header: Vec<String> =
@@ -557,7 +557,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     table(&mut md, &header, &rows);
     md.push_str("![image error against frame time](error_vs_time.png)\n");
     md.push_str(
-        "\n## Culling and speed-up (paper 003, table 2)\n\nThe share of the scene's full-detail triangles not drawn \
+        "\n## Culling and speed-up (Bartz 1999, table 2)\n\nThe share of the scene's full-detail triangles not drawn \
          (culled by frustum, occlusion and LOD), the culling error at the run's tau (nodes visible at that tau not drawn; \
          0 for a conservative run), and the speed-up over vfc at the same tau.\n\n",
     );
@@ -575,7 +575,7 @@ fn markdown(r: &Report, a: &Args) -> String {
     let switch: Vec<(&Entry, &Traffic)> = r.runs.iter().filter_map(|e| Some((e, e.traffic.as_ref()?))).collect();
     if !switch.is_empty() {
         md.push_str(
-            "\n## The switch's traffic (paper 000 sec. 3.5, fig. 3)\n\nMeans per frame over HC -> RVG: ids sent as deltas \
+            "\n## The switch's traffic (occlusion switch sec. 3.5, fig. 3)\n\nMeans per frame over HC -> RVG: ids sent as deltas \
              against the visible set's size (what sending it whole would cost), all bytes (camera, deltas, end of frame), \
              and the bytes of the id-carrying messages per id; then latency from camera sample to displayed frame. \
              `osw bandwidth` gives every link.\n\n",

@@ -52,20 +52,8 @@ pub struct Args {
     /// Send the whole visible set every frame instead of deltas (the bandwidth comparison).
     #[arg(long)]
     full: bool,
-    /// Adaptive culling in HC's exact tests (paper 003 eq. 1): boxes whose visible pixels, as
-    /// a share of their screen rectangle and discounted by depth, fall below T count as hidden:
-    /// time bought with error. 0 is conservative.
-    #[arg(long, default_value_t = 0.0, value_name = "T")]
-    adaptive: f64,
-    /// Occlusion culling on every frame, as the papers run it. By default a node that culled
-    /// fewer triangles than its culling cost frustum culls only for its next frames (as
-    /// `osw render --always-cull`); summary.json's `cull_skipped_frames` counts them.
-    #[arg(long)]
-    always_cull: bool,
-    /// Cluster tests of the passes that draw, in the nodes and the display: as `osw render
-    /// --cluster-tests` (`occlusion` is RVG's two passes, in the display).
-    #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
-    cluster_tests: osw_cull::cluster::ClusterTests,
+    #[command(flatten)]
+    agreed: osw_render::settings::Agreed,
     /// Longest wait for one frame, seconds: the display gives up after it (a first frame at
     /// full detail of a billion triangles needs more than the default).
     #[arg(long, value_name = "SECS")]
@@ -141,24 +129,16 @@ pub fn play(a: Args) -> anyhow::Result<()> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    if !(a.adaptive >= 0.0 && a.adaptive.is_finite()) {
-        bail!("--adaptive must be a finite number >= 0, got {}", a.adaptive);
-    }
+    a.agreed.check().map_err(anyhow::Error::msg)?;
     std::fs::create_dir_all(&a.out)?;
     let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
     let s = |p: &Path| p.display().to_string();
     let size = format!("{}x{}", a.size.0, a.size.1);
     let common = |name: &str| {
         let mut v: Vec<String> = vec!["--name".into(), name.into(), "--scene".into(), s(&a.scene), "--size".into(), size.clone()];
-        v.extend(["--cluster-tests".into(), a.cluster_tests.to_string()]);
+        v.extend(a.agreed.args());
         if a.full {
             v.push("--full".into());
-        }
-        if a.adaptive > 0.0 {
-            v.extend(["--adaptive".into(), a.adaptive.to_string()]);
-        }
-        if a.always_cull {
-            v.push("--always-cull".into());
         }
         if let Some(t) = a.frame_timeout {
             v.extend(["--frame-timeout".into(), t.to_string()]);
@@ -182,11 +162,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.tau.to_string(),
         "--size".into(),
         size,
-        "--cluster-tests".into(),
-        a.cluster_tests.to_string(),
         "--out".into(),
         s(&a.out),
     ];
+    args_d.extend(a.agreed.args());
     if let Some(p) = &a.path {
         args_d.extend(["--path".into(), s(p)]);
     }
@@ -226,7 +205,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let mut procs = [pd, pa, pb];
     // Wait for all three. The display failing stops the run; a node failing does not (the
-    // other runs both roles, issue 6), but the run reports it once the display is done.
+    // other runs both roles: failover), but the run reports it once the display is done.
     let mut done = [false; 3];
     let mut node_failures = Vec::new();
     let mut display_done: Option<Instant> = None;

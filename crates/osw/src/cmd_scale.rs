@@ -158,7 +158,7 @@ fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, dir: &Pa
     };
     args.extend(strings(&["--scene", &scene.display().to_string(), "--path", &walk.display().to_string(), "--size", size]));
     args.extend(strings(&["--tau", &tau.to_string(), "--no-frames", "--out", &dir.display().to_string()]));
-    // CHC as paper 001 runs it: every frame culled (cost-adaptive culling is osw's).
+    // CHC as CHC runs it: every frame culled (cost-adaptive culling is osw's).
     if mode == Mode::Chc {
         args.push("--always-cull".into());
     }

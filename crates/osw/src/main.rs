@@ -61,7 +61,7 @@ enum Cmd {
     /// A frame's cost against the model's size: the generated plant at each size, every mode
     /// at every tau; scale.md, scale.json and a log-log plot.
     Scale(cmd_scale::Args),
-    /// Bytes and ids per frame on each link of a switch run, against paper 000's model.
+    /// Bytes and ids per frame on each link of a switch run, against occlusion switch's model.
     Bandwidth(cmd_bandwidth::Args),
     /// One-way latency per link and camera-to-display latency of a switch run.
     Latency(cmd_latency::Args),

@@ -26,14 +26,19 @@ pub struct Chart<'a> {
 }
 
 /// plotters draws text with a font registered by name; DejaVu comes with Debian
-/// (fonts-dejavu-core, installed by scripts/setup.sh).
+/// (fonts-dejavu-core, installed by scripts/setup.sh). `OSW_FONT` names another file (the GPU
+/// bundle brings its own).
 const FONTS: [&str; 3] =
     ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"];
 
 fn register_font() -> anyhow::Result<()> {
     static DONE: OnceLock<Result<(), String>> = OnceLock::new();
     DONE.get_or_init(|| {
-        let path = FONTS.iter().find(|p| Path::new(p).exists()).ok_or("no DejaVuSans.ttf found: apt-get install fonts-dejavu-core")?;
+        let given = std::env::var("OSW_FONT").ok();
+        let path = given
+            .as_deref()
+            .or_else(|| FONTS.into_iter().find(|p| Path::new(p).exists()))
+            .ok_or("no DejaVuSans.ttf found: apt-get install fonts-dejavu-core, or set OSW_FONT")?;
         let bytes = std::fs::read(path).map_err(|e| format!("{path}: {e}"))?;
         plotters::style::register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into_boxed_slice()))
             .map_err(|_| format!("{path}: not a font plotters can read"))

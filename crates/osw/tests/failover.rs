@@ -1,4 +1,4 @@
-//! Failover on loopback (issue 6), with the processes started by hand on fixed ports as on
+//! Failover on loopback, with the processes started by hand on fixed ports as on
 //! three machines: node a killed at frame 50 of a 480-frame walk and restarted at frame 120
 //! rejoins; the display gets every frame, marks the degraded span, and every frame equals
 //! frustum-only rendering with no exactly visible leaf culled. A display killed and started
@@ -337,10 +337,12 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
     let (addr_a, addr_b) = (free_addr(), free_addr());
     let logs = [d.path().join("a.log"), d.path().join("b.log")];
     let mut nodes = [node("a", &scene, &addr_a, None, &logs[0]), node("b", &scene, &addr_b, Some(&addr_a), &logs[1])];
-    let hello = Hello::new(osw_scene::SceneFile::open(&scene).unwrap().content_hash(), "flood", Role::Display, None);
+    let settings = osw_render::settings::Agreed::default().said((192, 192));
+    assert_eq!(settings[0], ("--size".into(), SIZE.into()));
+    let hello = Hello::new(osw_scene::SceneFile::open(&scene).unwrap().content_hash(), "flood", Role::Display, None, settings);
     let frame = |m: &Message| {
         let mut b = Vec::new();
-        encode_frame(m, &mut b);
+        encode_frame(m, &mut b).unwrap();
         b
     };
     // Each connection's messages, read as they come (the nodes' frames are drained too).
@@ -397,7 +399,8 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
                     sampled_us: 0,
                 }),
                 out,
-            );
+            )
+            .unwrap();
         }
     };
     let send_all = |socks: &mut Vec<std::net::TcpStream>, bytes: &[u8]| {

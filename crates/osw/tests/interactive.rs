@@ -1,4 +1,4 @@
-//! Issue 7: the interactive walkthrough under Xvfb with scripted input (xdotool). A person's
+//! The interactive walkthrough under Xvfb with scripted input (xdotool). A person's
 //! walk: move forward, start recording, turn and step sideways, stop recording, colour by
 //! state, take a screenshot, quit. Checked: the keys moved the camera and a mouse drag turned
 //! it, the screenshot and the window itself (grabbed from the X server with xwd) are not

@@ -17,7 +17,7 @@ fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
         let run = check_conservative(d.path(), &scene, &path, kind);
         // Every mode and HC test culls: on a walk each draws fewer triangles than vfc. Two
         // exceptions, the baseline's own: teapots' large occluder is the ground, which faces
-        // up, and eq. 3 of paper 002 weights an occluder by |N.E|, so hzb picks teapots as
+        // up, and eq. 3 of Peng 2014 weights an occluder by |N.E|, so hzb picks teapots as
         // occluders and their 2x2-texel tests (sec. 5.3) hide nothing (chc hides 80%); the
         // forest's occluders are porous crowns, whose farthest depth over any 2x2 texels is
         // the sky behind them.

@@ -81,7 +81,7 @@ fn report_covers_every_mode_and_tau_and_resumes() {
             assert!(summary.adaptive_culled_mean > 0.0, "{summary:?}");
         }
     }
-    assert!(md.contains("paper 003, table 2"), "report.md lacks table 2's form");
+    assert!(md.contains("Bartz 1999, table 2"), "report.md lacks table 2's form");
     assert!(std::fs::read_to_string(out.join("error_vs_time.svg")).unwrap().contains("Pareto front"), "no Pareto front in the plot");
     // PVS/exact against the exact run computed by `osw exact`: never below 1 at tau 0.
     let exact_leaves = csv_mean(&out.join("exact/exact.csv"), "visible_leaves");

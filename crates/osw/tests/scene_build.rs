@@ -1,4 +1,4 @@
-//! `osw build` on the three generators at the size (5M triangles), the invariants of
+//! `osw build` on the three generators at 5M triangles, the invariants of
 //! each file, hash stability, triangle preservation against the generator, the build report,
 //! and the resident memory of a process that opens a scene.
 

@@ -105,6 +105,10 @@ fn num(row: &std::collections::HashMap<String, String>, k: &str) -> f64 {
 /// `osw bandwidth`: the bytes the HC nodes counted on sending equal those the display counted
 /// on receiving; the model is the paper's formula of the same n, h, b; --full sends every id;
 /// exact visibility's saving is its leaves' churn over its size.
+fn frame_len(m: &osw_wire::Message) -> usize {
+    osw_wire::Frame::new(m).unwrap().len()
+}
+
 fn check_bandwidth(run: &Path, full: &Path, exact: &Path, out: &Path) {
     osw_ok(&["bandwidth", "--run", s(run), "--full", s(full), "--exact", s(exact), "--out", s(out)]);
     let (bw, display, display_full) = (csv(&out.join("bandwidth.csv")), csv(&run.join("stats.csv")), csv(&full.join("stats.csv")));
@@ -118,7 +122,7 @@ fn check_bandwidth(run: &Path, full: &Path, exact: &Path, out: &Path) {
         let n = num(r, "ids_sent");
         assert!((num(r, "model_bytes") - (8.0 * n + n * h / b + 3.0 * (72.0 + h))).abs() < 0.06, "frame {i}: {r:?}");
         // Both links carry the same deltas and end of frame; RVG also gets the camera first.
-        let camera = osw_wire::frame_len(&osw_wire::Message::Camera(osw_wire::CameraPacket {
+        let camera = frame_len(&osw_wire::Message::Camera(osw_wire::CameraPacket {
             frame: i as u64,
             position: [0.0; 3],
             orientation: [0.0, 0.0, 0.0, 1.0],
@@ -144,17 +148,13 @@ fn check_bandwidth(run: &Path, full: &Path, exact: &Path, out: &Path) {
             );
             let frame = i as u64;
             let expected: usize = if keyframes {
-                osw_wire::frame_len(&osw_wire::Message::Keyframe(osw_wire::Keyframe { frame, ids: osw_wire::IdList::from_ids(v) }))
+                osw_wire::Keyframe::parts(frame, v, osw_wire::limits::KEYFRAME_PART_BYTES).iter().map(frame_len).sum()
             } else {
                 let part =
                     |ids: &[u32], k: usize| osw_wire::IdList::from_ids(&ids[(k * batch).min(ids.len())..((k + 1) * batch).min(ids.len())]);
                 (0..added.len().div_ceil(batch).max(removed.len().div_ceil(batch)))
                     .map(|k| {
-                        osw_wire::frame_len(&osw_wire::Message::Delta(osw_wire::Delta {
-                            frame,
-                            added: part(&added, k),
-                            removed: part(&removed, k),
-                        }))
+                        frame_len(&osw_wire::Message::Delta(osw_wire::Delta { frame, added: part(&added, k), removed: part(&removed, k) }))
                     })
                     .sum()
             };
@@ -263,6 +263,12 @@ fn the_handshake_refuses_another_scene_and_a_wrong_token() {
         (vec!["--scene", s(&one)], vec!["--scene", s(&two)], "different scene"),
         (vec!["--scene", s(&one), "--token", "right"], vec!["--scene", s(&one), "--token", "wrong"], "token"),
         (vec!["--scene", s(&one), "--token", "right"], vec!["--scene", s(&one)], "token"),
+        (vec!["--scene", s(&one), "--adaptive", "0.5"], vec!["--scene", s(&one)], "setting --adaptive: 0.5 there, 0 here"),
+        (
+            vec!["--scene", s(&one)],
+            vec!["--scene", s(&one), "--cluster-tests", "frustum"],
+            "setting --cluster-tests: frustum,cone,backface,small there, frustum here",
+        ),
     ] {
         let mut node = std::process::Command::new(bin("osw-node"))
             .args(["--name", "a", "--size", "32x32"])
@@ -285,4 +291,51 @@ fn the_handshake_refuses_another_scene_and_a_wrong_token() {
         assert_eq!(out.status.code(), Some(1), "{err}");
         assert!(err.contains(needle) && err.contains("refused"), "expected {needle:?}: {err}");
     }
+}
+
+/// A keyframe larger than a frame crosses in parts (here parts of at most 16 bytes of ids,
+/// every frame a keyframe): the display's visible sets are prev's, and the nodes say how many
+/// parts they sent.
+#[test]
+fn keyframes_cross_in_parts_and_the_display_holds_the_nodes_visible_sets() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "city", 20_000, 1);
+    let path = camera_path(&scene, "orbit", 6);
+    let prev = d.path().join("prev");
+    osw_ok(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "prev", "--size", "64x64", "--no-frames", "--out", s(&prev)]);
+    let bin = |n: &str| Path::new(env!("CARGO_BIN_EXE_osw")).with_file_name(n);
+    let node = |name: &str, peer: Option<&str>| {
+        let mut c = std::process::Command::new(bin("osw-node"));
+        c.args(["--name", name, "--scene", s(&scene), "--size", "64x64", "--full", "--keyframe-part-bytes", "16"]);
+        c.args(["--stats", s(&d.path().join(format!("node-{name}.csv")))]);
+        if let Some(p) = peer {
+            c.args(["--peer", p]);
+        }
+        let mut child = c.stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::null()).spawn().unwrap();
+        let mut line = String::new();
+        std::io::BufRead::read_line(&mut std::io::BufReader::new(child.stdout.take().unwrap()), &mut line).unwrap();
+        (child, line.trim().strip_prefix("listening on ").unwrap().to_owned())
+    };
+    let (mut a, addr_a) = node("a", None);
+    let (mut b, addr_b) = node("b", Some(&addr_a));
+    let run = d.path().join("run");
+    let out = std::process::Command::new(bin("osw-display"))
+        .args(["--scene", s(&scene), "--path", s(&path), "--nodes", &format!("{addr_a},{addr_b}"), "--size", "64x64"])
+        .args(["--no-frames", "--out", s(&run)])
+        .output()
+        .unwrap();
+    for n in [&mut a, &mut b] {
+        let _ = n.wait();
+    }
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let pvs = |p: &Path| std::fs::read_to_string(p.join("pvs.txt")).unwrap();
+    assert_eq!(pvs(&run), pvs(&prev), "the display's visible sets differ from prev's");
+    let rows: Vec<NodeFrame> = ["a", "b"]
+        .iter()
+        .flat_map(|n| results::csv::read::<NodeFrame>(&d.path().join(format!("node-{n}.csv"))).unwrap())
+        .filter(|r| r.duty != Duty::Or)
+        .collect();
+    assert_eq!(rows.len(), 6);
+    assert!(rows.iter().all(|r| r.batches as u64 >= r.ids_sent.div_ceil(16)), "a part holds at most 16 ids here: {rows:?}");
+    assert!(rows.iter().any(|r| r.batches > 1), "{rows:?}");
 }

@@ -1,5 +1,5 @@
 //! `osw compare`: per-frame image error between two runs, and culling error of each run
-//! against exact visibility (paper 000 sec. 5: "PVS / exactly visible", false culling).
+//! against exact visibility (occlusion switch sec. 5: "PVS / exactly visible", false culling).
 
 use osw_scene::format::NodeKind;
 use osw_scene::{NodeId, SceneFile};

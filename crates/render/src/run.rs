@@ -1,8 +1,8 @@
 //! Loops over a camera path: `osw render` (one mode) and `osw exact` (item buffer).
 
-use crate::mode::HcTest;
 use crate::mode::{Mode, ModeState};
 use crate::output::{frame_path, push_ids, write_png};
+use crate::pass::HcTest;
 use crate::results::{self, Details, ExactFrame, RenderSummary, Summary};
 use crate::stats::FrameStats;
 use osw_gpu::exact::Reference;
@@ -32,7 +32,7 @@ pub struct RunSpec<'a> {
     pub mode: Mode,
     pub tau: f64,
     pub hc: HcTest,
-    /// ovc's knobs (paper 003; the other modes ignore them).
+    /// ovc's knobs (Bartz 1999; the other modes ignore them).
     pub ovc: osw_cull::ovc::OvcOptions,
     /// Occlusion culling on every frame, also where it does not pay (prev and chc as the
     /// papers run them); else cost-adaptive (osw_cull::payoff).

@@ -12,6 +12,10 @@ pub struct FrameStats {
     pub total_ms: f64,
     pub or_ms: f64,
     pub hc_ms: f64,
+    /// HC's passes (crate::pass::hc): prev's; 0 in the other modes.
+    pub hc_traversal_ms: f64,
+    pub hc_second_look_ms: f64,
+    pub hc_retest_ms: f64,
     pub rvg_ms: f64,
     /// Nodes (LOD/HLOD) and triangles RVG drew: the PVS.
     pub pvs_nodes: u32,
@@ -28,7 +32,7 @@ pub struct FrameStats {
     pub occlusion_culled: u32,
     pub pixel_stops: u32,
     /// Boxes counted as occluded by adaptive culling, and taken untested once the culling
-    /// budget was spent (ovc: paper 003 eq. 1 and 2).
+    /// budget was spent (ovc: Bartz 1999 eq. 1 and 2).
     pub adaptive_culled: u32,
     pub over_budget: u32,
     /// 1 when the frame was frustum culled only because occlusion culling did not pay (prev
@@ -106,6 +110,9 @@ impl Summary {
             triangles_backface_culled_mean: mean(frames.iter().map(|f| f.triangles_backface_culled as f64)),
             triangles_small_culled_mean: mean(frames.iter().map(|f| f.triangles_small_culled as f64)),
             hc_ms_median: quantile(&col(|f| f.hc_ms), 0.5),
+            hc_traversal_ms_median: quantile(&col(|f| f.hc_traversal_ms), 0.5),
+            hc_second_look_ms_median: quantile(&col(|f| f.hc_second_look_ms), 0.5),
+            hc_retest_ms_median: quantile(&col(|f| f.hc_retest_ms), 0.5),
             rvg_ms_median: quantile(&col(|f| f.rvg_ms), 0.5),
             ..Summary::default()
         }

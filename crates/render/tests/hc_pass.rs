@@ -1,13 +1,13 @@
 //! HC's pass where a region comes into view (a turn from open ground to the plant, so that OR
 //! drew almost nothing of the new view): with the new LODs taken as occluders while it
-//! traverses (`hc_pass_with`, from one at a time, so that the path runs on a small scene) it
+//! traverses (`HcOptions::new_occluders_min`, from one at a time, so that the path runs on a small scene) it
 //! keeps every leaf exact visibility (the item buffer) sees, keeps no more than without them,
 //! and tests fewer boxes.
 
 use glam::DVec3;
 use osw_gpu::exact::Reference;
 use osw_gpu::renderer::Renderer;
-use osw_render::mode::{HcTest, draw_occluders, hc_pass, hc_pass_with};
+use osw_render::pass::{self, HcOptions};
 use osw_scene::{Camera, NodeId};
 use std::sync::Arc;
 
@@ -25,15 +25,16 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let before = r.view(&Camera::look_at(eye, eye + DVec3::X, 60.0));
     r.begin_frame();
     let mut previous = Vec::new();
-    hc_pass(&mut r, &before, 0.0, HcTest::Hybrid, 0.0, &[], &mut previous).unwrap();
+    pass::hc(&mut r, &before, 0.0, HcOptions::default(), &[], &mut previous).unwrap();
     assert!(!previous.is_empty(), "nothing visible before the turn: OR would draw nothing");
     // Frame i turns to the plant: OR draws V(i-1) for it, then HC.
     let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0));
     let mut run = |min: usize| {
         r.begin_frame();
-        draw_occluders(&mut r, &after, &previous, 0.0, true, &mut Vec::new()).unwrap();
+        pass::or(&mut r, &after, &previous, 0.0, true, &mut Vec::new()).unwrap();
         let mut pvs = Vec::new();
-        let stats = hc_pass_with(&mut r, &after, 0.0, HcTest::Hybrid, 0.0, &previous, &mut pvs, min).unwrap();
+        let stats =
+            pass::hc(&mut r, &after, 0.0, HcOptions { new_occluders_min: min, ..HcOptions::default() }, &previous, &mut pvs).unwrap().stats;
         (pvs, stats)
     };
     let (with, with_stats) = run(1);

@@ -1,7 +1,7 @@
 //! Scene build throughput (input triangles per second, end to end but for the generator) and
 //! the time to open a built scene file. Run: `cargo bench -p osw-scene --bench build`.
-//! Target (issue 2): at least 1,000,000 input triangles per second for the plant scene on a
-//! 2-core machine; papers 002 and 004 report about 5,000 per second for their preprocessing.
+//! Target: at least 1,000,000 input triangles per second for the plant scene on a
+//! 2-core machine; Peng 2014 and Yoon 2003 report about 5,000 per second for their preprocessing.
 
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 use osw_scene::build::{BuildOptions, build_scene};

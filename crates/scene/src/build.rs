@@ -1,5 +1,5 @@
 //! The scene build, out of core: its peak memory is one batch of the input or one subtree of
-//! the model plus the tables, whatever the model's size (paper 000 sec. 4.1 for what it makes).
+//! the model plus the tables, whatever the model's size (occlusion switch sec. 4.1 for what it makes).
 //!
 //! 1. Stream ([`crate::stream`]): the source's batches → placement around one origin →
 //!    clean-up → chunks, appended to a spill file beside the output.

@@ -1,6 +1,6 @@
 //! Bounding volume hierarchy over chunks: binned SAH (Wald 2007), binary, one chunk per leaf,
 //! nodes numbered breadth first so that the hardware cull's level-by-level batches
-//! (paper 000 sec. 4.7.1) walk ids in order and a parent's id is below its children's.
+//! (occlusion switch sec. 4.7.1) walk ids in order and a parent's id is below its children's.
 
 use crate::aabb::Aabb;
 use glam::Vec3;

@@ -1,4 +1,4 @@
-//! Splits objects into chunks (GigaWalk style, paper 002 sec. 4): a chunk is the unit of
+//! Splits objects into chunks: a chunk is the unit of
 //! culling and of LOD, so a long pipe or a city's ground plane is not drawn whole because one
 //! end of it is visible. Two reasons to split: a chunk holds at most `max_triangles`, and a
 //! chunk whose box is much larger than the boxes of its two halves (an elbowed pipe run, a

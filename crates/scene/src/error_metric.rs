@@ -1,4 +1,4 @@
-//! Object-space error projected to pixels, and LOD selection against tau (paper 000 sec. 4.1:
+//! Object-space error projected to pixels, and LOD selection against tau (occlusion switch sec. 4.1:
 //! "we project this error metric to the screen space ... and select the lowest resolution LOD
 //! or HLOD that satisfies the error bound").
 //!

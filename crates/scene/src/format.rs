@@ -1,5 +1,5 @@
 //! The scene file format, version 5: one file that the three processes of the cluster map into
-//! memory and read in place (paper 000, sec. 3.5: every process holds the same scene and refers
+//! memory and read in place (occlusion switch, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
 //! ```text
@@ -16,7 +16,7 @@
 //! lie in the blob in the order they were built (a subtree's blocks together), not in id order.
 //! All integers little-endian. Node ids are dense: ids `0..bvh_count` are BVH nodes in
 //! breadth-first order (root = 0), ids `bvh_count..node_count` are LOD and HLOD nodes, each its
-//! own id as in paper 000 sec. 4.1; a BVH node's LODs are contiguous, finest first.
+//! own id as in occlusion switch sec. 4.1; a BVH node's LODs are contiguous, finest first.
 //!
 //! Hashes (xxh3): `header_hash` covers the header with that field zeroed; `content_hash` covers
 //! the header's scene fields, the node table and the block table (which holds a hash of every

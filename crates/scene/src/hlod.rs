@@ -1,4 +1,4 @@
-//! HLODs for interior nodes (paper 000 sec. 4.1, after Erikson et al. 2001): the children's
+//! HLODs for interior nodes (occlusion switch sec. 4.1, after Erikson et al. 2001): the children's
 //! coarsest representations merged and simplified with meshoptimizer's sloppy simplifier,
 //! which merges disjoint parts (a row of tanks becomes one blob) where edge collapse cannot.
 //!

@@ -1,4 +1,4 @@
-//! osw scene: everything the three processes of the cluster share (paper 000, sec. 3.5 and 4.1).
+//! osw scene: everything the three processes of the cluster share (occlusion switch, sec. 3.5 and 4.1).
 //!
 //! Layout of this crate, in the order a scene is made:
 //! - [`mesh`]: indexed triangle meshes and the clean-up every input goes through.

@@ -1,7 +1,6 @@
 //! Limits and budgets of the scene build and the scene file, each with its reason.
 
-/// Default largest number of triangles in one chunk (GigaWalk-style object splitting, paper 002
-/// sec. 4). 4096 triangles keep a chunk's vertices under 65,536 so its indices fit in u16, and
+/// Default largest number of triangles in one chunk (crate::chunk). 4096 triangles keep a chunk's vertices under 65,536 so its indices fit in u16, and
 /// give the hardware cull a box every few thousand triangles: fine enough to cull, coarse enough
 /// that the 5M-triangle plant has 9,001 leaves before loose splits (12,821 after).
 pub const CHUNK_TRIANGLES: u32 = 4096;

@@ -1,4 +1,4 @@
-//! Static LOD chains for leaves (paper 000 sec. 4.1), made with meshoptimizer's
+//! Static LOD chains for leaves (occlusion switch sec. 4.1), made with meshoptimizer's
 //! edge-collapse simplifier. Chunk borders are locked so that neighbouring chunks of one
 //! object at different levels still meet without cracks.
 //!

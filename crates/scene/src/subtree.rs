@@ -1,7 +1,7 @@
 //! Stages 3 to 5 of the build: the geometry of the BVH's nodes, subtree by subtree, written as
 //! it is made, and the node and block tables at the end.
 //!
-//! A leaf gets its LOD chain (paper 000 sec. 4.1), a group an HLOD made from its children's
+//! A leaf gets its LOD chain (occlusion switch sec. 4.1), a group an HLOD made from its children's
 //! coarsest representations: per child its HLOD or coarsest LOD, or, for a child group without
 //! an HLOD, its own children's, recursively. So a node needs nothing of its subtree but those
 //! coarsest representations, which are all this keeps of a node until its parent is built: a

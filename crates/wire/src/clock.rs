@@ -1,4 +1,4 @@
-//! Clocks across hosts (issue 5: one-way latency per link). Every process stamps with its
+//! Clocks across hosts (one-way latency per link). Every process stamps with its
 //! wall clock in microseconds; the display estimates each node's offset NTP-style: ping-pong
 //! timestamps t0 (display sends), t1 (node receives), t2 (node replies), t3 (display
 //! receives); the sample of least round trip t3 - t0 - (t2 - t1) gives the offset

@@ -1,10 +1,11 @@
 //! The frames as a tokio-util codec, for the binaries' sockets.
 
-use crate::frame::{WireError, decode_frame, encode_frame};
+use crate::frame::{Frame, WireError, decode_frame, encode_frame};
 use crate::messages::Message;
 use bytes::{Buf, BytesMut};
 
-/// Decodes and encodes [`Message`] frames.
+/// Decodes [`Message`] frames, each with its bytes on the wire, and encodes messages and
+/// [`Frame`]s.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct WireCodec;
 
@@ -18,14 +19,14 @@ pub enum CodecError {
 }
 
 impl tokio_util::codec::Decoder for WireCodec {
-    type Item = Message;
+    type Item = (Message, usize);
     type Error = CodecError;
 
-    fn decode(&mut self, src: &mut BytesMut) -> Result<Option<Message>, CodecError> {
+    fn decode(&mut self, src: &mut BytesMut) -> Result<Option<(Message, usize)>, CodecError> {
         match decode_frame(src)? {
             Some((msg, used)) => {
                 src.advance(used);
-                Ok(Some(msg))
+                Ok(Some((msg, used)))
             }
             None => Ok(None),
         }
@@ -37,8 +38,17 @@ impl tokio_util::codec::Encoder<Message> for WireCodec {
 
     fn encode(&mut self, msg: Message, dst: &mut BytesMut) -> Result<(), CodecError> {
         let mut v = Vec::new();
-        encode_frame(&msg, &mut v);
+        encode_frame(&msg, &mut v)?;
         dst.extend_from_slice(&v);
+        Ok(())
+    }
+}
+
+impl tokio_util::codec::Encoder<Frame> for WireCodec {
+    type Error = CodecError;
+
+    fn encode(&mut self, frame: Frame, dst: &mut BytesMut) -> Result<(), CodecError> {
+        dst.extend_from_slice(frame.bytes());
         Ok(())
     }
 }

@@ -22,26 +22,54 @@ pub enum WireError {
     BadIds(String),
 }
 
+/// bincode's bound on what a payload's lengths may make it allocate, so that a forged length
+/// allocates nothing large: the length prefix bounds the payload to MAX_FRAME_BYTES, and
+/// bincode counts a serde string's bytes twice (read, then made a String), so twice that.
 fn config() -> impl bincode::config::Config {
-    bincode::config::standard().with_limit::<{ MAX_FRAME_BYTES as usize }>()
+    bincode::config::standard().with_limit::<{ 2 * MAX_FRAME_BYTES as usize }>()
 }
 
-/// Appends the frame of `msg` to `out`.
-pub fn encode_frame(msg: &Message, out: &mut Vec<u8>) {
+/// Appends the frame of `msg` to `out` and returns its bytes on the wire, length prefix
+/// included. A message whose payload the decoder would refuse (over [`MAX_FRAME_BYTES`]) is
+/// refused here, and `out` is left as it was: a sender learns it before its peer drops the link.
+pub fn encode_frame(msg: &Message, out: &mut Vec<u8>) -> Result<usize, WireError> {
     let start = out.len();
     out.extend_from_slice(&[0; 4]);
     // Writing plain data into a Vec cannot fail.
-    let payload = bincode::serde::encode_to_vec(msg, config()).expect("messages always encode");
-    out.extend_from_slice(&payload);
-    let len = (out.len() - start - 4) as u32;
-    out[start..start + 4].copy_from_slice(&len.to_le_bytes());
+    bincode::serde::encode_into_std_write(msg, out, config()).expect("a Vec takes every write");
+    let len = (out.len() - start - 4) as u64;
+    if len > MAX_FRAME_BYTES as u64 {
+        out.truncate(start);
+        return Err(WireError::FrameTooLarge { len, max: MAX_FRAME_BYTES });
+    }
+    out[start..start + 4].copy_from_slice(&(len as u32).to_le_bytes());
+    Ok(4 + len as usize)
 }
 
-/// Bytes of `msg`'s frame on the wire, length prefix included.
-pub fn frame_len(msg: &Message) -> usize {
-    let mut b = Vec::new();
-    encode_frame(msg, &mut b);
-    b.len()
+/// One message encoded once: what a connection's writer sends, its bytes counted where it was
+/// made.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Frame(Vec<u8>);
+
+impl Frame {
+    pub fn new(msg: &Message) -> Result<Frame, WireError> {
+        let mut b = Vec::new();
+        encode_frame(msg, &mut b)?;
+        Ok(Frame(b))
+    }
+
+    /// Bytes on the wire, length prefix included.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    pub fn bytes(&self) -> &[u8] {
+        &self.0
+    }
 }
 
 /// Decodes one frame from the front of `buf`: `Ok(None)` when the frame is incomplete,
@@ -77,6 +105,7 @@ mod tests {
                 role: Role::Node,
                 token: Some("t".into()),
                 serving: true,
+                settings: vec![("--size".into(), "8x8".into())],
             }),
             Message::Camera(CameraPacket {
                 frame: 7,
@@ -89,14 +118,14 @@ mod tests {
             Message::Delta(Delta { frame: 7, added: IdList::from_ids(&[1, 5, 900]), removed: IdList::from_ids(&[2]) }),
             Message::EndOfFrame(EndOfFrame {
                 frame: 7,
-                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, pvs: 3, cull_skipped: false },
+                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, passes_us: [3, 1, 1], pvs: 3, cull_skipped: false },
                 clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3 },
             }),
             Message::Ping(Ping { sent_us: 9 }),
             Message::Pong(Pong { ping_sent_us: 9, received_us: 10, sent_us: 11 }),
             Message::Heartbeat,
             Message::Rejoin(Rejoin { next: 12 }),
-            Message::Keyframe(Keyframe { frame: 8, ids: IdList::from_ids(&[0, 1, 2]) }),
+            Message::Keyframe(Keyframe { frame: 8, part: 1, parts: 2, ids: IdList::from_ids(&[0, 1, 2]) }),
             Message::Goodbye(Goodbye { reason: "done".into() }),
         ]
     }
@@ -105,45 +134,69 @@ mod tests {
     fn every_message_round_trips() {
         for m in samples() {
             let mut b = Vec::new();
-            encode_frame(&m, &mut b);
-            assert_eq!(decode_frame(&b).unwrap(), Some((m, b.len())));
+            let n = encode_frame(&m, &mut b).unwrap();
+            assert_eq!(decode_frame(&b).unwrap(), Some((m, n)));
         }
     }
 
     #[test]
-    fn golden_bytes_of_version_8() {
+    fn golden_bytes_of_version_9() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 8);
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 9);
         // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), token
-        // "t", and last the serving flag (protocol 6).
+        // "t", the serving flag (protocol 6), and the settings (protocol 9): one, "--size"
+        // "8x8".
         let mut b = Vec::new();
-        encode_frame(&samples()[0], &mut b);
-        assert_eq!(b, vec![11, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, b't', 1]);
-        // An end of frame: length 10, variant 3, frame 7, tests 10, levels 2, hc_us 5, pvs 3,
-        // culling not skipped, then the link stamps 1, 2, 3 (bincode standard: varint
-        // integers; protocol 7 dropped an OR time that was always 0, protocol 8 added the
-        // skipped flag).
+        encode_frame(&samples()[0], &mut b).unwrap();
+        assert_eq!(b, [&[23, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, b't', 1, 1, 6][..], b"--size", &[3], b"8x8"].concat());
+        // An end of frame: length 13, variant 3, frame 7, tests 10, levels 2, hc_us 5, HC's
+        // passes 3, 1, 1 (protocol 9), pvs 3, culling not skipped, then the link stamps 1, 2, 3
+        // (bincode standard: varint integers; protocol 7 dropped an OR time that was always
+        // 0, protocol 8 added the skipped flag).
         let mut b = Vec::new();
-        encode_frame(&samples()[3], &mut b);
-        assert_eq!(b, vec![10, 0, 0, 0, 3, 7, 10, 2, 5, 3, 0, 1, 2, 3]);
+        encode_frame(&samples()[3], &mut b).unwrap();
+        assert_eq!(b, vec![13, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 1, 3, 0, 1, 2, 3]);
         // A camera: variant 1, frame 7, eight f64 (position, orientation, fovy) and tau as
         // little-endian IEEE doubles, then sampled_us 123: 2 + 9 * 8 + 1 = 75 bytes, the
         // paper's 72 (sec. 3.5) plus tau, the frame number and the stamp.
         let mut b = Vec::new();
-        encode_frame(&samples()[1], &mut b);
+        encode_frame(&samples()[1], &mut b).unwrap();
         let doubles: Vec<u8> = [1e7, 2.0, -3.5, 0.0, 0.0, 0.0, 1.0, 60.0, 2.5].iter().flat_map(|d: &f64| d.to_le_bytes()).collect();
         assert_eq!(b, [&[75u8, 0, 0, 0, 1, 7][..], &doubles, &[123]].concat());
         // A rejoin: variant 9, the next frame 12.
         let mut b = Vec::new();
-        encode_frame(&Message::Rejoin(Rejoin { next: 12 }), &mut b);
+        encode_frame(&Message::Rejoin(Rejoin { next: 12 }), &mut b).unwrap();
         assert_eq!(b, vec![2, 0, 0, 0, 9, 12]);
+        // A keyframe: variant 4, frame 8, part 1 of 2 (protocol 9), the ids' 3 bytes.
+        let mut b = Vec::new();
+        encode_frame(&samples()[8], &mut b).unwrap();
+        assert_eq!(b, vec![8, 0, 0, 0, 4, 8, 1, 2, 3, 0, 0, 0]);
+    }
+
+    #[test]
+    fn a_keyframe_over_the_limit_crosses_in_parts() {
+        // Every node of a scene of 17M: one byte an id, over the frame limit whole.
+        let ids: Vec<u32> = (0..MAX_FRAME_BYTES + (1 << 20)).collect();
+        let whole = Message::Keyframe(Keyframe { frame: 3, part: 0, parts: 1, ids: IdList::from_ids(&ids) });
+        assert!(matches!(Frame::new(&whole), Err(WireError::FrameTooLarge { .. })));
+        let parts = Keyframe::parts(3, &ids, crate::limits::KEYFRAME_PART_BYTES);
+        assert_eq!(parts.len(), 2);
+        let mut got = Vec::new();
+        for (k, p) in parts.iter().enumerate() {
+            let f = Frame::new(p).unwrap();
+            let Some((Message::Keyframe(m), _)) = decode_frame(f.bytes()).unwrap() else { panic!("part {k}") };
+            assert_eq!((m.frame, m.part, m.parts), (3, k as u32, 2));
+            got.extend(m.ids.ids(u32::MAX).unwrap());
+        }
+        assert!(got == ids, "the parts join to V(i)");
+        assert_eq!(Keyframe::parts(3, &[], 100).len(), 1, "an empty set is one empty part");
     }
 
     #[test]
     fn every_truncation_is_incomplete_never_an_error_or_a_message() {
         for m in samples() {
             let mut b = Vec::new();
-            encode_frame(&m, &mut b);
+            encode_frame(&m, &mut b).unwrap();
             for n in 0..b.len() {
                 assert_eq!(decode_frame(&b[..n]), Ok(None), "{m:?} cut at {n}");
             }
@@ -155,11 +208,12 @@ mod tests {
         let big = (MAX_FRAME_BYTES + 1).to_le_bytes();
         assert!(matches!(decode_frame(&big), Err(WireError::FrameTooLarge { .. })));
         let mut b = Vec::new();
-        encode_frame(&samples()[5], &mut b);
+        encode_frame(&samples()[5], &mut b).unwrap();
         b.push(0);
         b[0] += 1;
         assert!(matches!(decode_frame(&b), Err(WireError::TrailingBytes(1))));
         assert!(matches!(decode_frame(&[1, 0, 0, 0, 99]), Err(WireError::Malformed(_))));
+        assert!(matches!(decode_frame(&[5, 0, 0, 0, 4, 8, 2, 2, 0]), Err(WireError::Malformed(_))), "part 2 of 2");
         for bad in [[f64::NAN, 0.0, 0.0], [f64::INFINITY, 0.0, 0.0]] {
             let mut b = Vec::new();
             encode_frame(
@@ -172,7 +226,8 @@ mod tests {
                     sampled_us: 0,
                 }),
                 &mut b,
-            );
+            )
+            .unwrap();
             assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))));
         }
         // A zero quaternion, and finite components whose length overflows (normalising
@@ -182,9 +237,32 @@ mod tests {
             encode_frame(
                 &Message::Camera(CameraPacket { frame: 1, position: [0.0; 3], orientation, fovy_deg: 60.0, tau_px: 0.0, sampled_us: 0 }),
                 &mut b,
-            );
+            )
+            .unwrap();
             assert!(matches!(decode_frame(&b), Err(WireError::BadCamera(_))), "{orientation:?}");
         }
+    }
+
+    #[test]
+    fn the_encoder_refuses_one_byte_over_the_limit_and_keeps_what_it_had() {
+        // A goodbye's payload is its variant, the reason's length (a 5-byte varint at this
+        // size) and the reason: a reason of MAX - 6 bytes makes a payload of exactly MAX.
+        let goodbye = |n: usize| Message::Goodbye(Goodbye { reason: "x".repeat(n) });
+        let max = MAX_FRAME_BYTES as usize;
+        let mut b = vec![7];
+        assert_eq!(encode_frame(&goodbye(max - 6), &mut b), Ok(4 + max));
+        let got = decode_frame(&b[1..]);
+        assert!(matches!(got, Ok(Some((_, n))) if n == 4 + max), "the largest frame decodes: {:?}", got.map(|m| m.map(|m| m.1)));
+        b.truncate(1);
+        assert_eq!(encode_frame(&goodbye(max - 5), &mut b), Err(WireError::FrameTooLarge { len: max as u64 + 1, max: MAX_FRAME_BYTES }));
+        assert_eq!(b, vec![7], "a refused frame leaves nothing behind");
+        assert!(Frame::new(&goodbye(max - 5)).is_err());
+        // The same for ids: a keyframe's variant, frame, part, parts and the list's length take
+        // 1 + 1 + 1 + 1 + 5 bytes.
+        let keyframe = |n: usize| Message::Keyframe(Keyframe { frame: 0, part: 0, parts: 1, ids: IdList(vec![0; n]) });
+        let f = Frame::new(&keyframe(max - 9)).unwrap();
+        assert!(matches!(decode_frame(f.bytes()), Ok(Some((_, n))) if n == 4 + max));
+        assert!(matches!(Frame::new(&keyframe(max - 8)), Err(WireError::FrameTooLarge { .. })));
     }
 
     proptest! {

@@ -21,6 +21,26 @@ pub fn encode(ids: &[u32], out: &mut Vec<u8>) {
     }
 }
 
+/// Splits `ids` (sorted, distinct) into runs whose codings take at most `max_bytes` each
+/// (at least one id a run), each run's first id coded whole: the parts of a keyframe.
+pub fn split(ids: &[u32], max_bytes: usize) -> Vec<&[u32]> {
+    let mut runs = Vec::new();
+    let (mut start, mut bytes) = (0, 0);
+    for (k, &id) in ids.iter().enumerate() {
+        let gap = if k == start { id } else { id - ids[k - 1] - 1 };
+        if k > start && bytes + gap.required_space() > max_bytes {
+            runs.push(&ids[start..k]);
+            (start, bytes) = (k, id.required_space());
+        } else {
+            bytes += gap.required_space();
+        }
+    }
+    if start < ids.len() {
+        runs.push(&ids[start..]);
+    }
+    runs
+}
+
 /// Decodes ids, each below `max_id` (the scene's node count). Refuses truncated or overlong
 /// varints and ids out of range.
 pub fn decode(bytes: &[u8], max_id: u32) -> Result<Vec<u32>, WireError> {
@@ -67,6 +87,22 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn split_runs_code_within_the_bound_and_join_to_the_ids(
+            mut ids in proptest::collection::vec(0u32..1 << 24, 0..2000),
+            max in 5usize..200,
+        ) {
+            ids.sort();
+            ids.dedup();
+            let runs = split(&ids, max);
+            for r in &runs {
+                let mut b = Vec::new();
+                encode(r, &mut b);
+                prop_assert!(!r.is_empty() && b.len() <= max, "{} bytes for {} ids", b.len(), r.len());
+            }
+            prop_assert_eq!(runs.concat(), ids);
+        }
+
         #[test]
         fn round_trip(mut ids in proptest::collection::vec(0u32..u32::MAX - 1, 0..500)) {
             ids.sort();

@@ -1,4 +1,4 @@
-//! osw wire protocol (paper 000 sec. 3.4-3.5): what the switch nodes and the display send each
+//! osw wire protocol (occlusion switch sec. 3.4-3.5): what the switch nodes and the display send each
 //! other over TCP. No GPU and no runtime in the core: [`frame`] turns bytes into [`Message`]s
 //! and back. With the `net` feature, `codec` adapts that to tokio-util and `net` makes the
 //! connections and the handshake for the binaries; with `config`, `config` reads cluster
@@ -25,5 +25,5 @@ pub mod messages;
 #[cfg(feature = "net")]
 pub mod net;
 
-pub use frame::{WireError, decode_frame, encode_frame, frame_len};
+pub use frame::{Frame, WireError, decode_frame, encode_frame};
 pub use messages::{CameraPacket, Delta, EndOfFrame, Goodbye, Hello, IdList, Keyframe, LinkStamps, Message, Ping, Pong, Role};

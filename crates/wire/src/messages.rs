@@ -1,9 +1,9 @@
-//! The messages (paper 000 alg. 4.2 and sec. 3.4-3.5). Per frame i the HC node sends the
+//! The messages (occlusion switch alg. 4.2 and sec. 3.4-3.5). Per frame i the HC node sends the
 //! camera of frame i to RVG first, then deltas as it finds them, then end of frame; RVG sends
 //! every camera to both nodes.
 
 use crate::frame::WireError;
-use crate::limits::{MAX_NAME_BYTES, MAX_TOKEN_BYTES};
+use crate::limits::{MAX_NAME_BYTES, MAX_SETTINGS, MAX_TOKEN_BYTES};
 use serde::{Deserialize, Serialize};
 
 /// What a peer is.
@@ -29,12 +29,30 @@ pub struct Hello {
     /// node asks a serving peer to rejoin when their link comes back, and a started one waits
     /// for it to ask.
     pub serving: bool,
+    /// The settings every process of the cluster must share, as (flag, value): the handshake
+    /// refuses a peer that says another value or another set of settings.
+    pub settings: Vec<(String, String)>,
 }
 
 impl Hello {
-    /// This build's greeting for a process holding the scene `scene_hash`: not serving yet.
-    pub fn new(scene_hash: [u64; 2], name: impl Into<String>, role: Role, token: Option<String>) -> Hello {
-        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, token, serving: false }
+    /// This build's greeting for a process holding the scene `scene_hash` with `settings`: not
+    /// serving yet.
+    pub fn new(scene_hash: [u64; 2], name: impl Into<String>, role: Role, token: Option<String>, settings: Vec<(String, String)>) -> Hello {
+        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, token, serving: false, settings }
+    }
+
+    /// Why `peer`'s settings are not these, naming the first that differs.
+    pub fn disagreement(&self, peer: &Hello) -> Option<String> {
+        let theirs = |k: &str| peer.settings.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
+        for (k, v) in &self.settings {
+            match theirs(k) {
+                Some(t) if t == v => {}
+                Some(t) => return Some(format!("setting {k}: {t} there, {v} here")),
+                None => return Some(format!("setting {k}: not said there, {v} here")),
+            }
+        }
+        let mine = |k: &str| self.settings.iter().any(|(n, _)| n == k);
+        peer.settings.iter().find(|(k, _)| !mine(k)).map(|(k, t)| format!("setting {k}: {t} there, not said here"))
     }
 }
 
@@ -84,7 +102,10 @@ pub struct Delta {
 pub struct HcWireStats {
     pub tests: u32,
     pub levels: u32,
+    /// The HC node's time on the frame, and HC's three passes in it (traversal, second look,
+    /// retest).
     pub hc_us: u64,
+    pub passes_us: [u64; 3],
     pub pvs: u32,
     /// The frame was frustum culled only: occlusion culling did not pay where it last ran.
     pub cull_skipped: bool,
@@ -123,11 +144,29 @@ pub struct Pong {
     pub sent_us: u64,
 }
 
-/// The whole visible set of frame `frame`: at start-up and to resynchronise.
+/// Part `part` of `parts` of the whole visible set of frame `frame`: at start-up and to
+/// resynchronise. The parts go in order, each a run of the sorted ids.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Keyframe {
     pub frame: u64,
+    pub part: u32,
+    pub parts: u32,
     pub ids: IdList,
+}
+
+impl Keyframe {
+    /// V(`frame`) = `ids` (sorted) as keyframe parts, each coding its ids in at most
+    /// `max_bytes` ([`crate::limits::KEYFRAME_PART_BYTES`] on the wire). An empty set is one
+    /// empty part.
+    pub fn parts(frame: u64, ids: &[u32], max_bytes: usize) -> Vec<Message> {
+        let runs = crate::ids::split(ids, max_bytes);
+        let parts = runs.len().max(1) as u32;
+        let runs = if runs.is_empty() { vec![ids] } else { runs };
+        runs.iter()
+            .enumerate()
+            .map(|(k, r)| Message::Keyframe(Keyframe { frame, part: k as u32, parts, ids: IdList::from_ids(r) }))
+            .collect()
+    }
 }
 
 /// What a rejoining node has served: the peer hands over V(i) at the end of a frame i with
@@ -181,8 +220,16 @@ impl Message {
                     )));
                 }
             }
-            Message::Hello(h) if h.name.len() > MAX_NAME_BYTES || h.token.as_ref().is_some_and(|t| t.len() > MAX_TOKEN_BYTES) => {
-                return Err(WireError::Malformed("hello: name or token too long".into()));
+            Message::Keyframe(k) if k.part >= k.parts => {
+                return Err(WireError::Malformed(format!("keyframe part {} of {}", k.part, k.parts)));
+            }
+            Message::Hello(h)
+                if h.name.len() > MAX_NAME_BYTES
+                    || h.token.as_ref().is_some_and(|t| t.len() > MAX_TOKEN_BYTES)
+                    || h.settings.len() > MAX_SETTINGS
+                    || h.settings.iter().any(|(k, v)| k.len() + v.len() > MAX_NAME_BYTES) =>
+            {
+                return Err(WireError::Malformed("hello: name, token or settings too long".into()));
             }
             _ => {}
         }

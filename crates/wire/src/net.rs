@@ -2,6 +2,7 @@
 //! refuses a peer with another protocol version, another scene or another cluster token.
 
 use crate::codec::{CodecError, WireCodec};
+use crate::frame::Frame;
 use crate::limits::PROTOCOL_VERSION;
 use crate::messages::{Hello, Message};
 use futures_util::{SinkExt, StreamExt};
@@ -55,13 +56,14 @@ pub async fn send(c: &mut Conn, msg: &Message) -> Result<(), NetError> {
 /// The next message; `Closed` at a clean end of stream.
 pub async fn recv(c: &mut Conn, who: &str) -> Result<Message, NetError> {
     match c.next().await {
-        Some(r) => Ok(r?),
+        Some(r) => Ok(r?.0),
         None => Err(NetError::Closed(who.to_owned())),
     }
 }
 
 /// Sends `me`, reads the peer's hello within `within`, and checks that both run the same
-/// protocol version, hold the same scene and share the same cluster token.
+/// protocol version, hold the same scene, run with the same settings and share the same
+/// cluster token.
 pub async fn handshake(c: &mut Conn, me: &Hello, within: Duration) -> Result<Hello, NetError> {
     send(c, &Message::Hello(me.clone())).await?;
     let peer = c.get_ref().peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
@@ -80,6 +82,9 @@ pub async fn handshake(c: &mut Conn, me: &Hello, within: Duration) -> Result<Hel
             "a different scene (content hash {:016x}{:016x}, ours {:016x}{:016x})",
             h.scene_hash[1], h.scene_hash[0], me.scene_hash[1], me.scene_hash[0]
         ));
+    }
+    if let Some(why) = me.disagreement(&h) {
+        return refuse(why);
     }
     if h.token != me.token {
         return refuse(if me.token.is_some() {
@@ -120,26 +125,28 @@ pub async fn probe_clock(c: &mut Conn, samples: usize, within: Duration) -> Resu
 /// Returns why the connection ended.
 pub async fn run_connection(
     c: Conn,
-    mut out: tokio::sync::mpsc::UnboundedReceiver<Message>,
+    mut out: tokio::sync::mpsc::UnboundedReceiver<Frame>,
     mut deliver: impl FnMut(Message, u64, usize) -> bool,
 ) -> String {
     use crate::clock::now_us;
     use crate::limits::{HEARTBEAT, SILENCE};
     use crate::messages::Pong;
-    let (mut sink, mut stream) = c.split();
+    let (mut sink, mut stream) = c.split::<Frame>();
     let (pong_tx, mut pong_rx) = tokio::sync::mpsc::unbounded_channel::<Pong>();
+    // A pong and a heartbeat are a few bytes: they always encode.
+    let small = |m: Message| Frame::new(&m).expect("a pong or a heartbeat fits a frame");
     let writer = tokio::spawn(async move {
         loop {
-            let m = tokio::select! {
+            let f = tokio::select! {
                 biased;
-                Some(p) = pong_rx.recv() => Message::Pong(Pong { sent_us: now_us(), ..p }),
-                m = tokio::time::timeout(HEARTBEAT, out.recv()) => match m {
-                    Ok(Some(m)) => m,
+                Some(p) = pong_rx.recv() => small(Message::Pong(Pong { sent_us: now_us(), ..p })),
+                f = tokio::time::timeout(HEARTBEAT, out.recv()) => match f {
+                    Ok(Some(f)) => f,
                     Ok(None) => break,
-                    Err(_) => Message::Heartbeat,
+                    Err(_) => small(Message::Heartbeat),
                 },
             };
-            if sink.send(m).await.is_err() {
+            if sink.send(f).await.is_err() {
                 break;
             }
         }
@@ -149,13 +156,12 @@ pub async fn run_connection(
             Err(_) => break format!("silent for {SILENCE:?}"),
             Ok(None) => break "closed the connection".to_string(),
             Ok(Some(Err(e))) => break e.to_string(),
-            Ok(Some(Ok(Message::Heartbeat))) => {}
-            Ok(Some(Ok(Message::Ping(p)))) => {
+            Ok(Some(Ok((Message::Heartbeat, _)))) => {}
+            Ok(Some(Ok((Message::Ping(p), _)))) => {
                 let _ = pong_tx.send(Pong { ping_sent_us: p.sent_us, received_us: now_us(), sent_us: 0 });
             }
-            Ok(Some(Ok(m))) => {
-                let (at, bytes) = (now_us(), crate::frame::frame_len(&m));
-                if !deliver(m, at, bytes) {
+            Ok(Some(Ok((m, bytes)))) => {
+                if !deliver(m, now_us(), bytes) {
                     break "no longer needed".to_string();
                 }
             }

@@ -1,11 +1,11 @@
-// The pyramid box test (conservative, paper 002 eq. 4 on the GPU): each invocation projects
+// The pyramid box test (conservative, Peng 2014 eq. 4 on the GPU): each invocation projects
 // one camera-relative box, takes the level where its screen rectangle spans at most
 // 2^(1 + finer) texels a side, and compares the box's nearest depth with the farthest occluder
 // depth over the texels covering the rectangle. Same rule as osw-cull's HzbTester (the CPU
-// reference). finer = 0 is GigaWalk's 2x2 texels; each step finer reads 4x the texels and
-// culls more: behind a near occluder with gaps, 2x2 coarse texels almost always see a gap.
+// reference). finer = 0 is Peng 2014's 2x2 texels; each step finer reads 4x the texels and
+// culls more. Set from osw_cull::hzb::PYRAMID_FINER when the pipeline is made.
 
-override finer: u32 = 3u;
+override finer: u32;
 
 struct Batch {
     count: u32,

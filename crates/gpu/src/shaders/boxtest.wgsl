@@ -1,10 +1,10 @@
-// The HC box test (paper 000 sec. 4.2): each instance rasterises one node's bounding box
+// The HC box test (occlusion switch sec. 4.2): each instance rasterises one node's bounding box
 // against the occluder depth buffer (depth test only, no writes). Early depth is forced so
 // that only fragments that pass the test run the shader (without it lavapipe runs the shader
 // for occluded fragments too, and the flags are wrong). count_pixels selects a per-box
-// visible-pixel count (paper 000 sec. 4.7.2) over a plain visible flag. A box whose lo.w is
+// visible-pixel count (occlusion switch sec. 4.7.2) over a plain visible flag. A box whose lo.w is
 // S > 1 counts only every S-th pixel line, starting at line hi.w and shifted by S/2 in every
-// second span of 10 pixels: paper 003 sec. 3.3's interleaved reading of the occlusion buffer.
+// second span of 10 pixels: Bartz 1999 sec. 3.3's interleaved reading of the occlusion buffer.
 
 override count_pixels: bool = false;
 

@@ -1,5 +1,5 @@
 // Draws LOD nodes: colour (RVG), depth only (OR) and, with item.frag.wgsl appended, item ids.
-// Positions are scene-local; view.offset makes them camera-relative (issue 3: precision far
+// Positions are scene-local; view.offset makes them camera-relative (precision far
 // from the origin), view.view_proj is reversed Z with an infinite far plane.
 
 // Each node's object (for its colour), indexed by node id.

@@ -1,4 +1,4 @@
-// Item buffer (paper 000 sec. 5, exact visibility): node id + 1 (0 = background) and the
+// Item buffer (occlusion switch sec. 5, exact visibility): node id + 1 (0 = background) and the
 // triangle's index within the pass's one draw (distinct per triangle). Appended to draw.wgsl.
 
 @fragment

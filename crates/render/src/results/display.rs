@@ -12,7 +12,12 @@ pub struct DisplayFrame {
     /// RVG's gather and submit of this frame's draw, which waits for the draw before it (the
     /// display keeps one draw in flight: `osw_gpu::Renderer::overlap`).
     pub rvg_ms: f64,
+    /// The HC node's time on the frame (OR first when it ran alone, HC, sending), and HC's
+    /// passes (osw_render::pass::hc).
     pub hc_ms: f64,
+    pub hc_traversal_ms: f64,
+    pub hc_second_look_ms: f64,
+    pub hc_retest_ms: f64,
     pub latency_ms: f64,
     /// One-way latency of each link, from wall-clock stamps corrected by the estimated clock
     /// offsets: RVG → HC (this frame's camera), HC → RVG (its end of frame), HC → OR (its

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// What a node does in a frame (paper 000 alg. 4.2; failover is issue 6's).
+/// What a node does in a frame (occlusion switch alg. 4.2; and failover, docs/switch.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "UPPERCASE")]
 pub enum Duty {
@@ -21,6 +21,12 @@ pub struct NodeFrame {
     #[serde(rename = "role")]
     pub duty: Duty,
     pub ms: f64,
+    /// Of `ms`, OR's draws (as OR, or alone before HC), and HC's passes
+    /// (osw_render::pass::hc); waits and sending are the rest.
+    pub or_ms: f64,
+    pub hc_traversal_ms: f64,
+    pub hc_second_look_ms: f64,
+    pub hc_retest_ms: f64,
     pub nodes_drawn: u32,
     pub tests: u32,
     /// 1 when HC frustum culled only (cost-adaptive culling).

@@ -71,7 +71,7 @@ pub struct Entry {
     pub error: Option<String>,
 }
 
-/// What the switch sends (paper 000 sec. 3.5 and fig. 3) and how late frames are shown.
+/// What the switch sends (occlusion switch sec. 3.5 and fig. 3) and how late frames are shown.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Traffic {
     pub ids_sent_mean: f64,

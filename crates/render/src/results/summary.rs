@@ -31,6 +31,13 @@ pub struct Summary {
     pub triangles_backface_culled_mean: f64,
     pub triangles_small_culled_mean: f64,
     pub hc_ms_median: f64,
+    /// HC's passes (osw_render::pass::hc): prev and the switch; 0 in the other modes.
+    #[serde(default)]
+    pub hc_traversal_ms_median: f64,
+    #[serde(default)]
+    pub hc_second_look_ms_median: f64,
+    #[serde(default)]
+    pub hc_retest_ms_median: f64,
     pub rvg_ms_median: f64,
     pub scene: String,
     pub scene_hash: String,
@@ -60,7 +67,7 @@ pub struct RenderSummary {
     pub or_ms_median: f64,
     /// The HC box test `prev` used (`--hc`).
     pub hc_test: String,
-    /// ovc's knobs (paper 003): eq. 1's threshold (0: off), eq. 2's factor (0: no budget) and
+    /// ovc's knobs (Bartz 1999): eq. 1's threshold (0: off), eq. 2's factor (0: no budget) and
     /// the lines sampled; boxes a frame culled adaptively and taken untested over budget.
     pub adaptive: f64,
     pub budget: f64,
@@ -93,7 +100,7 @@ pub struct SwitchSummary {
     pub ids_full_mean: f64,
     pub incremental_saved_fraction: f64,
     pub bytes_per_id: f64,
-    /// Bytes of the id-carrying messages per id sent: paper 000 sec. 3.5's 4 bytes an id plus
+    /// Bytes of the id-carrying messages per id sent: occlusion switch sec. 3.5's 4 bytes an id plus
     /// packet headers, without the camera and end of frame that every frame sends anyway.
     pub id_bytes_per_id: f64,
     /// Ids per delta batch, the paper's b.
@@ -104,7 +111,7 @@ pub struct SwitchSummary {
     pub camera_link_ms_median: f64,
     pub eof_link_ms_median: f64,
     pub peer_link_ms_median: f64,
-    /// Failover (issue 6): node connections lost and made again, frames made by one node
+    /// Failover (docs/switch.md): node connections lost and made again, frames made by one node
     /// alone, and the first and last of them.
     pub node_losses: u32,
     pub node_rejoins: u32,

@@ -1,6 +1,6 @@
 //! The city: a grid of blocks separated by streets, each block six lots with a building of
 //! one to three stepped tiers, protruding window frames and roof equipment. Street-level views
-//! see one street and its facades: high occlusion, as in CHC's city (paper 001 sec. 5).
+//! see one street and its facades: high occlusion, as in CHC's city (CHC sec. 6.1).
 
 use super::shapes::{add_box, cylinder, grid_plane};
 use crate::mesh::{Mesh, Object};

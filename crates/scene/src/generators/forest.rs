@@ -1,4 +1,4 @@
-//! The forest of paper 003 (sec. 4.1.3, table 1): leafy trees in front of a castle, the hard
+//! The forest of Bartz 1999 (sec. 4.1.3, table 1): leafy trees in front of a castle, the hard
 //! case for occlusion culling. A crown is thousands of small leaf triangles with gaps between
 //! them: no leaf hides much, only many crowns together hide what is behind them (porous
 //! occluders), so a conservative method finds little hidden and adaptive culling (eq. 1) has
@@ -13,7 +13,7 @@ use glam::{Quat, Vec3};
 use rand::RngExt;
 use std::f32::consts::TAU;
 
-/// Triangles of one tree, as in paper 003.
+/// Triangles of one tree, as in Bartz 1999.
 const TREE_TRIANGLES: u64 = 28_500;
 /// Distance between tree slots (m); trees stand jittered in them, crowns touching.
 const SPACING: f32 = 10.0;

@@ -1,6 +1,6 @@
 //! Procedural scenes, deterministic for a seed, sized by a triangle budget: the CHC city and
-//! teapot scenes (paper 001 sec. 5), the power plant of papers 000, 001 and 004 and the forest of
-//! paper 003.
+//! teapot scenes (CHC sec. 6.1), the power plant of the occlusion switch, CHC and Yoon 2003 and the forest of
+//! Bartz 1999.
 //!
 //! Units are metres; the ground is at y = 0. Each generator first measures the average cost of
 //! its repeating unit (a building, a teapot, a plant bay) on a sample, then lays out as many

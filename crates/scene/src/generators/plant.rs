@@ -1,8 +1,8 @@
 //! The power plant: a building of several floors on a grid of bays. Each bay holds equipment of
 //! very different sizes (tanks, boilers with tube banks, pumps and valves, pipe runs with
 //! elbows), floors are slabs on I-beam columns, walkways with railings run along bay rows and
-//! the outside walls have doors. The stand-in for the 13M-triangle power plant of papers 000,
-//! 001 and 004: deep occlusion between floors and equipment, objects from 10 to 10^4 triangles.
+//! the outside walls have doors. The stand-in for the 13M-triangle power plant of the occlusion
+//! switch, CHC and Yoon 2003: deep occlusion between floors and equipment, objects from 10 to 10^4 triangles.
 //!
 //! A plant above [`BUILDING_TRIANGLES`] is a site of buildings side by side with roads between
 //! them, as real sites grow (more units, not denser ones), each building like a smaller plant.

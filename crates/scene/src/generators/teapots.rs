@@ -1,5 +1,5 @@
 //! The teapots: thousands of dense teapots in a long, thin field with empty rows and holes that
-//! one sees through to the far end, as in CHC's teapot scene (paper 001 sec. 5). Uses the real
+//! one sees through to the far end, as in CHC's teapot scene (CHC sec. 6.1). Uses the real
 //! Utah teapot when `scripts/fetch-meshes.sh` has put `teapot.ply` in the mesh cache, else a
 //! procedural teapot (body, lid, spout, handle) tessellated to the budget.
 

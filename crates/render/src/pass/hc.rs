@@ -1,0 +1,353 @@
+//! HC, hardware culling (occlusion switch sec. 4.7): the hierarchy tested against the depth
+//! buffer OR left, in three timed passes: the traversal, the hybrid's second look at small
+//! boxes, and the retest of the additions drawn as occluders.
+
+use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid};
+use osw_cull::retest::retest_additions;
+use osw_cull::{AllVisible, HcStats, View, VisibilityTester, hardware_cull, hardware_cull_from};
+use osw_gpu::draw::Pass;
+use osw_gpu::renderer::{BoxTest, GpuTester, RenderError, Renderer};
+use osw_scene::NodeId;
+use std::time::Instant;
+
+/// How prev's HC tests boxes (`osw render --hc`); the switch's nodes use the hybrid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HcTest {
+    /// The depth read back once and a farthest-depth pyramid on the CPU (every traversal
+    /// round tested without a round trip), then the PVS's boxes that are small on screen
+    /// tested again against the same pyramid read finer. Large boxes stay visible: they are
+    /// nearly always visible, and their children are tested.
+    #[default]
+    Hybrid,
+    /// [`BoxTest::Exact`], with pixel counts when tau > 0 (the LOD stop of sec. 4.7.2).
+    Exact,
+    /// [`BoxTest::Pyramid`]: the pyramid in compute, a GPU round trip per round.
+    Pyramid,
+    /// [`BoxTest::Queries`]: one occlusion query per box, the paper's; the slow reference.
+    Queries,
+}
+
+impl HcTest {
+    pub const ALL: [HcTest; 4] = [HcTest::Hybrid, HcTest::Exact, HcTest::Pyramid, HcTest::Queries];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            HcTest::Hybrid => "hybrid",
+            HcTest::Exact => "exact",
+            HcTest::Pyramid => "pyramid",
+            HcTest::Queries => "queries",
+        }
+    }
+}
+
+impl std::str::FromStr for HcTest {
+    type Err = String;
+    fn from_str(s: &str) -> Result<HcTest, String> {
+        HcTest::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| format!("unknown HC test {s:?}: expected hybrid, pyramid, exact or queries"))
+    }
+}
+
+/// `--hc hybrid` tests the PVS's boxes at most this many pixels across again. Larger boxes
+/// are nearly always visible.
+const HYBRID_SECOND_PX: f64 = 512.0;
+
+/// The second look reads the pyramid this many levels finer than Peng 2014's 2x2 texels: at
+/// most 128 texels a side, 16K reads for the largest box. Measured on the 5M plant walk at
+/// tau 5, against the exact GPU test it replaced: it drops 85 boxes a
+/// frame where the exact test dropped 102 and costs 0.8 ms where that cost 10 (one core); 5
+/// levels drop 77, 8 levels 88.5 for 3 ms.
+const HYBRID_SECOND_FINER: u32 = 6;
+
+/// `--hc hybrid`'s tester: boxes against the CPU pyramid of the depth buffer, which new
+/// occluders found by the traversal join, at least `min` at a time (drawn, the depth read
+/// back and the pyramid rebuilt: about as much as drawing them costs again).
+struct HybridTester<'a> {
+    r: &'a mut Renderer,
+    pyramid: Pyramid,
+    min: usize,
+    /// The new occluders drawn so far (the retest need not draw them again).
+    drawn: Vec<NodeId>,
+    error: Option<RenderError>,
+}
+
+/// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]). Measured on
+/// the plant walks of `scripts/scale.sh` (2M, 20M, 100M): 64 and 128 halve HC's tests at
+/// 100M but read back on most frames (HC 13 → 23 ms at 20M); 256 reads back only where a
+/// region comes into view, and 512 leaves most of those frames' tests.
+pub const NEW_OCCLUDERS_MIN: usize = 256;
+
+impl VisibilityTester for HybridTester<'_> {
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) {
+        let scene = std::sync::Arc::clone(&self.r.scene);
+        HzbTester { nodes: scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
+    }
+
+    fn add_occluders(&mut self, view: &View, lods: &[NodeId]) -> bool {
+        if self.error.is_some() || lods.len() < self.min {
+            return false;
+        }
+        let depth = self.r.draw(view, lods, Pass::Depth, false).and_then(|_| Ok(self.r.target.read_depth(&self.r.gpu)?));
+        match depth {
+            Ok(d) => self.pyramid = Pyramid::new(view.width, view.height, d),
+            Err(e) => self.error = Some(e),
+        }
+        self.drawn.extend_from_slice(lods);
+        true
+    }
+}
+
+/// Additions from which [`hc`] tests them again through the hierarchy
+/// ([`retest_additions`], a GPU round trip per level) rather than box by box (one round trip).
+const RETEST_HIERARCHY_MIN: usize = 128;
+
+/// How HC tests.
+#[derive(Clone, Copy, Debug)]
+pub struct HcOptions {
+    pub test: HcTest,
+    /// Adaptive culling's threshold in the exact tests (Bartz 1999 eq. 1; 0: conservative).
+    pub adaptive: f64,
+    /// New occluders the hybrid's traversal takes at a time ([`NEW_OCCLUDERS_MIN`]).
+    pub new_occluders_min: usize,
+}
+
+impl Default for HcOptions {
+    fn default() -> HcOptions {
+        HcOptions { test: HcTest::Hybrid, adaptive: 0.0, new_occluders_min: NEW_OCCLUDERS_MIN }
+    }
+}
+
+/// CPU time of HC's passes, ms: each includes its GPU round trips.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HcTimes {
+    pub traversal_ms: f64,
+    pub second_look_ms: f64,
+    pub retest_ms: f64,
+}
+
+/// What HC did: its counts and its passes' times.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HcPass {
+    pub stats: HcStats,
+    pub times: HcTimes,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// HC (occlusion switch alg. 4.1) against the depth buffer as OR left it, shared by `prev` and
+/// the switch node: appends the PVS to `pvs` (empty), sorted and without duplicates.
+/// `previous` is V(i-1) (sorted), which OR drew as occluders; the nodes above it are taken as
+/// visible, so the tests are its front, in about one round (see osw_cull::hc). Three passes:
+///
+/// 1. The traversal ([`traverse`]). With `hybrid` (the default) the depth buffer is read back
+///    once and every round is tested on the CPU against its farthest-depth pyramid: sec. 4.7.1
+///    batches a level per round trip because a 2003 query cost more than the trip; here a trip
+///    (a few ms on lavapipe, with the GPU pyramid's dispatches) costs more than a thousand CPU
+///    box tests.
+/// 2. The hybrid's second look ([`second_look`]): the PVS's small boxes against its pyramid
+///    read finer.
+/// 3. The retest ([`retest`]), as in two-phase occlusion culling (niagara): nodes found
+///    visible that are not in V(i-1) had nothing drawn for them. Where a region comes into
+///    view (a turn, a disocclusion) there are no occluders at all, so everything behind it is
+///    found visible for one frame and gone the next, sent to RVG and the peer twice. Those
+///    additions are drawn into the depth buffer and tested again, exactly.
+pub fn hc(
+    r: &mut Renderer,
+    view: &View,
+    tau: f64,
+    opts: HcOptions,
+    previous: &[NodeId],
+    pvs: &mut Vec<NodeId>,
+) -> Result<HcPass, RenderError> {
+    let t = Instant::now();
+    let traversal = traverse(r, view, tau, opts, previous, pvs)?;
+    let nodes = r.scene.nodes();
+    // The triangles of what the traversal found: the later passes only drop from it.
+    let found = osw_cull::payoff::triangles(nodes, pvs);
+    let traversal_ms = ms(t);
+    let t = Instant::now();
+    let mut look = Dropped::default();
+    if let Some(pyramid) = &traversal.pyramid {
+        look = second_look(r, view, opts.adaptive, pyramid, pvs)?;
+    }
+    let second_look_ms = ms(t);
+    let t = Instant::now();
+    let again = retest(r, view, opts.adaptive, previous, &traversal.drawn, pvs)?;
+    let retest_ms = ms(t);
+    let stats = traversal.stats;
+    let retests = look.tests + again.tests;
+    let culled_triangles = stats.culled_triangles + found - osw_cull::payoff::triangles(r.scene.nodes(), pvs);
+    Ok(HcPass {
+        stats: HcStats {
+            tests: stats.tests + retests,
+            retests,
+            occlusion_culled: stats.occlusion_culled + look.hidden + again.hidden,
+            adaptive_culled: look.adaptive + again.adaptive,
+            culled_triangles,
+            ..stats
+        },
+        times: HcTimes { traversal_ms, second_look_ms, retest_ms },
+    })
+}
+
+/// The traversal's result: its counts, the new occluders the hybrid drew (sorted), and the
+/// hybrid's pyramid of the depth buffer as the traversal left it.
+struct Traversal {
+    stats: HcStats,
+    drawn: Vec<NodeId>,
+    pyramid: Option<Pyramid>,
+}
+
+/// HC's first pass: the hierarchy from V(i-1)'s front against the depth buffer; appends the
+/// PVS to `pvs`, sorted and without duplicates.
+fn traverse(
+    r: &mut Renderer,
+    view: &View,
+    tau: f64,
+    opts: HcOptions,
+    previous: &[NodeId],
+    pvs: &mut Vec<NodeId>,
+) -> Result<Traversal, RenderError> {
+    let scene = std::sync::Arc::clone(&r.scene);
+    let nodes = scene.nodes();
+    let mut t = Traversal { stats: HcStats::default(), drawn: Vec::new(), pyramid: None };
+    // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing): every
+    // test would pass, so none is made.
+    if previous.is_empty() {
+        t.stats = hardware_cull(nodes, view, tau, &mut AllVisible, pvs);
+    } else if opts.test == HcTest::Hybrid {
+        let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
+        let mut tester = HybridTester { r, pyramid, min: opts.new_occluders_min, drawn: Vec::new(), error: None };
+        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
+        if let Some(e) = tester.error {
+            return Err(e);
+        }
+        t.drawn = tester.drawn;
+        t.drawn.sort_unstable();
+        t.pyramid = Some(tester.pyramid);
+    } else {
+        let test = match opts.test {
+            HcTest::Pyramid => {
+                r.build_pyramid();
+                BoxTest::Pyramid
+            }
+            HcTest::Queries => BoxTest::Queries,
+            // Pixel counts only matter when the sec. 4.7.2 stop can trigger (tau > 0).
+            _ if tau > 0.0 => BoxTest::ExactCount,
+            _ => BoxTest::Exact,
+        };
+        let mut tester = GpuTester { renderer: r, test, error: None };
+        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
+        if let Some(e) = tester.error {
+            return Err(e);
+        }
+    }
+    pvs.sort_unstable();
+    pvs.dedup();
+    Ok(t)
+}
+
+/// Boxes a pass tested and dropped as hidden, and of those the ones only adaptive culling
+/// dropped.
+#[derive(Default)]
+struct Dropped {
+    tests: u32,
+    hidden: u32,
+    adaptive: u32,
+}
+
+/// The hybrid's second look: every small box of the PVS tested again before the additions are
+/// drawn, against the traversal's pyramid read finer (or, with adaptive culling, which scores
+/// pixel counts, exactly on the GPU): what the traversal's coarse rectangles let through
+/// would otherwise be drawn as an addition, dropped, and found again the next frame.
+fn second_look(r: &mut Renderer, view: &View, adaptive: f64, pyramid: &Pyramid, pvs: &mut Vec<NodeId>) -> Result<Dropped, RenderError> {
+    let scene = std::sync::Arc::clone(&r.scene);
+    let nodes = scene.nodes();
+    let vp = view.view_proj().as_dmat4();
+    let small: Vec<NodeId> = pvs.iter().copied().filter(|&id| Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_SECOND_PX).collect();
+    let (hidden, adaptive_culled) = if adaptive > 0.0 {
+        drop_hidden(r, view, &small, adaptive, pvs)?
+    } else {
+        let mut seen = Vec::with_capacity(small.len());
+        HzbTester { nodes, pyramid, finer: HYBRID_SECOND_FINER }.test(view, &small, &mut seen);
+        let dropped: Vec<NodeId> = small.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
+        pvs.retain(|id| dropped.binary_search(id).is_err());
+        (dropped.len() as u32, 0)
+    };
+    Ok(Dropped { tests: small.len() as u32, hidden, adaptive: adaptive_culled })
+}
+
+/// The third pass, as in two-phase occlusion culling (niagara): the PVS's nodes not in V(i-1)
+/// had nothing drawn for them. They are drawn into the depth buffer (but for the hybrid's new
+/// occluders, drawn already) and tested again, exactly; the ones hidden behind others are
+/// dropped. Only geometry of this frame's PVS is added as occluder: conservative.
+fn retest(
+    r: &mut Renderer,
+    view: &View,
+    adaptive: f64,
+    previous: &[NodeId],
+    drawn: &[NodeId],
+    pvs: &mut Vec<NodeId>,
+) -> Result<Dropped, RenderError> {
+    let (added, kept): (Vec<NodeId>, Vec<NodeId>) = pvs.iter().partition(|id| previous.binary_search(id).is_err());
+    if added.is_empty() {
+        return Ok(Dropped::default());
+    }
+    let undrawn: Vec<NodeId> = added.iter().copied().filter(|id| drawn.binary_search(id).is_err()).collect();
+    if !undrawn.is_empty() {
+        r.draw(view, &undrawn, Pass::Depth, false)?;
+    }
+    // Box by box when few (one round trip), or where Bartz 1999's eq. 1 scores each addition's own
+    // pixels; through the hierarchy when many (a region came into view). Exactly on the GPU,
+    // also in the hybrid: measured, its pyramid read finer kept 18% more nodes.
+    if adaptive > 0.0 || added.len() < RETEST_HIERARCHY_MIN {
+        let (hidden, adaptive_culled) = drop_hidden(r, view, &added, adaptive, pvs)?;
+        return Ok(Dropped { tests: added.len() as u32, hidden, adaptive: adaptive_culled });
+    }
+    let scene = std::sync::Arc::clone(&r.scene);
+    let mut tester = GpuTester { renderer: r, test: BoxTest::Exact, error: None };
+    let mut still = Vec::new();
+    let s = retest_additions(scene.nodes(), view, &kept, &added, &mut tester, &mut still);
+    if let Some(e) = tester.error {
+        return Err(e);
+    }
+    let hidden = added.len().saturating_sub(still.len()) as u32;
+    *pvs = kept;
+    pvs.extend(still);
+    pvs.sort_unstable();
+    Ok(Dropped { tests: s.tests, hidden, adaptive: 0 })
+}
+
+/// Tests the boxes of `ids` (sorted, in `pvs`) exactly against the depth buffer as it is and
+/// removes the hidden ones from `pvs`, and with `adaptive` > 0 also those whose visible pixels
+/// score under it by Bartz 1999's eq. 1 ([`osw_cull::ovc::adapcull`]): the switch's
+/// approximate knob, applied where HC tests exactly. Returns how many it removed, and how many
+/// of those only adaptive culling did. As in HC, boxes around the eye or across the near plane
+/// are not tested.
+fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], adaptive: f64, pvs: &mut Vec<NodeId>) -> Result<(u32, u32), RenderError> {
+    let ids: Vec<NodeId> = ids.iter().copied().filter(|&id| !view.frustum.needs_no_test(&r.scene.node(id).aabb())).collect();
+    if ids.is_empty() {
+        return Ok((0, 0));
+    }
+    let mut seen = Vec::with_capacity(ids.len());
+    r.test_boxes(view, &ids, if adaptive > 0.0 { BoxTest::ExactCount } else { BoxTest::Exact }, &mut seen)?;
+    let faint =
+        |id: NodeId, px: Option<u32>| px.is_some_and(|p| osw_cull::ovc::adapcull(view, &r.scene.node(id).aabb(), p as f64) < adaptive);
+    let mut dropped = (0, 0);
+    let hidden: Vec<NodeId> = ids
+        .iter()
+        .zip(&seen)
+        .filter(|&(&id, v)| {
+            let drop = !v.visible || (adaptive > 0.0 && faint(id, v.pixels));
+            dropped = (dropped.0 + u32::from(drop), dropped.1 + u32::from(drop && v.visible));
+            drop
+        })
+        .map(|(&id, _)| id)
+        .collect();
+    pvs.retain(|id| hidden.binary_search(id).is_err());
+    Ok(dropped)
+}
