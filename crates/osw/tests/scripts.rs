@@ -40,7 +40,7 @@ fn json(p: &Path) -> serde_json::Value {
 fn demo_runs_the_switch_and_reports_its_error() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("demo");
-    run_script("demo.sh", &[], &[("OUT", s(&out)), ("SIZE", "64x64")]);
+    run_script("demo.sh", &["--out", s(&out), "--size", "64x64"], &[]);
     assert_eq!(std::fs::read_dir(out.join("switch/frames")).unwrap().count(), 6);
     let c = json(&out.join("report/compare.json"));
     assert_eq!(c["frames"], 6, "{c}");
@@ -158,4 +158,53 @@ fn real_models_tabulates_every_shared_model_against_vfc_and_exact_visibility() {
         assert_eq!(same, frames, "{r:?}: frames differ from vfc's");
         assert_eq!(r[8], "0", "{r:?}: false culling");
     }
+}
+
+/// `scripts/gpu-bundle.sh`: a folder of at most 50 MiB whose run script, with no cargo and no
+/// repository, runs the sweep and a switch walk (here `--quick`, on lavapipe with
+/// `--allow-cpu`) into at most 8 files naming the adapter, and refuses the CPU adapter without
+/// that flag.
+#[test]
+fn the_gpu_bundle_runs_without_the_repository_and_refuses_a_cpu_by_default() {
+    let d = tempfile::tempdir().unwrap();
+    let bundle = d.path().join("bundle");
+    run_script("gpu-bundle.sh", &["--out", s(&bundle)], &[]);
+    let bytes: u64 = walk_files(&bundle).iter().map(|p| std::fs::metadata(p).unwrap().len()).sum();
+    assert!(bytes <= 50 << 20, "{bytes} bytes");
+    let results = d.path().join("results");
+    let run = |args: &[&str]| {
+        Command::new("bash")
+            .arg(bundle.join("run.sh"))
+            .args(args)
+            .args(["--results", s(&results), "--work", s(&d.path().join("work"))])
+            .current_dir(d.path())
+            .env_remove("OSW_BIN")
+            .env("PATH", "/usr/bin:/bin")
+            .output()
+            .unwrap()
+    };
+    let refused = run(&["--quick"]);
+    assert_eq!(refused.status.code(), Some(3), "{}", String::from_utf8_lossy(&refused.stderr));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("--allow-cpu"));
+    let ok = run(&["--quick", "--allow-cpu"]);
+    assert!(ok.status.success(), "{}\n{}", String::from_utf8_lossy(&ok.stdout), String::from_utf8_lossy(&ok.stderr));
+    let files = walk_files(&results);
+    assert!(files.len() <= 8, "{files:?}");
+    assert!(std::fs::read_to_string(results.join("adapter.txt")).unwrap().contains("device_type: Cpu"));
+    let scale = json(&results.join("scale.json"));
+    let text = scale.to_string();
+    for mode in ["vfc", "chc", "prev", "switch"] {
+        assert!(text.contains(&format!("\"{mode}\"")), "{mode} missing: {text}");
+    }
+    let sw = json(&results.join("switch-summary.json"));
+    assert_eq!(sw["frames"], 10, "{sw}");
+}
+
+fn walk_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() { out.extend(walk_files(&p)) } else { out.push(p) }
+    }
+    out
 }
