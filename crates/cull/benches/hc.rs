@@ -14,8 +14,11 @@ use osw_scene::{Camera, NodeId};
 struct Alternate;
 
 impl VisibilityTester for Alternate {
-    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+    type Error = std::convert::Infallible;
+
+    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
         out.extend(ids.iter().map(|id| Visibility { visible: id % 2 == 0 || *id < 64, pixels: None }));
+        Ok(())
     }
 }
 
@@ -25,28 +28,28 @@ fn bench(c: &mut Criterion) {
     let eye = root.center().as_dvec3() + DVec3::new(0.0, 0.0, -0.3 * root.extent().z as f64);
     let view = View::new(&Camera::look_along(eye, DVec3::Z, 60.0), DVec3::ZERO, 1024, 1024, 0.01);
     let mut pvs = Vec::new();
-    let stats = hardware_cull(nodes, &view, 1.0, &mut Alternate, &mut pvs);
+    let stats = hardware_cull(nodes, &view, 1.0, &mut Alternate, &mut pvs).unwrap();
     println!("hc: {} nodes, {} boxes tested in {} levels, PVS {}", nodes.len(), stats.tests, stats.levels, pvs.len());
     let mut g = c.benchmark_group("hc traversal");
     for tau in [0.0, 5.0] {
         g.bench_function(format!("levels, frustum only, tau {tau}"), |b| {
             b.iter(|| {
                 pvs.clear();
-                hardware_cull(nodes, &view, tau, &mut AllVisible, &mut pvs)
+                hardware_cull(nodes, &view, tau, &mut AllVisible, &mut pvs).unwrap()
             })
         });
         g.bench_function(format!("levels, every other box, tau {tau}"), |b| {
             b.iter(|| {
                 pvs.clear();
-                hardware_cull(nodes, &view, tau, &mut Alternate, &mut pvs)
+                hardware_cull(nodes, &view, tau, &mut Alternate, &mut pvs).unwrap()
             })
         });
         let mut previous = Vec::new();
-        hardware_cull(nodes, &view, tau, &mut Alternate, &mut previous);
+        hardware_cull(nodes, &view, tau, &mut Alternate, &mut previous).unwrap();
         g.bench_function(format!("from V(i-1), every other box, tau {tau}"), |b| {
             b.iter(|| {
                 pvs.clear();
-                hardware_cull_from(nodes, &view, tau, &previous, &mut Alternate, &mut pvs)
+                hardware_cull_from(nodes, &view, tau, &previous, &mut Alternate, &mut pvs).unwrap()
             })
         });
     }

@@ -34,7 +34,14 @@ impl ChcState {
     }
 
     /// Runs one frame of CHC for `view` at `tau`; appends the PVS to `pvs`.
-    pub fn frame(&mut self, nodes: &[NodeRecord], view: &View, tau: f64, occ: &mut dyn Occluders, pvs: &mut Vec<NodeId>) -> HcStats {
+    pub fn frame<E>(
+        &mut self,
+        nodes: &[NodeRecord],
+        view: &View,
+        tau: f64,
+        occ: &mut dyn Occluders<Error = E>,
+        pvs: &mut Vec<NodeId>,
+    ) -> Result<HcStats, E> {
         self.frame += 1;
         let mut stats = HcStats::default();
         let mut queue = DistanceQueue::new();
@@ -48,13 +55,13 @@ impl ChcState {
                 answers.clear();
                 ids.clear();
                 ids.extend(pending.iter().map(|p| p.0));
-                occ.test(view, &ids, &mut answers);
+                occ.test(view, &ids, &mut answers)?;
                 stats.levels += 1;
                 for (&(id, was_visible), a) in pending.iter().zip(&answers) {
                     if a.visible {
                         self.pull_up(nodes, id);
                         if !was_visible {
-                            self.traverse(nodes, view, tau, id, occ, &mut queue, pvs);
+                            self.traverse(nodes, view, tau, id, occ, &mut queue, pvs)?;
                         }
                     } else {
                         stats.occlusion_culled += 1;
@@ -79,7 +86,7 @@ impl ChcState {
                 // Cannot be queried: visible now.
                 stats.untested += 1;
                 self.pull_up(nodes, id);
-                self.traverse(nodes, view, tau, id, occ, &mut queue, pvs);
+                self.traverse(nodes, view, tau, id, occ, &mut queue, pvs)?;
                 continue;
             }
             if !opened {
@@ -87,12 +94,12 @@ impl ChcState {
                 stats.tests += 1;
             }
             if was_visible {
-                self.traverse(nodes, view, tau, id, occ, &mut queue, pvs);
+                self.traverse(nodes, view, tau, id, occ, &mut queue, pvs)?;
             }
         }
         pvs.sort_unstable();
         pvs.dedup();
-        stats
+        Ok(stats)
     }
 
     fn pull_up(&mut self, nodes: &[NodeRecord], mut id: NodeId) {
@@ -107,22 +114,23 @@ impl ChcState {
 
     /// Draws a node that meets tau (the paper's leaves), else queues its children.
     #[allow(clippy::too_many_arguments)]
-    fn traverse(
+    fn traverse<E>(
         &self,
         nodes: &[NodeRecord],
         view: &View,
         tau: f64,
         id: NodeId,
-        occ: &mut dyn Occluders,
+        occ: &mut dyn Occluders<Error = E>,
         queue: &mut DistanceQueue,
         pvs: &mut Vec<NodeId>,
-    ) {
+    ) -> Result<(), E> {
         match select_lod(nodes, id, view.eye, view.focal_px, tau) {
             Some(lod) => {
-                occ.render(&[lod]);
+                occ.render(&[lod])?;
                 pvs.push(lod);
             }
             None => nodes[id as usize].children().for_each(|c| queue.push(nodes, view.eye, c)),
         }
+        Ok(())
     }
 }

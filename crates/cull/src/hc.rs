@@ -58,22 +58,35 @@ pub struct HcStats {
 /// Runs HC from the root for `view` at `tau` pixels of error, testing every box in the
 /// frustum above the LOD cut. Appends the PVS (LOD and HLOD node ids, in the order found) to
 /// `pvs`.
-pub fn hardware_cull(nodes: &[NodeRecord], view: &View, tau: f64, tester: &mut dyn VisibilityTester, pvs: &mut Vec<NodeId>) -> HcStats {
+pub fn hardware_cull<E>(
+    nodes: &[NodeRecord],
+    view: &View,
+    tau: f64,
+    tester: &mut dyn VisibilityTester<Error = E>,
+    pvs: &mut Vec<NodeId>,
+) -> Result<HcStats, E> {
     traverse(nodes, view, tau, &[], &HashSet::new(), tester, pvs)
+}
+
+/// [`hardware_cull`] against the frustum alone (vfc, and a frame whose occlusion culling does
+/// not pay): LODs at tau of every node in view.
+pub fn frustum_cull(nodes: &[NodeRecord], view: &View, tau: f64, pvs: &mut Vec<NodeId>) -> HcStats {
+    let Ok(stats) = hardware_cull(nodes, view, tau, &mut crate::tester::AllVisible, pvs);
+    stats
 }
 
 /// HC as [`hardware_cull`], taking the BVH nodes above `previous` (V(i-1): LOD and HLOD ids,
 /// sorted) as visible without a test. Same PVS for a tester whose answers are consistent (a
 /// box is visible when one inside it is) and that takes no occluders, fewer tests the more
 /// coherent the frames.
-pub fn hardware_cull_from(
+pub fn hardware_cull_from<E>(
     nodes: &[NodeRecord],
     view: &View,
     tau: f64,
     previous: &[NodeId],
-    tester: &mut dyn VisibilityTester,
+    tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
-) -> HcStats {
+) -> Result<HcStats, E> {
     traverse(nodes, view, tau, previous, &above(nodes, previous), tester, pvs)
 }
 
@@ -100,15 +113,15 @@ pub(crate) fn above(nodes: &[NodeRecord], ids: &[NodeId]) -> HashSet<NodeId> {
     set
 }
 
-fn traverse(
+fn traverse<E>(
     nodes: &[NodeRecord],
     view: &View,
     tau: f64,
     previous: &[NodeId],
     above: &HashSet<NodeId>,
-    tester: &mut dyn VisibilityTester,
+    tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
-) -> HcStats {
+) -> Result<HcStats, E> {
     let mut stats = HcStats::default();
     let (mut open, mut batch, mut answers) = (vec![0u32], Vec::new(), Vec::new());
     // The PVS's LODs not in V(i-1) found since the tester last took some, and where this
@@ -136,7 +149,7 @@ fn traverse(
         if batch.is_empty() {
             break;
         }
-        test_round(tester, view, &mut batch, &mut answers, &mut stats);
+        test_round(tester, view, &mut batch, &mut answers, &mut stats)?;
         for (&id, vis) in batch.iter().zip(&answers) {
             if vis.visible {
                 refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
@@ -150,31 +163,32 @@ fn traverse(
         if !previous.is_empty() {
             new.extend(pvs[new_from..].iter().copied().filter(|id| previous.binary_search(id).is_err()));
             new_from = pvs.len();
-            if !new.is_empty() && !open.is_empty() && tester.add_occluders(view, &new) {
+            if !new.is_empty() && !open.is_empty() && tester.add_occluders(view, &new)? {
                 new.clear();
             }
         }
     }
-    stats
+    Ok(stats)
 }
 
 /// One round of tests (sec. 4.7.1: a batch per round trip): sorts `batch` and answers it into
 /// `answers`, counting the round and its tests.
-pub(crate) fn test_round(
-    tester: &mut dyn VisibilityTester,
+pub(crate) fn test_round<E>(
+    tester: &mut dyn VisibilityTester<Error = E>,
     view: &View,
     batch: &mut [NodeId],
     answers: &mut Vec<crate::tester::Visibility>,
     stats: &mut HcStats,
-) {
+) -> Result<(), E> {
     batch.sort_unstable();
     stats.levels += 1;
     answers.clear();
-    tester.test(view, batch, answers);
+    tester.test(view, batch, answers)?;
     assert_eq!(answers.len(), batch.len(), "tester must answer every box");
     if tester.tests() {
         stats.tests += batch.len() as u32;
     }
+    Ok(())
 }
 
 /// A visible BVH node: its LOD into the PVS, its HLOD when few of its `pixels` show, or its
@@ -279,9 +293,12 @@ pub(crate) mod tests {
     }
 
     impl VisibilityTester for Fixed {
-        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        type Error = std::convert::Infallible;
+
+        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
             self.batches.push(ids.to_vec());
             out.extend(ids.iter().map(|id| Visibility { visible: self.visible.contains(id), pixels: self.pixels }));
+            Ok(())
         }
     }
 
@@ -290,13 +307,16 @@ pub(crate) mod tests {
     struct Offered(Vec<Vec<NodeId>>, usize);
 
     impl VisibilityTester for Offered {
-        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        type Error = std::convert::Infallible;
+
+        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
             out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
+            Ok(())
         }
 
-        fn add_occluders(&mut self, _: &View, lods: &[NodeId]) -> bool {
+        fn add_occluders(&mut self, _: &View, lods: &[NodeId]) -> Result<bool, Self::Error> {
             self.0.push(lods.to_vec());
-            self.0.len() > self.1
+            Ok(self.0.len() > self.1)
         }
     }
 
@@ -307,17 +327,17 @@ pub(crate) mod tests {
         let (deep, mut pvs) = (deep_scene(), Vec::new());
         let wide = view_from(DVec3::new(20.5, 0.5, 80.0), DVec3::new(20.5, 0.5, 0.0));
         let mut t = Offered(Vec::new(), 0);
-        hardware_cull_from(&deep, &wide, 0.0, &[8], &mut t, &mut pvs);
+        hardware_cull_from(&deep, &wide, 0.0, &[8], &mut t, &mut pvs).unwrap();
         pvs.sort();
         assert_eq!((pvs, t.0), (vec![7, 8, 9, 13, 14], vec![vec![7], vec![9]]));
         // A tester that declines is offered the same LODs again with the next round's.
         let mut t = Offered(Vec::new(), 1);
-        hardware_cull_from(&deep, &wide, 0.0, &[8], &mut t, &mut Vec::new());
+        hardware_cull_from(&deep, &wide, 0.0, &[8], &mut t, &mut Vec::new()).unwrap();
         assert_eq!(t.0, vec![vec![7], vec![7, 9]]);
         let (n, v) = (scene(), view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0)));
         // Without V(i-1), OR drew nothing and the whole PVS is new: nothing is offered.
         let (mut t, mut pvs) = (Offered::default(), Vec::new());
-        hardware_cull(&n, &v, 0.0, &mut t, &mut pvs);
+        hardware_cull(&n, &v, 0.0, &mut t, &mut pvs).unwrap();
         assert!(t.0.is_empty());
     }
 
@@ -327,7 +347,7 @@ pub(crate) mod tests {
         let n = scene();
         let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
         let mut pvs = Vec::new();
-        let s = hardware_cull(&n, &v, 0.0, &mut AllVisible, &mut pvs);
+        let s = hardware_cull(&n, &v, 0.0, &mut AllVisible, &mut pvs).unwrap();
         pvs.sort();
         assert_eq!(pvs, vec![4, 6]);
         assert_eq!(s.levels, 2);
@@ -340,7 +360,7 @@ pub(crate) mod tests {
         let n = scene();
         let v = view_from(DVec3::new(5.5, 0.5, 1e4), DVec3::new(5.5, 0.5, 0.0));
         let mut pvs = Vec::new();
-        hardware_cull(&n, &v, 1.0, &mut AllVisible, &mut pvs);
+        hardware_cull(&n, &v, 1.0, &mut AllVisible, &mut pvs).unwrap();
         assert_eq!(pvs, vec![3]);
     }
 
@@ -351,7 +371,7 @@ pub(crate) mod tests {
         let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
         let mut t = Fixed { visible: vec![0, 2], pixels: None, batches: Vec::new() };
         let mut pvs = Vec::new();
-        let s = hardware_cull(&n, &v, 0.0, &mut t, &mut pvs);
+        let s = hardware_cull(&n, &v, 0.0, &mut t, &mut pvs).unwrap();
         assert_eq!(pvs, vec![6]);
         assert_eq!(t.batches, vec![vec![0], vec![1, 2]]);
         assert_eq!(s.occlusion_culled, 1);
@@ -365,7 +385,7 @@ pub(crate) mod tests {
         let v = view_from(DVec3::new(0.5, 0.5, 0.5), DVec3::new(-5.0, 0.5, 0.5));
         let mut t = Fixed { visible: vec![], pixels: None, batches: Vec::new() };
         let mut pvs = Vec::new();
-        let s = hardware_cull(&n, &v, 0.0, &mut t, &mut pvs);
+        let s = hardware_cull(&n, &v, 0.0, &mut t, &mut pvs).unwrap();
         assert_eq!(pvs, vec![4]);
         assert_eq!(s.frustum_culled, 1);
         assert_eq!(s.untested, 2);
@@ -380,14 +400,14 @@ pub(crate) mod tests {
         let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
         let mut t = Fixed { visible: vec![2], pixels: None, batches: Vec::new() };
         let mut pvs = Vec::new();
-        let s = hardware_cull_from(&n, &v, 0.0, &[6], &mut t, &mut pvs);
+        let s = hardware_cull_from(&n, &v, 0.0, &[6], &mut t, &mut pvs).unwrap();
         assert_eq!(pvs, vec![6]);
         assert_eq!(t.batches, vec![vec![1, 2]]);
         assert_eq!((s.tests, s.untested, s.occlusion_culled), (2, 1, 1));
         // Nothing of V(i-1) under the root (its HLOD 3): the root is tested again, and culled.
         let mut t = Fixed { visible: vec![], pixels: None, batches: Vec::new() };
         pvs.clear();
-        hardware_cull_from(&n, &v, 0.0, &[3], &mut t, &mut pvs);
+        hardware_cull_from(&n, &v, 0.0, &[3], &mut t, &mut pvs).unwrap();
         assert!(pvs.is_empty());
         assert_eq!(t.batches, vec![vec![0]]);
     }
@@ -400,7 +420,7 @@ pub(crate) mod tests {
         let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
         let mut t = Fixed { visible: vec![0, 1, 2], pixels: Some(0), batches: Vec::new() };
         let mut pvs = Vec::new();
-        let s = hardware_cull(&n, &v, 1.0, &mut t, &mut pvs);
+        let s = hardware_cull(&n, &v, 1.0, &mut t, &mut pvs).unwrap();
         assert_eq!(pvs, vec![3]);
         assert_eq!(s.pixel_stops, 1);
     }
@@ -413,8 +433,11 @@ pub(crate) mod tests {
     }
 
     impl VisibilityTester for Leaves {
-        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        type Error = std::convert::Infallible;
+
+        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
             out.extend(ids.iter().map(|id| Visibility { visible: self.marked.contains(id), pixels: None }));
+            Ok(())
         }
     }
 
@@ -460,11 +483,11 @@ pub(crate) mod tests {
             let mut t = Leaves { marked };
             let (other, this) = (view_of(0), view_of(1));
             let mut previous = Vec::new();
-            hardware_cull(nodes, &other, tau, &mut t, &mut previous);
+            hardware_cull(nodes, &other, tau, &mut t, &mut previous).unwrap();
             let (mut want, mut got, mut again) = (Vec::new(), Vec::new(), Vec::new());
-            let root_stats = hardware_cull(nodes, &this, tau, &mut t, &mut want);
-            hardware_cull_from(nodes, &this, tau, &previous, &mut t, &mut got);
-            let coherent = hardware_cull_from(nodes, &this, tau, &want, &mut t, &mut again);
+            let root_stats = hardware_cull(nodes, &this, tau, &mut t, &mut want).unwrap();
+            hardware_cull_from(nodes, &this, tau, &previous, &mut t, &mut got).unwrap();
+            let coherent = hardware_cull_from(nodes, &this, tau, &want, &mut t, &mut again).unwrap();
             for v in [&mut want, &mut got, &mut again] {
                 v.sort_unstable();
             }

@@ -116,11 +116,14 @@ pub struct HzbTester<'a> {
 }
 
 impl VisibilityTester for HzbTester<'_> {
-    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+    type Error = std::convert::Infallible;
+
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
         let vp = view.view_proj().as_dmat4();
         for &id in ids {
             out.push(Visibility { visible: self.visible(&vp, view, id), pixels: None });
         }
+        Ok(())
     }
 }
 

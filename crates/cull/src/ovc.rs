@@ -74,16 +74,16 @@ pub fn adapcull(view: &View, b: &Aabb, footprint: f64) -> f64 {
 /// this frame, if any; `elapsed_ms` tells how long the frame's culling has taken so far (a
 /// clock; in tests, a count).
 #[allow(clippy::too_many_arguments)]
-pub fn ovc(
+pub fn ovc<E>(
     nodes: &[NodeRecord],
     view: &View,
     tau: f64,
     opts: &OvcOptions,
     budget_ms: Option<f64>,
-    occ: &mut dyn Occluders,
+    occ: &mut dyn Occluders<Error = E>,
     elapsed_ms: &mut dyn FnMut() -> f64,
     pvs: &mut Vec<NodeId>,
-) -> HcStats {
+) -> Result<HcStats, E> {
     let mut stats = HcStats::default();
     let mut list = DistanceQueue::new();
     list.push(nodes, view.eye, 0);
@@ -104,7 +104,7 @@ pub fn ovc(
             (true, None)
         } else {
             answer.clear();
-            occ.test(view, &[id], &mut answer);
+            occ.test(view, &[id], &mut answer)?;
             stats.tests += 1;
             (answer[0].visible, answer[0].pixels)
         };
@@ -123,13 +123,13 @@ pub fn ovc(
                 stats.occlusion_culled += 1;
             }
             Some(lod) => {
-                occ.render(&[lod]);
+                occ.render(&[lod])?;
                 pvs.push(lod);
             }
             None => nodes[id as usize].children().for_each(|c| list.push(nodes, view.eye, c)),
         }
     }
-    stats
+    Ok(stats)
 }
 
 #[cfg(test)]
@@ -148,14 +148,18 @@ mod tests {
     }
 
     impl VisibilityTester for Marked {
-        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        type Error = std::convert::Infallible;
+
+        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
             out.extend(ids.iter().map(|id| Visibility { visible: self.visible.contains(id), pixels: self.pixels }));
+            Ok(())
         }
     }
 
     impl Occluders for Marked {
-        fn render(&mut self, lods: &[NodeId]) {
+        fn render(&mut self, lods: &[NodeId]) -> Result<(), Self::Error> {
             self.drawn.extend_from_slice(lods);
+            Ok(())
         }
     }
 
@@ -175,7 +179,8 @@ mod tests {
                 tests - 1.0
             },
             &mut pvs,
-        );
+        )
+        .unwrap();
         pvs.sort_unstable();
         (pvs, s)
     }
@@ -187,7 +192,7 @@ mod tests {
             let (pvs, s) = run(&OvcOptions::default(), None, &mut t, 0.0);
             let mut want = Vec::new();
             let v = view_from(DVec3::new(5.5, 0.5, 30.0), DVec3::new(5.5, 0.5, 0.0));
-            hardware_cull(&scene(), &v, 0.0, &mut t, &mut want);
+            hardware_cull(&scene(), &v, 0.0, &mut t, &mut want).unwrap();
             want.sort_unstable();
             assert_eq!(pvs, want, "visible {visible:?}");
             let mut drawn = t.drawn.clone();

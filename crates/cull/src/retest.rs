@@ -19,14 +19,14 @@ use std::collections::{HashMap, HashSet};
 
 /// Tests the additions `added` (LOD and HLOD ids, drawn into the depth buffer) again through
 /// their part of the hierarchy; appends those still visible to `out`.
-pub fn retest_additions(
+pub fn retest_additions<E>(
     nodes: &[NodeRecord],
     view: &View,
     kept: &[NodeId],
     added: &[NodeId],
-    tester: &mut dyn VisibilityTester,
+    tester: &mut dyn VisibilityTester<Error = E>,
     out: &mut Vec<NodeId>,
-) -> HcStats {
+) -> Result<HcStats, E> {
     // The additions by the BVH node that owns them, and every node on a path to one.
     let mut owned: HashMap<NodeId, Vec<NodeId>> = HashMap::new();
     let mut path: HashSet<NodeId> = HashSet::new();
@@ -71,7 +71,7 @@ pub fn retest_additions(
         if batch.is_empty() {
             break;
         }
-        test_round(tester, view, &mut batch, &mut answers, &mut stats);
+        test_round(tester, view, &mut batch, &mut answers, &mut stats)?;
         for (&id, vis) in batch.iter().zip(&answers) {
             if vis.visible {
                 visible(id, &mut open, out);
@@ -80,7 +80,7 @@ pub fn retest_additions(
             }
         }
     }
-    stats
+    Ok(stats)
 }
 
 #[cfg(test)]
@@ -94,9 +94,12 @@ mod tests {
     struct Fixed(Vec<NodeId>, Vec<Vec<NodeId>>);
 
     impl VisibilityTester for Fixed {
-        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+        type Error = std::convert::Infallible;
+
+        fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
             self.1.push(ids.to_vec());
             out.extend(ids.iter().map(|id| Visibility { visible: self.0.contains(id), pixels: None }));
+            Ok(())
         }
     }
 
@@ -108,7 +111,7 @@ mod tests {
     fn a_hidden_region_is_culled_at_the_node_that_holds_it() {
         // Both leaves' level 0 added (the first frame); the root hidden: nothing stays, one test.
         let (n, mut t, mut out) = (scene(), Fixed(vec![], vec![]), Vec::new());
-        let s = retest_additions(&n, &facing_both_leaves(), &[], &[4, 6], &mut t, &mut out);
+        let s = retest_additions(&n, &facing_both_leaves(), &[], &[4, 6], &mut t, &mut out).unwrap();
         assert_eq!((out, t.1, s.tests, s.occlusion_culled), (vec![], vec![vec![0]], 1, 1));
     }
 
@@ -116,20 +119,20 @@ mod tests {
     fn the_answer_is_the_additions_own_box_test_when_answers_are_consistent() {
         // Root and leaf 2 visible: 6 stays, 4 goes.
         let (n, mut t, mut out) = (scene(), Fixed(vec![0, 2], vec![]), Vec::new());
-        let s = retest_additions(&n, &facing_both_leaves(), &[], &[4, 6], &mut t, &mut out);
+        let s = retest_additions(&n, &facing_both_leaves(), &[], &[4, 6], &mut t, &mut out).unwrap();
         assert_eq!(out, vec![6]);
         assert_eq!(t.1, vec![vec![0], vec![1, 2]]);
         assert_eq!(s.tests, 3);
         // With leaf 1's level 0 kept, the root is above it and not tested: only leaf 2 is.
         let (mut t, mut out) = (Fixed(vec![2], vec![]), Vec::new());
-        retest_additions(&n, &facing_both_leaves(), &[4], &[6], &mut t, &mut out);
+        retest_additions(&n, &facing_both_leaves(), &[4], &[6], &mut t, &mut out).unwrap();
         assert_eq!((out, t.1), (vec![6], vec![vec![2]]));
     }
 
     #[test]
     fn an_hlod_addition_stays_with_its_group() {
         let (n, mut t, mut out) = (scene(), Fixed(vec![0], vec![]), Vec::new());
-        retest_additions(&n, &facing_both_leaves(), &[], &[3], &mut t, &mut out);
+        retest_additions(&n, &facing_both_leaves(), &[], &[3], &mut t, &mut out).unwrap();
         assert_eq!(out, vec![3]);
     }
 }

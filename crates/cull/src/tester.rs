@@ -15,17 +15,21 @@ pub struct Visibility {
 }
 
 pub trait VisibilityTester {
+    /// Why a test could not be made (a GPU's error); the traversal stops and returns it.
+    /// [`std::convert::Infallible`] for a tester that cannot fail.
+    type Error;
+
     /// Tests the boxes of BVH nodes `ids` for `view`; appends one answer per id to `out`, in
     /// order. One call is one batch: occlusion switch sec. 4.7.1 issues a whole level at once.
-    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>);
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error>;
 
     /// Offered after each round but the last: LODs of this frame's PVS not in V(i-1) (OR drew
     /// nothing of them), found since the last ones taken. A tester may add them as occluders
     /// for the rest of the traversal and returns whether it did; else they are offered again
     /// with the next ones. Conservative: they are the scene's geometry at tau for this view,
     /// and hide only what is behind them.
-    fn add_occluders(&mut self, _view: &View, _lods: &[NodeId]) -> bool {
-        false
+    fn add_occluders(&mut self, _view: &View, _lods: &[NodeId]) -> Result<bool, Self::Error> {
+        Ok(false)
     }
 
     /// Whether an answer costs an occlusion test (counted in the statistics).
@@ -38,15 +42,18 @@ pub trait VisibilityTester {
 /// nodes into the occluder depth buffer as they find them.
 pub trait Occluders: VisibilityTester {
     /// Adds LOD nodes to the occluder depth buffer; every test issued afterwards sees them.
-    fn render(&mut self, lods: &[NodeId]);
+    fn render(&mut self, lods: &[NodeId]) -> Result<(), Self::Error>;
 }
 
 /// Frustum culling only: every box that reaches the tester is visible.
 pub struct AllVisible;
 
 impl VisibilityTester for AllVisible {
-    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
+    type Error = std::convert::Infallible;
+
+    fn test(&mut self, _: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), Self::Error> {
         out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
+        Ok(())
     }
 
     fn tests(&self) -> bool {

@@ -186,7 +186,7 @@ impl Ui {
             let (view, culling) = (r.view(&viewer), r.view(camera));
             let scene = std::sync::Arc::clone(&r.scene);
             let mut front = Vec::new();
-            osw_cull::hardware_cull(scene.nodes(), &view, tau, &mut osw_cull::AllVisible, &mut front);
+            osw_cull::frustum_cull(scene.nodes(), &view, tau, &mut front);
             let s = classify(scene.nodes(), &front, visible, &culling.frustum);
             r.draw(&view, &s.visible, Pass::Tinted(VISIBLE), true)?;
             r.draw(&view, &s.occlusion_culled, Pass::Tinted(OCCLUDED), false)?;

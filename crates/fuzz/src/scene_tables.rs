@@ -5,8 +5,7 @@
 //! draws only LOD nodes.
 
 use bytemuck::pod_read_unaligned;
-use osw_cull::hc::hardware_cull;
-use osw_cull::tester::AllVisible;
+use osw_cull::hc::frustum_cull;
 use osw_cull::view::View;
 use osw_scene::Camera;
 use osw_scene::format::{BLOCK_BYTES, BlockRecord, Header, NodeKind, NodeRecord};
@@ -40,7 +39,7 @@ pub fn run(data: &[u8]) {
     let view = View::new(&cam, glam::DVec3::from_array(h.origin), 64, 64, 0.01);
     for tau in [0.0, 1e6] {
         let mut pvs = Vec::new();
-        hardware_cull(&nodes, &view, tau, &mut AllVisible, &mut pvs);
+        frustum_cull(&nodes, &view, tau, &mut pvs);
         assert!(pvs.iter().all(|&id| nodes[id as usize].kind() == NodeKind::Lod), "HC drew a non-LOD node");
     }
 }

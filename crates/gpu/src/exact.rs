@@ -11,7 +11,7 @@
 
 use crate::draw::Pass;
 use crate::renderer::{RenderError, Renderer};
-use osw_cull::{AllVisible, View, hardware_cull};
+use osw_cull::{View, frustum_cull};
 use osw_scene::{NodeId, NodeKind, SceneFile};
 use std::ops::Range;
 
@@ -57,10 +57,10 @@ fn drawn(scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Vec<
             ids.extend((0..scene.bvh_count()).map(|id| scene.node(id)).filter(|n| n.kind() == NodeKind::Leaf).map(|n| n.first_lod))
         }
         Reference::Independent => {
-            hardware_cull(scene.nodes(), &view.without_frustum(), tau, &mut AllVisible, &mut ids);
+            frustum_cull(scene.nodes(), &view.without_frustum(), tau, &mut ids);
         }
         Reference::FrustumCut => {
-            hardware_cull(scene.nodes(), view, tau, &mut AllVisible, &mut ids);
+            frustum_cull(scene.nodes(), view, tau, &mut ids);
         }
     }
     // Sorted: where two surfaces tie in depth the first drawn keeps the pixel.

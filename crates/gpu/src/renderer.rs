@@ -591,26 +591,17 @@ impl Renderer {
     }
 }
 
-/// A [`VisibilityTester`] on the GPU box test. A GPU error makes every later answer "visible"
-/// (conservative) and is kept in `error` for the caller to report.
+/// A [`VisibilityTester`] on the GPU box test; a GPU error ends the traversal with it.
 pub struct GpuTester<'a> {
     pub renderer: &'a mut Renderer,
     pub test: BoxTest,
-    pub error: Option<RenderError>,
 }
 
 impl VisibilityTester for GpuTester<'_> {
-    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
-        let start = out.len();
-        if self.error.is_none()
-            && let Err(e) = self.renderer.test_boxes(view, ids, self.test, out)
-        {
-            self.error = Some(e);
-        }
-        if self.error.is_some() {
-            out.truncate(start);
-            out.extend(ids.iter().map(|_| Visibility { visible: true, pixels: None }));
-        }
+    type Error = RenderError;
+
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), RenderError> {
+        self.renderer.test_boxes(view, ids, self.test, out)
     }
 }
 
@@ -624,35 +615,35 @@ pub struct InterleavedTester<'a> {
 
 impl<'a> InterleavedTester<'a> {
     pub fn new(renderer: &'a mut Renderer) -> InterleavedTester<'a> {
-        InterleavedTester { tester: GpuTester { renderer, test: BoxTest::Exact, error: None }, pending: Vec::new() }
+        InterleavedTester { tester: GpuTester { renderer, test: BoxTest::Exact }, pending: Vec::new() }
     }
 
-    /// Draws what is still pending; returns the first error of the traversal.
+    /// Draws what is still pending.
     pub fn finish(mut self, view: &View) -> Result<(), RenderError> {
-        self.flush(view);
-        self.tester.error.map_or(Ok(()), Err)
+        self.flush(view)
     }
 
-    fn flush(&mut self, view: &View) {
-        if !self.pending.is_empty()
-            && self.tester.error.is_none()
-            && let Err(e) = self.tester.renderer.draw(view, &self.pending, crate::draw::Pass::Depth, false)
-        {
-            self.tester.error = Some(e);
+    fn flush(&mut self, view: &View) -> Result<(), RenderError> {
+        if !self.pending.is_empty() {
+            self.tester.renderer.draw(view, &self.pending, crate::draw::Pass::Depth, false)?;
         }
         self.pending.clear();
+        Ok(())
     }
 }
 
 impl VisibilityTester for InterleavedTester<'_> {
-    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) {
-        self.flush(view);
-        self.tester.test(view, ids, out);
+    type Error = RenderError;
+
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), RenderError> {
+        self.flush(view)?;
+        self.tester.test(view, ids, out)
     }
 }
 
 impl Occluders for InterleavedTester<'_> {
-    fn render(&mut self, lods: &[NodeId]) {
+    fn render(&mut self, lods: &[NodeId]) -> Result<(), RenderError> {
         self.pending.extend_from_slice(lods);
+        Ok(())
     }
 }

@@ -19,8 +19,8 @@
 use crate::inbox::Inbox;
 use crate::roles::{Display, Duty, Peer, Step, keyframe_to_display};
 use osw_cull::delta::{Assembly, batches, diff};
+use osw_cull::frustum_cull;
 use osw_cull::payoff::Payoff;
-use osw_cull::{AllVisible, hardware_cull};
 use osw_gpu::renderer::Renderer;
 use osw_render::packet;
 use osw_render::pass::{self, HcOptions, HcPass};
@@ -146,7 +146,7 @@ impl Switch {
             pass::hc(r, &view, cam.tau_px, HcOptions { adaptive: self.adaptive, ..HcOptions::default() }, &self.visible, &mut pvs)?
         } else {
             // Frustum culled only: occlusion culling did not pay where this node last ran it.
-            let stats = hardware_cull(r.scene.nodes(), &view, cam.tau_px, &mut AllVisible, &mut pvs);
+            let stats = frustum_cull(r.scene.nodes(), &view, cam.tau_px, &mut pvs);
             pvs.sort_unstable();
             HcPass { stats, ..HcPass::default() }
         };

@@ -21,6 +21,24 @@ use osw_wire::{CameraPacket, Delta, IdList, Message};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+/// A line of bandwidth.csv: a frame's ids and bytes on each link, measured and by the paper's
+/// model; the same of the run with whole sets, where given.
+#[derive(serde::Serialize, Default)]
+struct BandwidthRow {
+    frame: usize,
+    ids_sent: u64,
+    visible: u64,
+    batches: u64,
+    hc_to_rvg_bytes: u64,
+    hc_to_or_bytes: u64,
+    rvg_camera_bytes: u64,
+    total_bytes: u64,
+    model_bytes: f64,
+    full_ids_sent: Option<u64>,
+    full_total_bytes: Option<u64>,
+    full_model_bytes: Option<f64>,
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// A switch run's directory (`osw run`: stats.csv, node-a.csv, node-b.csv, summary.json).
@@ -183,29 +201,23 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let exact = a.exact.as_deref().map(|d| exact_churn(d, frames)).transpose()?;
     std::fs::create_dir_all(&a.out)?;
-    let mut csv = String::from("frame,ids_sent,visible,batches,hc_to_rvg_bytes,hc_to_or_bytes,rvg_camera_bytes,total_bytes,model_bytes");
-    if full.is_some() {
-        csv.push_str(",full_ids_sent,full_total_bytes,full_model_bytes");
-    }
-    csv.push('\n');
-    for i in 0..frames {
-        csv.push_str(&format!(
-            "{i},{},{},{},{},{},{},{},{:.1}",
-            inc.ids[i],
-            inc.visible[i],
-            inc.batches[i],
-            inc.hc_to_rvg[i],
-            inc.hc_to_or[i],
-            inc.rvg_cameras,
-            inc.total(i),
-            inc.model(i)
-        ));
-        if let Some(f) = &full {
-            csv.push_str(&format!(",{},{},{:.1}", f.ids[i], f.total(i), f.model(i)));
-        }
-        csv.push('\n');
-    }
-    std::fs::write(a.out.join("bandwidth.csv"), csv)?;
+    let rows: Vec<BandwidthRow> = (0..frames)
+        .map(|i| BandwidthRow {
+            frame: i,
+            ids_sent: inc.ids[i] as u64,
+            visible: inc.visible[i] as u64,
+            batches: inc.batches[i] as u64,
+            hc_to_rvg_bytes: inc.hc_to_rvg[i] as u64,
+            hc_to_or_bytes: inc.hc_to_or[i] as u64,
+            rvg_camera_bytes: inc.rvg_cameras as u64,
+            total_bytes: inc.total(i) as u64,
+            model_bytes: inc.model(i),
+            full_ids_sent: full.as_ref().map(|f| f.ids[i] as u64),
+            full_total_bytes: full.as_ref().map(|f| f.total(i) as u64),
+            full_model_bytes: full.as_ref().map(|f| f.model(i)),
+        })
+        .collect();
+    results::csv::write(&a.out.join("bandwidth.csv"), &rows)?;
     let report = Report {
         frames,
         saved_fraction_bytes: full

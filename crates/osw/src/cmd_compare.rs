@@ -36,6 +36,22 @@ struct FrameRow {
     b: Option<CullError>,
 }
 
+/// A line of compare.csv: a frame's image error and each run's culling error, empty where
+/// there is nothing to compare.
+#[derive(serde::Serialize, Default)]
+struct CompareRow {
+    frame: usize,
+    psnr_db: Option<f64>,
+    differing_fraction: f64,
+    max_channel_diff: u8,
+    a_false_culled: Option<u32>,
+    a_leaf_ratio: Option<f64>,
+    a_triangle_ratio: Option<f64>,
+    b_false_culled: Option<u32>,
+    b_leaf_ratio: Option<f64>,
+    b_triangle_ratio: Option<f64>,
+}
+
 fn side(errors: &[CullError]) -> Culling {
     let n = errors.len().max(1) as f64;
     Culling {
@@ -158,20 +174,26 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 
     std::fs::create_dir_all(&a.out)?;
     results::write_json(&a.out.join("compare.json"), &report)?;
-    let mut csv = String::from(
-        "frame,psnr_db,differing_fraction,max_channel_diff,a_false_culled,a_leaf_ratio,a_triangle_ratio,b_false_culled,b_leaf_ratio,b_triangle_ratio\n",
-    );
-    let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
-    for r in &rows {
-        let i = r.image.unwrap_or_default();
-        let c = |e: Option<CullError>| {
-            (opt(e.map(|e| e.false_culled_leaves as f64)), opt(e.map(|e| e.leaf_ratio())), opt(e.map(|e| e.triangle_ratio())))
-        };
-        let ((af, al, at), (bf, bl, bt)) = (c(r.a), c(r.b));
-        let psnr = if r.image.is_some() { i.psnr_db.map_or("inf".to_string(), |p| p.to_string()) } else { String::new() };
-        csv.push_str(&format!("{},{psnr},{},{},{af},{al},{at},{bf},{bl},{bt}\n", r.frame, i.differing_fraction, i.max_channel_diff));
-    }
-    std::fs::write(a.out.join("compare.csv"), csv)?;
+    let csv: Vec<CompareRow> = rows
+        .iter()
+        .map(|r| {
+            let i = r.image.unwrap_or_default();
+            CompareRow {
+                frame: r.frame,
+                // Identical frames: infinite PSNR; no image to compare: empty.
+                psnr_db: r.image.map(|i| i.psnr_db.unwrap_or(f64::INFINITY)),
+                differing_fraction: i.differing_fraction,
+                max_channel_diff: i.max_channel_diff,
+                a_false_culled: r.a.map(|e| e.false_culled_leaves),
+                a_leaf_ratio: r.a.map(|e| e.leaf_ratio()),
+                a_triangle_ratio: r.a.map(|e| e.triangle_ratio()),
+                b_false_culled: r.b.map(|e| e.false_culled_leaves),
+                b_leaf_ratio: r.b.map(|e| e.leaf_ratio()),
+                b_triangle_ratio: r.b.map(|e| e.triangle_ratio()),
+            }
+        })
+        .collect();
+    results::csv::write(&a.out.join("compare.csv"), &csv)?;
     let image = if images.is_empty() {
         "no frames to compare".to_string()
     } else {

@@ -25,7 +25,7 @@ use osw_cull::delta::diff;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::payoff::Alternating;
-use osw_cull::{AllVisible, HcStats, View, hardware_cull};
+use osw_cull::{HcStats, View, frustum_cull, hardware_cull};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{BoxTest, InterleavedTester, RenderError, Renderer};
 use osw_scene::NodeId;
@@ -168,7 +168,7 @@ impl ModeState {
         let hc: HcStats = match if cull { self.mode } else { Mode::Vfc } {
             Mode::Vfc => {
                 let t = Instant::now();
-                let hc = hardware_cull(nodes, view, self.tau, &mut AllVisible, &mut pvs);
+                let hc = frustum_cull(nodes, view, self.tau, &mut pvs);
                 s.hc_ms = ms(t);
                 hc
             }
@@ -189,11 +189,10 @@ impl ModeState {
                     _ => ovc(nodes, view, self.tau, &opts, budget_ms, &mut occ, &mut || ms(t), &mut pvs),
                 };
                 // Sampled tests are ovc's alone: back to reading every line, also after an error.
-                let finished = occ.finish(view);
+                let finished = hc.and_then(|hc| occ.finish(view).map(|()| hc));
                 r.sampling = (1, 0);
-                finished?;
                 s.hc_ms = ms(t);
-                hc
+                finished?
             }
             Mode::Hzb => {
                 let t = Instant::now();
@@ -203,7 +202,7 @@ impl ModeState {
                 (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
                 let t = Instant::now();
                 let pyramid = Pyramid::new(view.width, view.height, depth);
-                let hc = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, finer: 0 }, &mut pvs);
+                let Ok(hc) = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, finer: 0 }, &mut pvs);
                 s.hc_ms = ms(t);
                 hc
             }

@@ -9,7 +9,6 @@
 
 use crate::camera::Camera;
 use glam::{DQuat, DVec3};
-use std::fmt::Write as _;
 use std::path::Path;
 
 pub const HEADER: &str = "frame,px,py,pz,qx,qy,qz,qw,fovy_deg";
@@ -23,44 +22,72 @@ pub enum PathError {
     Bad { path: String, line: usize, what: String },
 }
 
+/// One line of a path file, by the header's names.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Row {
+    frame: u64,
+    px: f64,
+    py: f64,
+    pz: f64,
+    qx: f64,
+    qy: f64,
+    qz: f64,
+    qw: f64,
+    fovy_deg: f64,
+}
+
 /// Formats cameras as path CSV.
 pub fn to_csv(cameras: &[Camera]) -> String {
-    let mut s = String::with_capacity(64 * (cameras.len() + 1));
-    s.push_str(HEADER);
-    s.push('\n');
+    let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::with_capacity(64 * (cameras.len() + 1)));
     for (i, c) in cameras.iter().enumerate() {
         let (p, q) = (c.position, c.orientation);
-        // `{}` on f64 prints the shortest text that reads back to the same value.
-        let _ = writeln!(s, "{i},{},{},{},{},{},{},{},{}", p.x, p.y, p.z, q.x, q.y, q.z, q.w, c.fovy_deg);
+        let row = Row { frame: i as u64, px: p.x, py: p.y, pz: p.z, qx: q.x, qy: q.y, qz: q.z, qw: q.w, fovy_deg: c.fovy_deg };
+        // Numbers into a Vec: the writes cannot fail.
+        w.serialize(row).expect("a row of numbers serialises");
     }
-    s
+    // The csv crate writes each f64 as the shortest text that reads back to the same value.
+    let rows = String::from_utf8(w.into_inner().expect("a Vec takes every write")).expect("CSV of numbers");
+    format!("{HEADER}\n{rows}")
 }
 
 /// Parses path CSV; `name` is used in error messages.
 pub fn parse_csv(text: &str, name: &str) -> Result<Vec<Camera>, PathError> {
-    let bad = |line: usize, what: String| PathError::Bad { path: name.to_owned(), line, what };
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    match lines.next() {
-        Some((_, h)) if h.trim() == HEADER => {}
-        Some((i, h)) => return Err(bad(i + 1, format!("header {h:?}, expected {HEADER:?}"))),
-        None => return Err(bad(1, "empty file: expected the header line and at least one camera".into())),
+    let bad = |line: u64, what: String| PathError::Bad { path: name.to_owned(), line: line as usize, what };
+    let mut r = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
+    let headers = r.headers().map_err(|e| bad(1, e.to_string()))?.clone();
+    let line_of = |e: &csv::Error| e.position().map_or(0, |p| p.line());
+    match headers.iter().collect::<Vec<_>>().join(",") {
+        h if h == HEADER => {}
+        h if h.is_empty() => return Err(bad(1, "empty file: expected the header line and at least one camera".into())),
+        h => return Err(bad(headers.position().map_or(1, |p| p.line()), format!("header {h:?}, expected {HEADER:?}"))),
     }
     let mut out = Vec::new();
-    for (i, line) in lines {
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        if f.len() != 9 {
-            return Err(bad(i + 1, format!("{} fields, expected 9", f.len())));
+    let mut record = csv::StringRecord::new();
+    loop {
+        let read = r.read_record(&mut record).map_err(|e| match e.kind() {
+            csv::ErrorKind::UnequalLengths { len, .. } => bad(line_of(&e), format!("{len} fields, expected 9")),
+            _ => bad(line_of(&e), e.to_string()),
+        })?;
+        if !read {
+            break;
         }
-        let frame: u64 = f[0].parse().map_err(|_| bad(i + 1, format!("frame {:?} is not a whole number", f[0])))?;
-        if frame != out.len() as u64 {
-            return Err(bad(i + 1, format!("frame {frame}, expected {}", out.len())));
+        let line = record.position().map_or(0, |p| p.line());
+        let row: Row = record.deserialize(Some(&headers)).map_err(|e| match e.kind() {
+            csv::ErrorKind::Deserialize { err, .. } => {
+                let field = err.field().map_or(String::new(), |k| format!("field {} ", k + 1));
+                bad(line, format!("{field}is not a number: {}", err.kind()))
+            }
+            _ => bad(line, e.to_string()),
+        })?;
+        if row.frame != out.len() as u64 {
+            return Err(bad(line, format!("frame {}, expected {}", row.frame, out.len())));
         }
-        let mut v = [0f64; 8];
-        for (k, s) in f[1..].iter().enumerate() {
-            v[k] = s.parse().map_err(|_| bad(i + 1, format!("field {} ({s:?}) is not a number", k + 2)))?;
-        }
-        let cam = Camera { position: DVec3::new(v[0], v[1], v[2]), orientation: DQuat::from_xyzw(v[3], v[4], v[5], v[6]), fovy_deg: v[7] };
-        out.push(cam.validated().map_err(|e| bad(i + 1, e))?);
+        let cam = Camera {
+            position: DVec3::new(row.px, row.py, row.pz),
+            orientation: DQuat::from_xyzw(row.qx, row.qy, row.qz, row.qw),
+            fovy_deg: row.fovy_deg,
+        };
+        out.push(cam.validated().map_err(|e| bad(line, e))?);
     }
     if out.is_empty() {
         return Err(bad(1, "no cameras after the header".into()));

@@ -4,7 +4,7 @@
 
 use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid};
 use osw_cull::retest::retest_additions;
-use osw_cull::{AllVisible, HcStats, View, VisibilityTester, hardware_cull, hardware_cull_from};
+use osw_cull::{HcStats, View, VisibilityTester, frustum_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{BoxTest, GpuTester, RenderError, Renderer};
 use osw_scene::NodeId;
@@ -70,7 +70,6 @@ struct HybridTester<'a> {
     min: usize,
     /// The new occluders drawn so far (the retest need not draw them again).
     drawn: Vec<NodeId>,
-    error: Option<RenderError>,
 }
 
 /// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]). Measured on
@@ -80,22 +79,22 @@ struct HybridTester<'a> {
 pub const NEW_OCCLUDERS_MIN: usize = 256;
 
 impl VisibilityTester for HybridTester<'_> {
-    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) {
+    type Error = RenderError;
+
+    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) -> Result<(), RenderError> {
         let scene = std::sync::Arc::clone(&self.r.scene);
-        HzbTester { nodes: scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
+        let Ok(()) = HzbTester { nodes: scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
+        Ok(())
     }
 
-    fn add_occluders(&mut self, view: &View, lods: &[NodeId]) -> bool {
-        if self.error.is_some() || lods.len() < self.min {
-            return false;
+    fn add_occluders(&mut self, view: &View, lods: &[NodeId]) -> Result<bool, RenderError> {
+        if lods.len() < self.min {
+            return Ok(false);
         }
-        let depth = self.r.draw(view, lods, Pass::Depth, false).and_then(|_| Ok(self.r.target.read_depth(&self.r.gpu)?));
-        match depth {
-            Ok(d) => self.pyramid = Pyramid::new(view.width, view.height, d),
-            Err(e) => self.error = Some(e),
-        }
+        self.r.draw(view, lods, Pass::Depth, false)?;
+        self.pyramid = Pyramid::new(view.width, view.height, self.r.target.read_depth(&self.r.gpu)?);
         self.drawn.extend_from_slice(lods);
-        true
+        Ok(true)
     }
 }
 
@@ -218,14 +217,11 @@ fn traverse(
     // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing): every
     // test would pass, so none is made.
     if previous.is_empty() {
-        t.stats = hardware_cull(nodes, view, tau, &mut AllVisible, pvs);
+        t.stats = frustum_cull(nodes, view, tau, pvs);
     } else if opts.test == HcTest::Hybrid {
         let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
-        let mut tester = HybridTester { r, pyramid, min: opts.new_occluders_min, drawn: Vec::new(), error: None };
-        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
-        if let Some(e) = tester.error {
-            return Err(e);
-        }
+        let mut tester = HybridTester { r, pyramid, min: opts.new_occluders_min, drawn: Vec::new() };
+        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs)?;
         t.drawn = tester.drawn;
         t.drawn.sort_unstable();
         t.pyramid = Some(tester.pyramid);
@@ -240,11 +236,7 @@ fn traverse(
             _ if tau > 0.0 => BoxTest::ExactCount,
             _ => BoxTest::Exact,
         };
-        let mut tester = GpuTester { renderer: r, test, error: None };
-        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs);
-        if let Some(e) = tester.error {
-            return Err(e);
-        }
+        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut GpuTester { renderer: r, test }, pvs)?;
     }
     pvs.sort_unstable();
     pvs.dedup();
@@ -273,7 +265,7 @@ fn second_look(r: &mut Renderer, view: &View, adaptive: f64, pyramid: &Pyramid, 
         drop_hidden(r, view, &small, adaptive, pvs)?
     } else {
         let mut seen = Vec::with_capacity(small.len());
-        HzbTester { nodes, pyramid, finer: HYBRID_SECOND_FINER }.test(view, &small, &mut seen);
+        let Ok(()) = HzbTester { nodes, pyramid, finer: HYBRID_SECOND_FINER }.test(view, &small, &mut seen);
         let dropped: Vec<NodeId> = small.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
         pvs.retain(|id| dropped.binary_search(id).is_err());
         (dropped.len() as u32, 0)
@@ -309,12 +301,8 @@ fn retest(
         return Ok(Dropped { tests: added.len() as u32, hidden, adaptive: adaptive_culled });
     }
     let scene = std::sync::Arc::clone(&r.scene);
-    let mut tester = GpuTester { renderer: r, test: BoxTest::Exact, error: None };
     let mut still = Vec::new();
-    let s = retest_additions(scene.nodes(), view, &kept, &added, &mut tester, &mut still);
-    if let Some(e) = tester.error {
-        return Err(e);
-    }
+    let s = retest_additions(scene.nodes(), view, &kept, &added, &mut GpuTester { renderer: r, test: BoxTest::Exact }, &mut still)?;
     let hidden = added.len().saturating_sub(still.len()) as u32;
     *pvs = kept;
     pvs.extend(still);

@@ -1,37 +1,25 @@
-//! Per-frame rows as CSV: a header of the row type's field names (in their order), then a line
-//! per row. Read back into the same type by header name, so a renamed or missing column is an
-//! error naming it.
+//! Per-frame rows as CSV (the `csv` crate): a header of the row type's field names, in their
+//! order, then a line per row. Read back into the same type by header name, so a renamed or
+//! missing column is an error naming it, as is a ragged line; a cell with a comma is quoted.
 
 use super::ResultsError;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
-use serde_json::{Map, Value};
 use std::path::Path;
 
 /// `rows` as CSV; `T::default()` names the columns when there are no rows.
 pub fn to_string<T: Serialize + Default>(rows: &[T]) -> String {
-    let header: Vec<String> = match serde_json::to_value(T::default()) {
-        Ok(Value::Object(m)) => m.keys().cloned().collect(),
-        _ => Vec::new(),
-    };
-    let mut out = header.join(",");
-    out.push('\n');
+    let mut w = csv::Writer::from_writer(Vec::new());
+    // Plain data into a Vec: the writes cannot fail.
+    if rows.is_empty() {
+        w.serialize(T::default()).expect("a row serialises");
+        let text = String::from_utf8(w.into_inner().expect("a Vec takes every write")).expect("CSV of UTF-8 fields");
+        return text.lines().next().map_or(String::new(), |h| format!("{h}\n"));
+    }
     for r in rows {
-        if let Ok(Value::Object(m)) = serde_json::to_value(r) {
-            let cells: Vec<String> = header.iter().map(|k| cell(&m[k])).collect();
-            out.push_str(&cells.join(","));
-            out.push('\n');
-        }
+        w.serialize(r).expect("a row serialises");
     }
-    out
-}
-
-fn cell(v: &Value) -> String {
-    match v {
-        Value::String(s) => s.clone(),
-        Value::Null => String::new(),
-        v => v.to_string(),
-    }
+    String::from_utf8(w.into_inner().expect("a Vec takes every write")).expect("CSV of UTF-8 fields")
 }
 
 pub fn write<T: Serialize + Default>(path: &Path, rows: &[T]) -> Result<(), ResultsError> {
@@ -43,37 +31,23 @@ pub fn read<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>, ResultsError> {
     parse(&text).map_err(|e| ResultsError::new(path, e))
 }
 
-/// The rows of CSV `text`; a cell is a number where it reads as one, empty for a missing value
-/// (as [`to_string`] writes `None`), else a string.
+/// The rows of CSV `text`; an empty cell is a missing value (as [`to_string`] writes `None`).
+/// Errors name the line.
 pub fn parse<T: DeserializeOwned>(text: &str) -> Result<Vec<T>, String> {
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().ok_or("empty: no header")?.split(',').collect();
-    lines
-        .enumerate()
-        .map(|(k, line)| {
-            let cells: Vec<&str> = line.split(',').collect();
-            if cells.len() != header.len() {
-                return Err(format!("line {}: {} cells, the header has {}", k + 2, cells.len(), header.len()));
-            }
-            let row: Map<String, Value> = header.iter().zip(cells).map(|(h, c)| (h.to_string(), value(c))).collect();
-            serde_json::from_value(Value::Object(row)).map_err(|e| format!("line {}: {e}", k + 2))
-        })
-        .collect()
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    if r.headers().map_err(|e| e.to_string())?.is_empty() {
+        return Err("empty: no header".into());
+    }
+    r.deserialize().map(|row| row.map_err(|e| error_line(&e))).collect()
 }
 
-fn value(c: &str) -> Value {
-    if c.is_empty() {
-        return Value::Null;
-    }
-    if let Ok(n) = c.parse::<u64>() {
-        return n.into();
-    }
-    if let Ok(n) = c.parse::<i64>() {
-        return n.into();
-    }
-    match c.parse::<f64>().ok().and_then(serde_json::Number::from_f64) {
-        Some(n) => Value::Number(n),
-        None => Value::String(c.to_owned()),
+/// A CSV error as "line N: what", the line counted from 1 with the header.
+pub fn error_line(e: &csv::Error) -> String {
+    let line = e.position().map_or(0, |p| p.line());
+    match e.kind() {
+        csv::ErrorKind::Deserialize { err, .. } => format!("line {line}: {}", err.kind()),
+        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => format!("line {line}: {len} cells, the header has {expected_len}"),
+        _ => format!("line {line}: {e}"),
     }
 }
 
@@ -94,6 +68,18 @@ mod tests {
         let back: Vec<NodeFrame> = parse(&text).unwrap();
         assert_eq!(format!("{back:?}"), format!("{rows:?}"));
         assert_eq!(parse::<NodeFrame>(&to_string::<NodeFrame>(&[])).unwrap().len(), 0);
+    }
+
+    #[test]
+    fn a_cell_with_a_comma_or_a_quote_reads_back_whole() {
+        #[derive(serde::Serialize, serde::Deserialize, Default, Debug, PartialEq)]
+        struct Named {
+            frame: u64,
+            name: String,
+            ms: Option<f64>,
+        }
+        let rows = [Named { frame: 1, name: "a, \"b\"".into(), ms: None }, Named { frame: 2, name: "c".into(), ms: Some(0.5) }];
+        assert_eq!(parse::<Named>(&to_string(&rows)).unwrap(), rows);
     }
 
     #[test]
