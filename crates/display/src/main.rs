@@ -59,6 +59,9 @@ struct Args {
     /// The settings the nodes run with (the display draws with the cluster tests).
     #[command(flatten)]
     agreed: osw_render::settings::Agreed,
+    /// Time RVG's draw on the GPU with timestamps (`rvg_gpu_ms` in stats.csv).
+    #[arg(long)]
+    gpu_times: bool,
     /// Longest wait for one frame, seconds (a first frame at full detail of a huge scene may
     /// need more than the default).
     #[arg(long, default_value_t = osw_wire::limits::FRAME_WAIT.as_secs_f64(), value_name = "SECS")]
@@ -122,6 +125,10 @@ fn run(a: &Args) -> anyhow::Result<()> {
     };
     let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
     r.cluster_tests = a.agreed.cluster_tests;
+    r.time_gpu = a.gpu_times;
+    if a.gpu_times && !r.times_gpu() {
+        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);
+    }
     // The next frame's gather overlaps this frame's draw (5M plant walk, tau 5: four pairs of
     // runs took 57.8 / 64.4, 56.3 / 59.9, 57.5 / 56.4 and 58.4 / 59.2 ms a frame, with /
     // without). RVG's stage time then ends when its draw is submitted, the previous one done.
@@ -170,7 +177,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let view = r.view(&camera);
         // RVG as prev's (hidden clusters culled where HC culled).
         let drawn = osw_render::pass::rvg(&mut r, &view, &frames.visible, row.cull_skipped == 0, &mut clusters)?;
-        row.rvg_ms = t.elapsed().as_secs_f64() * 1e3;
+        (row.rvg_ms, row.rvg_gpu_ms) = (t.elapsed().as_secs_f64() * 1e3, drawn.gpu_ms());
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
         let c = drawn.clusters;
         (row.clusters, row.clusters_frustum_culled, row.clusters_cone_culled, row.clusters_occlusion_culled) =

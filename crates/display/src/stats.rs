@@ -64,6 +64,7 @@ pub fn write_outputs(
             id_bytes_per_id: id_bytes / ids_sent.max(1.0),
             batch: set.batch,
             latency_ms_median: quantile(&col(|r| r.latency_ms), 0.5),
+            rvg_gpu_ms_median: osw_render::stats::gpu_median(rows.iter().map(|r| r.rvg_gpu_ms)),
             latency_ms_p95: quantile(&col(|r| r.latency_ms), 0.95),
             latency_ms_max: quantile(&col(|r| r.latency_ms), 1.0),
             camera_link_ms_median: quantile(&col(|r| r.camera_link_ms), 0.5),

@@ -61,17 +61,29 @@ pub struct DrawStats {
     /// Fragment shader invocations of the draws (lavapipe: the pixels covered, in whole 2x2
     /// quads, before the depth test), when counted ([`Renderer::count_fragments`]).
     pub fragments: u64,
+    /// GPU time of the draws' render passes, ns, from timestamps ([`Renderer::time_gpu`]).
+    pub gpu_ns: Option<u64>,
 }
 
 impl DrawStats {
-    fn add(self, o: DrawStats) -> DrawStats {
+    /// Both draws' counts and times.
+    pub fn add(self, o: DrawStats) -> DrawStats {
         DrawStats {
             nodes: self.nodes + o.nodes,
             triangles: self.triangles + o.triangles,
             draws: self.draws + o.draws,
             clusters: self.clusters + o.clusters,
             fragments: self.fragments + o.fragments,
+            gpu_ns: match (self.gpu_ns, o.gpu_ns) {
+                (Some(a), Some(b)) => Some(a + b),
+                (a, b) => a.or(b),
+            },
         }
+    }
+
+    /// The draws' GPU time in ms, where timed.
+    pub fn gpu_ms(&self) -> Option<f64> {
+        self.gpu_ns.map(|ns| ns as f64 / 1e6)
     }
 }
 
@@ -90,6 +102,10 @@ pub struct Renderer {
     /// and a read-back per draw, so off unless asked for. Without the adapter's feature the
     /// count stays 0 ([`Renderer::counts_fragments`]).
     pub count_fragments: bool,
+    /// Time each draw's render pass on the GPU ([`DrawStats::gpu_ns`]): two timestamps and a
+    /// read-back per draw, which waits for it (also with `overlap`), so off unless asked
+    /// for. Without the adapter's feature there is no time ([`Renderer::times_gpu`]).
+    pub time_gpu: bool,
     /// A draw returns once it is submitted and the draw before it is done, not once it is
     /// drawn: one draw in flight, so that the CPU gathers the next frame while the GPU draws
     /// this one (the display). Read-backs still wait for everything before them.
@@ -110,6 +126,8 @@ pub struct Renderer {
     query_staging: wgpu::Buffer,
     /// The fragment count's query, resolve and read-back buffers (with the adapter's feature).
     fragment_query: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
+    /// The same for a pass's two timestamps.
+    timestamps: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
     pub(crate) indices: Vec<u32>,
     /// Each node's indices as last gathered, for passes of the same view.
     gathered: Gathered,
@@ -195,8 +213,22 @@ impl Renderer {
                 crate::readback::staging(&gpu, "fragments readback", 8),
             )
         });
+        let timestamps = gpu.features.contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
+            let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass times"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            });
+            (
+                set,
+                storage(&gpu, "pass times resolve", 16, U::QUERY_RESOLVE | U::COPY_SRC),
+                crate::readback::staging(&gpu, "pass times readback", 16),
+            )
+        });
         Ok(Renderer {
             fragment_query,
+            timestamps,
+            time_gpu: false,
             count_fragments: false,
             overlap: false,
             queries,
@@ -227,6 +259,11 @@ impl Renderer {
     /// Whether draws count their fragments: asked for, and the adapter can.
     pub fn counts_fragments(&self) -> bool {
         self.count_fragments && self.fragment_query.is_some()
+    }
+
+    /// Whether draws are timed on the GPU: asked for, and the adapter has timestamps.
+    pub fn times_gpu(&self) -> bool {
+        self.time_gpu && self.timestamps.is_some()
     }
 
     /// The view of `camera` with this scene's near plane (see [`osw_cull::view::near_of`]).
@@ -416,6 +453,7 @@ impl Renderer {
         }
         let mut enc = self.gpu.device.create_command_encoder(&Default::default());
         let query = self.fragment_query.as_ref().filter(|_| self.count_fragments);
+        let times = self.timestamps.as_ref().filter(|_| self.time_gpu);
         {
             let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
             let color_view = match pass {
@@ -445,7 +483,11 @@ impl Renderer {
                     }),
                     stencil_ops: None,
                 }),
-                timestamp_writes: None,
+                timestamp_writes: times.map(|(set, _, _)| wgpu::RenderPassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -467,6 +509,10 @@ impl Renderer {
             enc.resolve_query_set(set, 0..1, resolve, 0);
             enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(8));
         }
+        if let Some((set, resolve, staging)) = times {
+            enc.resolve_query_set(set, 0..2, resolve, 0);
+            enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(16));
+        }
         if self.overlap {
             self.gpu.wait()?;
         }
@@ -475,6 +521,11 @@ impl Renderer {
             Some((_, _, staging)) => stats.fragments = crate::readback::read(&self.gpu, staging, 8, bytemuck::pod_read_unaligned::<u64>)?,
             None if !self.overlap => self.gpu.wait()?,
             None => {}
+        }
+        if let Some((_, _, staging)) = times {
+            let [start, end] = crate::readback::read(&self.gpu, staging, 16, bytemuck::pod_read_unaligned::<[u64; 2]>)?;
+            let ns = (end.saturating_sub(start) as f64 * self.gpu.queue.get_timestamp_period() as f64) as u64;
+            stats.gpu_ns = Some(stats.gpu_ns.unwrap_or(0) + ns);
         }
         self.residency.trim();
         Ok(())

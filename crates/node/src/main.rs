@@ -44,6 +44,9 @@ struct Args {
     /// to test keyframes in parts.
     #[arg(long, hide = true, default_value_t = osw_wire::limits::KEYFRAME_PART_BYTES, value_name = "BYTES")]
     keyframe_part_bytes: usize,
+    /// Time OR's draws on the GPU with timestamps (`or_gpu_ms` in the statistics).
+    #[arg(long)]
+    gpu_times: bool,
     /// Write this node's per-frame statistics (CSV) here.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -86,6 +89,10 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let mut renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
     renderer.cluster_tests = a.agreed.cluster_tests;
+    renderer.time_gpu = a.gpu_times;
+    if a.gpu_times && !renderer.times_gpu() {
+        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", renderer.gpu.info.name);
+    }
 
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (events_tx, events) = std::sync::mpsc::channel();

@@ -21,7 +21,7 @@ use crate::roles::{Display, Duty, Peer, Step, keyframe_to_display};
 use osw_cull::delta::{Assembly, batches, diff};
 use osw_cull::frustum_cull;
 use osw_cull::payoff::Payoff;
-use osw_gpu::renderer::Renderer;
+use osw_gpu::renderer::{DrawStats, Renderer};
 use osw_render::packet;
 use osw_render::pass::{self, HcOptions, HcPass};
 use osw_render::results::NodeFrame;
@@ -138,8 +138,8 @@ impl Switch {
         if duty == Duty::Solo && cull {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let t = Instant::now();
-            f.nodes_drawn = pass::or(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?.nodes;
-            f.or_ms = ms(t);
+            let or = pass::or(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?;
+            (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
         }
         let mut pvs = Vec::new();
         let hc = if cull {
@@ -221,11 +221,11 @@ impl Switch {
         // This node is HC of the next frame: whether it culls is decided now, from the last
         // frame it culled; when it does not, OR draws nothing, and only follows V(i).
         let cull = self.payoff.as_mut().is_none_or(Payoff::cull);
-        let (mut drawn, mut or_ms) = (0, 0.0);
+        let (mut drawn, mut or_ms) = (DrawStats::default(), 0.0);
         let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn += pass::or(r, &view, ids, cam.tau_px, clear, scratch)?.nodes;
+                drawn = drawn.add(pass::or(r, &view, ids, cam.tau_px, clear, scratch)?);
                 or_ms += ms(t);
             }
             Ok(())
@@ -257,7 +257,17 @@ impl Switch {
         self.next = Some(cull);
         self.visible = next.finish(&self.visible).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
         self.io.roles.or_done(i);
-        Ok(Some(NodeFrame { frame: i, duty: Duty::Or, ms: ms(t), or_ms, nodes_drawn: drawn, rss_kb: rss_kb(), ..NodeFrame::default() }))
+        let or_gpu_ms = drawn.gpu_ms();
+        Ok(Some(NodeFrame {
+            frame: i,
+            duty: Duty::Or,
+            ms: ms(t),
+            or_ms,
+            or_gpu_ms,
+            nodes_drawn: drawn.nodes,
+            rss_kb: rss_kb(),
+            ..NodeFrame::default()
+        }))
     }
 
     /// Asks the peer for its visible set and waits for it (failover, docs/switch.md); `next` is the first frame

@@ -55,6 +55,10 @@ pub struct Args {
     /// pipeline-statistics query and a read-back a draw.
     #[arg(long)]
     fragments: bool,
+    /// Time OR's and RVG's draws on the GPU with timestamps (`or_gpu_ms`, `rvg_gpu_ms` in
+    /// stats.csv, their medians in summary.json): a read-back a draw, which waits for it.
+    #[arg(long)]
+    gpu_times: bool,
     /// Output directory: frames/NNNNN.png, stats.csv, pvs.txt, summary.json.
     #[arg(long)]
     out: PathBuf,
@@ -85,6 +89,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.fragments && !r.counts_fragments() {
         anyhow::bail!("--fragments: adapter {} has no pipeline statistics queries", r.gpu.info.name);
     }
+    r.time_gpu = a.gpu_times;
+    if a.gpu_times && !r.times_gpu() {
+        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);
+    }
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, a.mode.name());
     let spec = RunSpec {
@@ -108,6 +116,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             d.blocks_total,
             d.geometry_never_loaded_fraction * 100.0
         );
+    }
+    if let Some((or, rvg)) = s.render().and_then(|d| d.or_gpu_ms_median.zip(d.rvg_gpu_ms_median)) {
+        out!("gpu: OR's draws {or:.2} ms, RVG's {rvg:.2} ms a frame (medians, timestamps)");
     }
     if let Some(f) = s.render().and_then(|d| d.fragments_mean) {
         out!("fragments: RVG rasterised {f:.0} a frame, {:.2} a pixel", f / (s.width as f64 * s.height as f64).max(1.0));

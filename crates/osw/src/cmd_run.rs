@@ -49,6 +49,10 @@ pub struct Args {
     /// Do not write frame PNGs.
     #[arg(long)]
     no_frames: bool,
+    /// Time OR's and RVG's draws on the GPU with timestamps (`or_gpu_ms` in the node CSVs,
+    /// `rvg_gpu_ms` in stats.csv, their medians in summary.json): a read-back a draw.
+    #[arg(long)]
+    gpu_times: bool,
     /// Send the whole visible set every frame instead of deltas (the bandwidth comparison).
     #[arg(long)]
     full: bool,
@@ -137,8 +141,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let common = |name: &str| {
         let mut v: Vec<String> = vec!["--name".into(), name.into(), "--scene".into(), s(&a.scene), "--size".into(), size.clone()];
         v.extend(a.agreed.args());
-        if a.full {
-            v.push("--full".into());
+        for (on, flag) in [(a.full, "--full"), (a.gpu_times, "--gpu-times")] {
+            if on {
+                v.push(flag.into());
+            }
         }
         if let Some(t) = a.frame_timeout {
             v.extend(["--frame-timeout".into(), t.to_string()]);
@@ -172,7 +178,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(t) = a.frame_timeout {
         args_d.extend(["--frame-timeout".into(), t.to_string()]);
     }
-    for (on, flag) in [(a.no_frames, "--no-frames"), (a.window, "--window"), (a.interactive, "--interactive")] {
+    for (on, flag) in [(a.no_frames, "--no-frames"), (a.window, "--window"), (a.interactive, "--interactive"), (a.gpu_times, "--gpu-times")]
+    {
         if on {
             args_d.push(flag.into());
         }
@@ -240,6 +247,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut summary = Summary::read(&a.out)?;
     // Per-role stage times from the nodes' own statistics; a killed node wrote none.
     if let Details::Switch(sw) = &mut summary.of {
+        let mut or_gpu = Vec::new();
         for (file, hc, or) in [
             ("node-a.csv", &mut sw.node_a_hc_ms_median, &mut sw.node_a_or_ms_median),
             ("node-b.csv", &mut sw.node_b_hc_ms_median, &mut sw.node_b_or_ms_median),
@@ -248,8 +256,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             if path.exists() {
                 let frames: Vec<NodeFrame> = results::csv::read(&path)?;
                 (*hc, *or) = (duty_median_ms(&frames, Duty::Hc), duty_median_ms(&frames, Duty::Or));
+                or_gpu.extend(frames.iter().filter(|f| f.duty == Duty::Or).map(|f| f.or_gpu_ms));
             }
         }
+        sw.or_gpu_ms_median = osw_render::stats::gpu_median(or_gpu.into_iter());
     }
     summary.write(&a.out)?;
     let sw = summary.switch().with_context(|| format!("{}: not a switch run ({})", a.out.display(), summary.mode))?;

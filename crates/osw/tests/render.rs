@@ -363,3 +363,38 @@ fn ovc_budget_and_sampling_take_effect_and_say_so() {
     osw_err(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "vfc", "--budget", "1", "--out", "x"], "ovc's");
     osw_err(&["render", "--scene", s(&scene), "--path", s(&path), "--mode", "ovc", "--sampling", "0", "--out", "x"], "--sampling");
 }
+
+/// `--gpu-times`: OR's and RVG's draws timed by GPU timestamps (lavapipe has them), each at
+/// most the CPU time of its pass, which waits for it; the same frames as without.
+#[test]
+fn gpu_times_are_taken_per_pass_and_change_no_frame() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "plant", 150_000, 2);
+    let path = camera_path(&scene, "walk", 6);
+    let [timed, plain] = ["timed", "plain"].map(|n| d.path().join(n));
+    let args = ["render", "--scene", s(&scene), "--path", s(&path), "--mode", "prev", "--size", SIZE, "--always-cull"];
+    osw_ok(&[&args[..], &["--gpu-times", "--out", s(&timed)]].concat());
+    osw_ok(&[&args[..], &["--out", s(&plain)]].concat());
+    let col = |run: &Path, k: &str| csv_column(&run.join("stats.csv"), k);
+    let (or_gpu, or_cpu, rvg_gpu, rvg_cpu) =
+        (col(&timed, "or_gpu_ms"), col(&timed, "or_ms"), col(&timed, "rvg_gpu_ms"), col(&timed, "rvg_ms"));
+    for i in 0..6 {
+        assert!(rvg_gpu[i] > 0.0 && rvg_gpu[i] <= rvg_cpu[i], "frame {i}: RVG {} ms on the GPU, {} ms a pass", rvg_gpu[i], rvg_cpu[i]);
+        // Frame 0 has no V(i-1): OR draws nothing.
+        assert!(
+            i == 0 || (or_gpu[i] > 0.0 && or_gpu[i] <= or_cpu[i]),
+            "frame {i}: OR {} ms on the GPU, {} ms a pass",
+            or_gpu[i],
+            or_cpu[i]
+        );
+    }
+    let v = summary(&timed);
+    let r = v.render().unwrap();
+    assert!(r.rvg_gpu_ms_median.is_some_and(|m| m > 0.0) && r.or_gpu_ms_median.is_some(), "{r:?}");
+    assert!(summary(&plain).render().unwrap().rvg_gpu_ms_median.is_none());
+    assert_eq!(std::fs::read(timed.join("pvs.txt")).unwrap(), std::fs::read(plain.join("pvs.txt")).unwrap());
+    for i in 0..6 {
+        let f = |p: &Path| std::fs::read(p.join(format!("frames/{i:05}.png"))).unwrap();
+        assert!(f(&timed) == f(&plain), "frame {i}");
+    }
+}

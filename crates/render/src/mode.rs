@@ -199,7 +199,7 @@ impl ModeState {
                 let occluders = select_occluders(nodes, scene.bvh_count(), view, ACTIVE_OCCLUDERS);
                 let or = r.draw(view, &occluders, Pass::Depth, true)?;
                 let depth = r.target.read_depth(&r.gpu)?;
-                (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), or.nodes, or.triangles);
+                (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let pyramid = Pyramid::new(view.width, view.height, depth);
                 let Ok(hc) = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, finer: 0 }, &mut pvs);
@@ -211,8 +211,8 @@ impl ModeState {
                 let t = Instant::now();
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
                 let front = pass::or(r, view, &self.older, self.tau, true, &mut self.occluders)?;
-                let added = pass::or(r, view, &self.added, self.tau, false, &mut self.occluders)?;
-                (s.or_ms, s.or_nodes, s.or_triangles) = (ms(t), front.nodes + added.nodes, front.triangles + added.triangles);
+                let or = front.add(pass::or(r, view, &self.added, self.tau, false, &mut self.occluders)?);
+                (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
                 let hc = pass::hc(r, view, self.tau, opts, &self.visible, &mut pvs)?;
@@ -238,7 +238,7 @@ impl ModeState {
             Mode::Prev | Mode::Switch => pass::rvg(r, view, &pvs, cull, &mut self.clusters)?,
             _ => r.draw(view, &pvs, Pass::Color, true)?,
         };
-        s.rvg_ms = ms(t);
+        (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         (self.last_render_ms, self.frames) = (Some(s.rvg_ms), self.frames + 1);
         (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);

@@ -50,6 +50,10 @@ pub struct FrameStats {
     /// Fragments RVG's draw rasterised (osw_gpu's `DrawStats::fragments`: what a pass costs
     /// on lavapipe), with `osw render --fragments`; empty otherwise.
     pub fragments: Option<u64>,
+    /// GPU time of OR's and RVG's draws from timestamps, with `osw render --gpu-times`;
+    /// empty otherwise.
+    pub or_gpu_ms: Option<f64>,
+    pub rvg_gpu_ms: Option<f64>,
 }
 
 /// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
@@ -82,6 +86,12 @@ pub fn quantile(v: &[f64], q: f64) -> f64 {
 pub fn mean(v: impl IntoIterator<Item = f64>) -> f64 {
     let (sum, n) = v.into_iter().fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
     if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
+/// The median of the GPU times taken (a frame that drew nothing has none); none when none was.
+pub fn gpu_median(ms: impl Iterator<Item = Option<f64>>) -> Option<f64> {
+    let v: Vec<f64> = ms.flatten().collect();
+    (!v.is_empty()).then(|| quantile(&v, 0.5))
 }
 
 /// Culled clusters over all clusters tested, over every frame.
@@ -133,6 +143,8 @@ impl RenderSummary {
                 .map(|f| f.fragments.map(|n| n as f64))
                 .sum::<Option<f64>>()
                 .map(|sum| sum / frames.len().max(1) as f64),
+            or_gpu_ms_median: gpu_median(frames.iter().map(|f| f.or_gpu_ms)),
+            rvg_gpu_ms_median: gpu_median(frames.iter().map(|f| f.rvg_gpu_ms)),
             ..RenderSummary::default()
         }
     }

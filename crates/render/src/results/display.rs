@@ -12,6 +12,8 @@ pub struct DisplayFrame {
     /// RVG's gather and submit of this frame's draw, which waits for the draw before it (the
     /// display keeps one draw in flight: `osw_gpu::Renderer::overlap`).
     pub rvg_ms: f64,
+    /// RVG's draw on the GPU, from timestamps (`osw-display --gpu-times`); empty otherwise.
+    pub rvg_gpu_ms: Option<f64>,
     /// The HC node's time on the frame (OR first when it ran alone, HC, sending), and HC's
     /// passes (osw_render::pass::hc).
     pub hc_ms: f64,

@@ -27,6 +27,8 @@ pub struct NodeFrame {
     pub hc_traversal_ms: f64,
     pub hc_second_look_ms: f64,
     pub hc_retest_ms: f64,
+    /// OR's draws on the GPU, from timestamps (`osw-node --gpu-times`); empty otherwise.
+    pub or_gpu_ms: Option<f64>,
     pub nodes_drawn: u32,
     pub tests: u32,
     /// 1 when HC frustum culled only (cost-adaptive culling).

@@ -90,6 +90,12 @@ pub struct RenderSummary {
     /// RVG's fragments a frame, when counted (`osw render --fragments`); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fragments_mean: Option<f64>,
+    /// OR's and RVG's GPU time a frame from timestamps (`osw render --gpu-times`); absent
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub or_gpu_ms_median: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rvg_gpu_ms_median: Option<f64>,
 }
 
 /// `osw run`: the switch, as its display saw it, and the nodes' stage times.
@@ -125,6 +131,12 @@ pub struct SwitchSummary {
     pub clock_offset_b_us: f64,
     pub clock_rtt_a_us: f64,
     pub clock_rtt_b_us: f64,
+    /// RVG's GPU time a frame from timestamps (`osw run --gpu-times`), and OR's over both
+    /// nodes' OR frames (merged in by `osw run`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rvg_gpu_ms_median: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub or_gpu_ms_median: Option<f64>,
     /// Each node's median HC and OR frame time from its `node-*.csv`, merged in by `osw run`;
     /// null when the node wrote none (it was killed, or the display was started alone).
     #[serde(deserialize_with = "required")]
