@@ -65,9 +65,11 @@ pub struct DrawStats {
     pub gpu_ns: Option<u64>,
 }
 
-impl DrawStats {
-    /// Both draws' counts and times.
-    pub fn add(self, o: DrawStats) -> DrawStats {
+/// Both draws' counts and times.
+impl std::ops::Add for DrawStats {
+    type Output = DrawStats;
+
+    fn add(self, o: DrawStats) -> DrawStats {
         DrawStats {
             nodes: self.nodes + o.nodes,
             triangles: self.triangles + o.triangles,
@@ -80,7 +82,9 @@ impl DrawStats {
             },
         }
     }
+}
 
+impl DrawStats {
     /// The draws' GPU time in ms, where timed.
     pub fn gpu_ms(&self) -> Option<f64> {
         self.gpu_ns.map(|ns| ns as f64 / 1e6)
@@ -288,7 +292,7 @@ impl Renderer {
     pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
         let opaque = self.draw_opaque(view, ids, pass, clear)?;
         match pass {
-            Pass::Color | Pass::Tinted(_) => Ok(opaque.add(self.draw_translucent(view, ids, pass, false)?)),
+            Pass::Color | Pass::Tinted(_) => Ok(opaque + self.draw_translucent(view, ids, pass, false)?),
             Pass::Depth | Pass::Item => Ok(opaque),
         }
     }
@@ -310,7 +314,7 @@ impl Renderer {
                 let first = self.draw_opaque(view, a, pass, clear)?;
                 self.residency.next_epoch();
                 let second = self.draw_opaque(view, b, pass, false)?;
-                Ok(first.add(second))
+                Ok(first + second)
             }
             r => r,
         }
@@ -400,7 +404,7 @@ impl Renderer {
         // The triangle tests ran on what the two passes drew.
         stats.clusters.backface_culled += first.clusters.backface_culled;
         stats.clusters.small_culled += first.clusters.small_culled;
-        Ok(stats.add(self.draw_translucent(view, ids, pass, false)?))
+        Ok(stats + self.draw_translucent(view, ids, pass, false)?)
     }
 
     /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`

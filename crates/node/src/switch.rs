@@ -225,7 +225,7 @@ impl Switch {
         let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn = drawn.add(pass::or(r, &view, ids, cam.tau_px, clear, scratch)?);
+                drawn = drawn + pass::or(r, &view, ids, cam.tau_px, clear, scratch)?;
                 or_ms += ms(t);
             }
             Ok(())

@@ -211,7 +211,7 @@ impl ModeState {
                 let t = Instant::now();
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
                 let front = pass::or(r, view, &self.older, self.tau, true, &mut self.occluders)?;
-                let or = front.add(pass::or(r, view, &self.added, self.tau, false, &mut self.occluders)?);
+                let or = front + pass::or(r, view, &self.added, self.tau, false, &mut self.occluders)?;
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
