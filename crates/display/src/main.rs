@@ -212,8 +212,10 @@ fn run(a: &Args) -> anyhow::Result<()> {
         u.finish();
     }
     frames.cluster.send_all(osw_wire::Frame::new(&Message::Goodbye(Goodbye { reason: "walk done".into() }))?);
-    write_outputs(a, &set, &scene, &rows, &pvs_txt, &frames.cluster)?;
-    std::thread::sleep(Duration::from_millis(50));
+    let written = write_outputs(a, &set, &scene, &rows, &pvs_txt, &frames.cluster);
+    // The goodbye goes out before the process does (see osw_wire::net::flush).
+    drop(frames);
+    osw_wire::net::flush(Duration::from_secs(1));
     rt.shutdown_timeout(Duration::from_millis(200));
-    Ok(())
+    written
 }

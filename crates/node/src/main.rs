@@ -125,12 +125,14 @@ fn run(a: &Args) -> anyhow::Result<()> {
     if roles.peer_losses + roles.peer_rejoins > 0 || dropped > 0 {
         tracing::warn!("{} peer losses, {} rejoins, {dropped} cameras dropped", roles.peer_losses, roles.peer_rejoins);
     }
+    // The goodbye goes out before the process does: the links' senders dropped, their writers
+    // send what is queued and stop.
+    drop(sw);
+    osw_wire::net::flush(std::time::Duration::from_secs(1));
+    rt.shutdown_timeout(std::time::Duration::from_millis(200));
     let log = log?;
     if let Some(p) = &a.stats {
         osw_render::results::csv::write(p, &log)?;
     }
-    // Let the writers flush the goodbye.
-    std::thread::sleep(std::time::Duration::from_millis(50));
-    rt.shutdown_timeout(std::time::Duration::from_millis(200));
     Ok(())
 }

@@ -117,6 +117,39 @@ pub async fn probe_clock(c: &mut Conn, samples: usize, within: Duration) -> Resu
     estimate(&got).ok_or_else(|| NetError::Timeout(format!("no clock samples from {peer}")))
 }
 
+/// Connection writers still running in this process ([`flush`]).
+static WRITERS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// Counts a writer while it runs, also when it is aborted.
+struct Writing;
+
+impl Writing {
+    fn start() -> Writing {
+        WRITERS.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
+        Writing
+    }
+}
+
+impl Drop for Writing {
+    fn drop(&mut self) {
+        WRITERS.fetch_sub(1, std::sync::atomic::Ordering::AcqRel);
+    }
+}
+
+/// Waits, at most `within`, until every connection's writer has sent what was queued before
+/// its sender was dropped and stopped: a process that said goodbye drops its senders, flushes,
+/// then exits. Returns whether they all stopped in time.
+pub fn flush(within: Duration) -> bool {
+    let end = std::time::Instant::now() + within;
+    while WRITERS.load(std::sync::atomic::Ordering::Acquire) > 0 {
+        if std::time::Instant::now() >= end {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    true
+}
+
 /// Runs a connection after its handshake until it fails, closes or falls silent for
 /// [`SILENCE`]: a writer sends `out`'s messages, a heartbeat when it has had nothing to send
 /// for [`HEARTBEAT`], and answers clock probes at once (ahead of queued traffic, so the frame
@@ -135,7 +168,9 @@ pub async fn run_connection(
     let (pong_tx, mut pong_rx) = tokio::sync::mpsc::unbounded_channel::<Pong>();
     // A pong and a heartbeat are a few bytes: they always encode.
     let small = |m: Message| Frame::new(&m).expect("a pong or a heartbeat fits a frame");
+    let writing = Writing::start();
     let writer = tokio::spawn(async move {
+        let _writing = writing;
         loop {
             let f = tokio::select! {
                 biased;
