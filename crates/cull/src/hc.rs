@@ -53,6 +53,13 @@ pub struct HcStats {
     pub adaptive_culled: u32,
     /// Boxes taken as visible untested because the culling budget was spent (Bartz 1999 eq. 2).
     pub over_budget: u32,
+    /// The traversal's tests by where they fall, summing to `tests - retests`: nodes of V(i-1)
+    /// (owners of its LODs, and nodes above it whose LOD now meets tau), their siblings off
+    /// the paths to V(i-1) (occluded, or coming into view), and nodes inside what this frame
+    /// found visible anew (from the root, every test).
+    pub tests_front: u32,
+    pub tests_siblings: u32,
+    pub tests_new: u32,
 }
 
 /// Runs HC from the root for `view` at `tau` pixels of error, testing every box in the
@@ -65,7 +72,15 @@ pub fn hardware_cull<E>(
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
-    traverse(nodes, view, tau, &[], &HashSet::new(), tester, pvs)
+    traverse(nodes, view, tau, &[], &Coherence::default(), tester, pvs)
+}
+
+/// What V(i-1) says of the hierarchy: the BVH nodes above it, taken as visible untested, and
+/// the nodes owning its LODs.
+#[derive(Default)]
+struct Coherence {
+    above: HashSet<NodeId>,
+    owners: HashSet<NodeId>,
 }
 
 /// [`hardware_cull`] against the frustum alone (vfc, and a frame whose occlusion culling does
@@ -87,7 +102,8 @@ pub fn hardware_cull_from<E>(
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
-    traverse(nodes, view, tau, previous, &above(nodes, previous), tester, pvs)
+    let owners = previous.iter().filter_map(|&id| owner(nodes, id)).collect();
+    traverse(nodes, view, tau, previous, &Coherence { above: above(nodes, previous), owners }, tester, pvs)
 }
 
 /// The BVH node that owns LOD or HLOD `id`: a leaf for its LODs, a group for its HLOD.
@@ -118,10 +134,11 @@ fn traverse<E>(
     view: &View,
     tau: f64,
     previous: &[NodeId],
-    above: &HashSet<NodeId>,
+    coherence: &Coherence,
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
+    let above = &coherence.above;
     let mut stats = HcStats::default();
     let (mut open, mut batch, mut answers) = (vec![0u32], Vec::new(), Vec::new());
     // The PVS's LODs not in V(i-1) found since the tester last took some, and where this
@@ -143,7 +160,18 @@ fn traverse<E>(
                     stats.untested += 1;
                     open.extend(nodes[id as usize].children());
                 }
-                _ => batch.push(id),
+                _ => {
+                    let parent = nodes[id as usize].parent;
+                    let place = if above.contains(&id) || coherence.owners.contains(&id) {
+                        &mut stats.tests_front
+                    } else if above.contains(&parent) {
+                        &mut stats.tests_siblings
+                    } else {
+                        &mut stats.tests_new
+                    };
+                    *place += u32::from(tester.tests());
+                    batch.push(id);
+                }
             }
         }
         if batch.is_empty() {
@@ -494,6 +522,14 @@ pub(crate) mod tests {
             proptest::prop_assert_eq!(&got, &want);
             proptest::prop_assert_eq!(&again, &want);
             proptest::prop_assert!(coherent.tests <= root_stats.tests, "{coherent:?} vs {root_stats:?}");
+            // Every test falls in one place; from the root every test is new; frustum culling
+            // makes none.
+            let mut none = Vec::new();
+            let frustum = hardware_cull(nodes, &this, tau, &mut AllVisible, &mut none).unwrap();
+            for s in [&root_stats, &coherent, &frustum] {
+                proptest::prop_assert_eq!(s.tests_front + s.tests_siblings + s.tests_new, s.tests, "{:?}", s);
+            }
+            proptest::prop_assert_eq!(root_stats.tests_new, root_stats.tests);
         }
     }
 }

@@ -92,6 +92,10 @@ struct Row {
     frame_ms_median: f64,
     frame_ms_p95: f64,
     hc_tests_mean: f64,
+    /// Of those, the retests after the traversal, and the traversal's tests of V(i-1)'s nodes,
+    /// their siblings and what came into view (one GPU's runs: prev; none for the switch).
+    hc_retests_mean: Option<f64>,
+    hc_tests_where: Option<[f64; 3]>,
     hc_ms_median: f64,
     or_ms_median: f64,
     rvg_ms_median: f64,
@@ -190,6 +194,8 @@ fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row>
         frame_ms_median: s.frame_ms_median,
         frame_ms_p95: s.frame_ms_p95,
         hc_tests_mean: s.tests_mean,
+        hc_retests_mean: s.render().map(|r| r.retests_mean),
+        hc_tests_where: s.render().map(|r| [r.tests_front_mean, r.tests_siblings_mean, r.tests_new_mean]),
         hc_ms_median: s.hc_ms_median,
         or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (no node statistics with OR frames)", dir.display()))?,
         rvg_ms_median: s.rvg_ms_median,
@@ -296,13 +302,17 @@ fn markdown(s: &Sweep, a: &Args) -> String {
             sc.file_bytes as f64 / 1e9
         );
     }
-    let columns: [Column; 8] = [
+    let columns: [Column; 10] = [
         ("frame ms", |r| format!("{:.1}", r.frame_ms_median)),
         ("p95 ms", |r| format!("{:.1}", r.frame_ms_p95)),
         ("OR ms", |r| format!("{:.1}", r.or_ms_median)),
         ("HC ms", |r| format!("{:.1}", r.hc_ms_median)),
         ("RVG ms", |r| format!("{:.1}", r.rvg_ms_median)),
         ("HC tests", |r| format!("{:.0}", r.hc_tests_mean)),
+        ("retests", |r| r.hc_retests_mean.map_or("-".into(), |t| format!("{t:.0}"))),
+        ("traversal: V(i-1) / siblings / new", |r| {
+            r.hc_tests_where.map_or("-".into(), |w| format!("{:.0} / {:.0} / {:.0}", w[0], w[1], w[2]))
+        }),
         ("triangles drawn", |r| format!("{:.0}", r.triangles_drawn_mean)),
         ("peak MB", |r| r.peak_rss_kb.values().map(|kb| format!("{:.0}", *kb as f64 * 1.024e-3)).collect::<Vec<_>>().join(" / ")),
     ];

@@ -249,6 +249,7 @@ impl ModeState {
         (s.triangles_backface_culled, s.triangles_small_culled) = (c.backface_culled, c.small_culled);
         (s.tests, s.retests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
             (hc.tests, hc.retests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
+        (s.tests_front, s.tests_siblings, s.tests_new) = (hc.tests_front, hc.tests_siblings, hc.tests_new);
         (s.adaptive_culled, s.over_budget) = (hc.adaptive_culled, hc.over_budget);
         self.older = std::mem::replace(&mut self.visible, pvs);
         Ok(s)

@@ -27,6 +27,11 @@ pub struct FrameStats {
     pub tests: u32,
     /// Of `tests`, those HC made again after its traversal (small boxes and additions).
     pub retests: u32,
+    /// The traversal's tests by where they fall (osw_cull::HcStats): nodes of V(i-1), their
+    /// siblings, and nodes inside what this frame found visible anew; prev's.
+    pub tests_front: u32,
+    pub tests_siblings: u32,
+    pub tests_new: u32,
     pub levels: u32,
     pub frustum_culled: u32,
     pub occlusion_culled: u32,
@@ -138,6 +143,10 @@ impl RenderSummary {
             adaptive_culled_mean: mean(frames.iter().map(|f| f.adaptive_culled as f64)),
             over_budget_mean: mean(frames.iter().map(|f| f.over_budget as f64)),
             hc_tests_per_second_median: quantile(&rates, 0.5),
+            retests_mean: mean(frames.iter().map(|f| f.retests as f64)),
+            tests_front_mean: mean(frames.iter().map(|f| f.tests_front as f64)),
+            tests_siblings_mean: mean(frames.iter().map(|f| f.tests_siblings as f64)),
+            tests_new_mean: mean(frames.iter().map(|f| f.tests_new as f64)),
             fragments_mean: frames
                 .iter()
                 .map(|f| f.fragments.map(|n| n as f64))

@@ -96,6 +96,16 @@ pub struct RenderSummary {
     pub or_gpu_ms_median: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rvg_gpu_ms_median: Option<f64>,
+    /// Of `tests_mean`, the retests after the traversal, and the traversal's tests of V(i-1)'s
+    /// nodes, of their siblings and of what came into view (prev; 0 in the other modes).
+    #[serde(default)]
+    pub retests_mean: f64,
+    #[serde(default)]
+    pub tests_front_mean: f64,
+    #[serde(default)]
+    pub tests_siblings_mean: f64,
+    #[serde(default)]
+    pub tests_new_mean: f64,
 }
 
 /// `osw run`: the switch, as its display saw it, and the nodes' stage times.
