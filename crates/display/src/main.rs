@@ -58,7 +58,7 @@ struct Args {
     no_frames: bool,
     /// The settings the nodes run with (the display draws with the cluster tests).
     #[command(flatten)]
-    agreed: osw_render::settings::Agreed,
+    agreed: osw_render::settings::AgreedArgs,
     /// Time RVG's draw on the GPU with timestamps (`rvg_gpu_ms` in stats.csv).
     #[arg(long)]
     gpu_times: bool,
@@ -111,8 +111,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let addrs = &node_addresses(a, &set)?;
     let path = a.path.as_deref().map(osw_scene::path::read).transpose()?.unwrap_or_default();
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
-    a.agreed.check().map_err(anyhow::Error::msg)?;
-    let me = Hello::new(scene.content_hash(), "display", Role::Display, set.token.clone(), a.agreed.said(set.size));
+    let agreed = a.agreed.resolve(&set.config).map_err(anyhow::Error::msg)?;
+    let me = Hello::new(scene.content_hash(), "display", Role::Display, set.token.clone(), agreed.said(set.size));
     let (mut ui, gpu) = if a.window || a.interactive {
         let (window, gpu) = window::Window::open("osw walkthrough", w, h, a.cluster.adapter.as_deref())?;
         let controls = a.interactive.then(|| {
@@ -124,7 +124,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         (None, osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?)
     };
     let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
-    r.cluster_tests = a.agreed.cluster_tests;
+    r.cluster_tests = agreed.cluster_tests;
     r.time_gpu = a.gpu_times;
     if a.gpu_times && !r.times_gpu() {
         anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);

@@ -35,7 +35,7 @@ struct Args {
     #[arg(long)]
     full: bool,
     #[command(flatten)]
-    agreed: osw_render::settings::Agreed,
+    agreed: osw_render::settings::AgreedArgs,
     /// Longest wait for the peer or the display, seconds (a first frame at full detail of a
     /// huge scene may need more than the default).
     #[arg(long, default_value_t = osw_wire::limits::FRAME_WAIT.as_secs_f64(), value_name = "SECS")]
@@ -84,11 +84,11 @@ fn run(a: &Args) -> anyhow::Result<()> {
     };
     let (w, h) = set.size;
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
-    a.agreed.check().map_err(anyhow::Error::msg)?;
-    let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone(), a.agreed.said(set.size));
+    let agreed = a.agreed.resolve(cfg).map_err(anyhow::Error::msg)?;
+    let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone(), agreed.said(set.size));
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let mut renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
-    renderer.cluster_tests = a.agreed.cluster_tests;
+    renderer.cluster_tests = agreed.cluster_tests;
     renderer.time_gpu = a.gpu_times;
     if a.gpu_times && !renderer.times_gpu() {
         anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", renderer.gpu.info.name);
@@ -109,9 +109,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
     io.wait =
         std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
     let mut sw = switch::Switch::new(set.batch, a.full, renderer, io);
-    sw.adaptive = a.agreed.adaptive;
+    sw.adaptive = agreed.adaptive;
     sw.keyframe_part_bytes = a.keyframe_part_bytes.clamp(5, osw_wire::limits::KEYFRAME_PART_BYTES);
-    sw.payoff = (!a.agreed.always_cull).then(|| osw_cull::payoff::Payoff::new(osw_cull::payoff::CullCost::at(w as u64 * h as u64)));
+    sw.payoff = (!agreed.always_cull).then(|| osw_cull::payoff::Payoff::new(osw_cull::payoff::CullCost::at(w as u64 * h as u64)));
     let log = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);

@@ -57,7 +57,7 @@ pub struct Args {
     #[arg(long)]
     full: bool,
     #[command(flatten)]
-    agreed: osw_render::settings::Agreed,
+    agreed: osw_render::settings::AgreedArgs,
     /// Longest wait for one frame, seconds: the display gives up after it (a first frame at
     /// full detail of a billion triangles needs more than the default).
     #[arg(long, value_name = "SECS")]
@@ -133,14 +133,22 @@ pub fn play(a: Args) -> anyhow::Result<()> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    a.agreed.check().map_err(anyhow::Error::msg)?;
+    let agreed = a.agreed.resolve(&osw_wire::config::Config::default()).map_err(anyhow::Error::msg)?;
     std::fs::create_dir_all(&a.out)?;
     let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
     let s = |p: &Path| p.display().to_string();
-    let size = format!("{}x{}", a.size.0, a.size.1);
+    // The settings the three processes share, as the cluster configuration they read; what
+    // differs between them (names, addresses, outputs) goes as flags.
+    let config = a.out.join("cluster.toml");
+    let shared = osw_wire::config::Config {
+        scene: Some(a.scene.clone()),
+        tau: Some(a.tau),
+        size: Some(format!("{}x{}", a.size.0, a.size.1)),
+        ..Default::default()
+    };
+    std::fs::write(&config, agreed.into_config(shared).to_toml()).with_context(|| format!("writing {}", config.display()))?;
     let common = |name: &str| {
-        let mut v: Vec<String> = vec!["--name".into(), name.into(), "--scene".into(), s(&a.scene), "--size".into(), size.clone()];
-        v.extend(a.agreed.args());
+        let mut v: Vec<String> = vec!["--config".into(), s(&config), "--name".into(), name.into(), "--listen".into(), "127.0.0.1:0".into()];
         for (on, flag) in [(a.full, "--full"), (a.gpu_times, "--gpu-times")] {
             if on {
                 v.push(flag.into());
@@ -159,19 +167,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     args_b.extend(["--peer".into(), addr_a.clone(), "--stats".into(), s(&a.out.join("node-b.csv"))]);
     let mut pb = spawn("node b", &node, &args_b, &a.out)?;
     let addr_b = address(&mut pb)?;
-    let mut args_d = vec![
-        "--scene".into(),
-        s(&a.scene),
-        "--nodes".into(),
-        format!("{addr_a},{addr_b}"),
-        "--tau".into(),
-        a.tau.to_string(),
-        "--size".into(),
-        size,
-        "--out".into(),
-        s(&a.out),
-    ];
-    args_d.extend(a.agreed.args());
+    let mut args_d = vec!["--config".into(), s(&config), "--nodes".into(), format!("{addr_a},{addr_b}"), "--out".into(), s(&a.out)];
     if let Some(p) = &a.path {
         args_d.extend(["--path".into(), s(p)]);
     }

@@ -214,7 +214,9 @@ fn a_killed_node_is_survived_then_reported_by_name() {
         .unwrap();
     // Once a tenth of the path is displayed (osw run says so without a terminal), kill node b:
     // node a runs both roles to the end of the path.
-    let pattern = format!("--name b --scene {}", s(&scene));
+    // osw run starts each process with the cluster configuration it writes into the run.
+    let config = out.join("cluster.toml");
+    let pattern = format!("--config {} --name b", s(&config));
     let (tx, said) = std::sync::mpsc::channel();
     let stdout = run.stdout.take().unwrap();
     std::thread::spawn(move || {
@@ -248,7 +250,7 @@ fn a_killed_node_is_survived_then_reported_by_name() {
     assert_eq!(rows.len(), 600, "the display did not get every frame");
     assert!(rows.iter().any(|r| num(r, "degraded") == 1.0), "no degraded frame recorded");
     std::thread::sleep(Duration::from_millis(300));
-    let left = std::process::Command::new("pgrep").args(["-f", s(&scene)]).output().unwrap();
+    let left = std::process::Command::new("pgrep").args(["-f", s(&config)]).output().unwrap();
     assert!(left.stdout.is_empty(), "processes left behind: {}", String::from_utf8_lossy(&left.stdout));
 }
 

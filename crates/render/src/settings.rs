@@ -1,36 +1,59 @@
 //! The settings of a switch run that its three processes must share, declared once for
-//! `osw run`, `osw-node` and `osw-display`, said in every hello and compared there field by
-//! field (osw_wire::net::handshake): two nodes that cull with different thresholds would make
-//! frames that depend on which node was HC, and nothing else would notice.
+//! `osw run`, `osw-node` and `osw-display` (flags over the cluster configuration over
+//! defaults), said in every hello and compared there field by field
+//! (osw_wire::net::handshake): two nodes that cull with different thresholds would make frames
+//! that depend on which node was HC, and nothing else would notice. `osw run` writes them into
+//! the cluster configuration the three processes read.
 
 use osw_cull::cluster::ClusterTests;
+use osw_wire::config::Config;
 
+/// The settings as flags; each overrides the configuration's value.
 #[derive(clap::Args, Clone, Copy, Debug, Default, PartialEq)]
-pub struct Agreed {
+pub struct AgreedArgs {
     /// Adaptive culling in HC's exact tests (Bartz 1999 eq. 1): boxes whose visible pixels, as a
     /// share of their screen rectangle and discounted by depth, fall below T count as hidden:
-    /// time bought with error. 0 is conservative.
-    #[arg(long, default_value_t = 0.0, value_name = "T")]
-    pub adaptive: f64,
+    /// time bought with error. 0 is conservative [default: the config's, else 0].
+    #[arg(long, value_name = "T")]
+    pub adaptive: Option<f64>,
     /// Occlusion culling on every frame, as the papers run it. By default a node that culled
     /// fewer triangles than its culling cost frustum culls only for its next frames (as `osw
-    /// render --always-cull`); summary.json's `cull_skipped_frames` counts them.
+    /// render --always-cull`); summary.json's `cull_skipped_frames` counts them [default: the
+    /// config's `always_cull`, else off].
     #[arg(long)]
     pub always_cull: bool,
     /// Cluster tests of the passes that draw, in the nodes and the display: as `osw render
-    /// --cluster-tests` (`occlusion` is RVG's two passes, in the display).
-    #[arg(long, default_value_t = ClusterTests::default(), value_name = "LIST")]
+    /// --cluster-tests` (`occlusion` is RVG's two passes, in the display) [default: the
+    /// config's, else frustum,cone,backface,small].
+    #[arg(long, value_name = "LIST")]
+    pub cluster_tests: Option<ClusterTests>,
+}
+
+/// The settings a run agrees on.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Agreed {
+    pub adaptive: f64,
+    pub always_cull: bool,
     pub cluster_tests: ClusterTests,
 }
 
-impl Agreed {
-    pub fn check(&self) -> Result<(), String> {
-        if !(self.adaptive >= 0.0 && self.adaptive.is_finite()) {
-            return Err(format!("--adaptive must be a finite number >= 0, got {}", self.adaptive));
+impl AgreedArgs {
+    /// Flags over `config` over defaults, checked; errors name the setting.
+    pub fn resolve(&self, config: &Config) -> Result<Agreed, String> {
+        let cluster_tests = match (self.cluster_tests, &config.cluster_tests) {
+            (Some(t), _) => t,
+            (None, Some(t)) => t.parse().map_err(|e| format!("cluster_tests {t:?}: {e}"))?,
+            (None, None) => ClusterTests::default(),
+        };
+        let adaptive = self.adaptive.or(config.adaptive).unwrap_or(0.0);
+        if !(adaptive >= 0.0 && adaptive.is_finite()) {
+            return Err(format!("--adaptive must be a finite number >= 0, got {adaptive}"));
         }
-        Ok(())
+        Ok(Agreed { adaptive, always_cull: self.always_cull || config.always_cull.unwrap_or(false), cluster_tests })
     }
+}
 
+impl Agreed {
     /// What a hello says: each setting as its flag and value, with the image size.
     pub fn said(&self, size: (u32, u32)) -> Vec<(String, String)> {
         [
@@ -43,13 +66,14 @@ impl Agreed {
         .into()
     }
 
-    /// The flags that give these settings to a process (`osw run` starting the cluster).
-    pub fn args(&self) -> Vec<String> {
-        let mut v = vec!["--adaptive".into(), self.adaptive.to_string(), "--cluster-tests".into(), self.cluster_tests.to_string()];
-        if self.always_cull {
-            v.push("--always-cull".into());
+    /// `config` with these settings written into it (`osw run`'s cluster configuration).
+    pub fn into_config(self, config: Config) -> Config {
+        Config {
+            adaptive: Some(self.adaptive),
+            always_cull: Some(self.always_cull),
+            cluster_tests: Some(self.cluster_tests.to_string()),
+            ..config
         }
-        v
     }
 }
 
@@ -61,15 +85,25 @@ mod tests {
     #[derive(Parser)]
     struct Cli {
         #[command(flatten)]
-        agreed: Agreed,
+        agreed: AgreedArgs,
+    }
+
+    fn parse(args: &[&str]) -> AgreedArgs {
+        Cli::try_parse_from(std::iter::once("x").chain(args.iter().copied())).unwrap().agreed
     }
 
     #[test]
-    fn the_flags_give_back_the_settings() {
+    fn flags_override_the_configuration_which_overrides_the_defaults() {
+        assert_eq!(parse(&[]).resolve(&Config::default()).unwrap(), Agreed::default());
         let a = Agreed { adaptive: 0.25, always_cull: true, cluster_tests: "frustum,small".parse().unwrap() };
-        let back = Cli::try_parse_from(std::iter::once("x".to_string()).chain(a.args())).unwrap().agreed;
-        assert_eq!(back, a);
-        assert_eq!(back.said((4, 3)), a.said((4, 3)));
-        assert_eq!(Cli::try_parse_from(["x"]).unwrap().agreed, Agreed::default(), "the defaults");
+        let written = a.into_config(Config::default());
+        assert_eq!(parse(&[]).resolve(&written).unwrap(), a, "the configuration osw run writes gives the settings back");
+        let text = written.to_toml();
+        assert_eq!(Config::parse(&text).unwrap(), written, "{text}");
+        let over = parse(&["--adaptive", "0.5", "--cluster-tests", "cone"]).resolve(&written).unwrap();
+        assert_eq!(over, Agreed { adaptive: 0.5, cluster_tests: "cone".parse().unwrap(), ..a });
+        assert!(parse(&["--adaptive=-1"]).resolve(&Config::default()).unwrap_err().contains("--adaptive"));
+        let bad = Config { cluster_tests: Some("frustum,colour".into()), ..Config::default() };
+        assert!(parse(&[]).resolve(&bad).unwrap_err().contains("cluster_tests"));
     }
 }

@@ -7,6 +7,9 @@
 //! size = "1024x1024"
 //! batch = 1024
 //! token = "secret"            # optional: every connection must present it
+//! adaptive = 0.0              # the settings every process must agree on (`osw run` writes
+//! always_cull = false         # them; each process's flags override them)
+//! cluster_tests = "frustum,cone,backface,small"
 //! [nodes.a]
 //! listen = "127.0.0.1:7101"   # loopback by default: reachable from this host only
 //! address = "127.0.0.1:7101"  # where the peer and the display connect
@@ -16,7 +19,7 @@
 //! ```
 
 use crate::limits::DEFAULT_BATCH_IDS;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -83,7 +86,7 @@ impl ClusterArgs {
     }
 }
 
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
     pub scene: Option<PathBuf>,
@@ -91,11 +94,16 @@ pub struct Config {
     pub size: Option<String>,
     pub batch: Option<usize>,
     pub token: Option<String>,
-    #[serde(default)]
+    /// The settings every process must agree on (`osw_render::settings`): adaptive culling's
+    /// threshold, occlusion culling on every frame, the cluster tests.
+    pub adaptive: Option<f64>,
+    pub always_cull: Option<bool>,
+    pub cluster_tests: Option<String>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub nodes: BTreeMap<String, NodeAddress>,
 }
 
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct NodeAddress {
     pub listen: String,
@@ -113,6 +121,12 @@ impl Config {
             return Err(format!("tau {} must be a finite number >= 0", c.tau.unwrap_or_default()));
         }
         Ok(c)
+    }
+
+    /// The configuration as TOML, as [`Config::parse`] reads it.
+    pub fn to_toml(&self) -> String {
+        // Paths, numbers and strings: every field has a TOML form.
+        toml::to_string(self).expect("a configuration serialises")
     }
 
     pub fn load(path: &Path) -> Result<Config, String> {
