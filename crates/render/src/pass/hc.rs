@@ -66,6 +66,9 @@ const HYBRID_SECOND_FINER: u32 = 6;
 /// back and the pyramid rebuilt: about as much as drawing them costs again).
 struct HybridTester<'a> {
     r: &'a mut Renderer,
+    /// The renderer's scene, held apart so that a test reads the node table while the tester
+    /// holds the renderer.
+    nodes: &'a [osw_scene::NodeRecord],
     pyramid: Pyramid,
     min: usize,
     /// The new occluders drawn so far (the retest need not draw them again).
@@ -82,8 +85,7 @@ impl VisibilityTester for HybridTester<'_> {
     type Error = RenderError;
 
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) -> Result<(), RenderError> {
-        let scene = std::sync::Arc::clone(&self.r.scene);
-        let Ok(()) = HzbTester { nodes: scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
+        let Ok(()) = HzbTester { nodes: self.nodes, pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
         Ok(())
     }
 
@@ -220,7 +222,7 @@ fn traverse(
         t.stats = frustum_cull(nodes, view, tau, pvs);
     } else if opts.test == HcTest::Hybrid {
         let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
-        let mut tester = HybridTester { r, pyramid, min: opts.new_occluders_min, drawn: Vec::new() };
+        let mut tester = HybridTester { r, nodes, pyramid, min: opts.new_occluders_min, drawn: Vec::new() };
         t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs)?;
         t.drawn = tester.drawn;
         t.drawn.sort_unstable();
