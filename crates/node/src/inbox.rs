@@ -230,15 +230,16 @@ impl Inbox {
         while let Some((m, _)) = self.peer_queue.pop_front() {
             if let Message::Keyframe(k) = m {
                 let ids = k.ids.ids(max_id)?;
-                let at = self.rejoin.get_or_insert_with(|| (k.frame, Assembly::default()));
-                if at.0 != k.frame {
-                    *at = (k.frame, Assembly::default());
-                }
-                at.1.keyframe(&[], k.part, k.parts, ids).map_err(WireError::BadIds)?;
+                // A part of another frame's keyframe starts that one afresh.
+                let (frame, mut parts) = match self.rejoin.take() {
+                    Some((f, a)) if f == k.frame => (f, a),
+                    _ => (k.frame, Assembly::default()),
+                };
+                parts.keyframe(&[], k.part, k.parts, ids).map_err(WireError::BadIds)?;
                 if k.part + 1 == k.parts {
-                    let (frame, parts) = self.rejoin.take().expect("held above");
                     return Ok(Some((frame, parts.finish(&[]).map_err(WireError::BadIds)?)));
                 }
+                self.rejoin = Some((frame, parts));
             }
         }
         Ok(None)

@@ -159,9 +159,11 @@ impl Keyframe {
     /// `max_bytes` ([`crate::limits::KEYFRAME_PART_BYTES`] on the wire). An empty set is one
     /// empty part.
     pub fn parts(frame: u64, ids: &[u32], max_bytes: usize) -> Vec<Message> {
-        let runs = crate::ids::split(ids, max_bytes);
-        let parts = runs.len().max(1) as u32;
-        let runs = if runs.is_empty() { vec![ids] } else { runs };
+        let mut runs = crate::ids::split(ids, max_bytes);
+        if runs.is_empty() {
+            runs.push(ids);
+        }
+        let parts = runs.len() as u32;
         runs.iter()
             .enumerate()
             .map(|(k, r)| Message::Keyframe(Keyframe { frame, part: k as u32, parts, ids: IdList::from_ids(r) }))
