@@ -4,7 +4,7 @@
 //! wound outwards), cover no pixel that another triangle of the frame does not cover nearer, so
 //! they are skipped. Inside the clusters kept, [`crate::triangle`] drops the triangles that face
 //! away or cover no pixel centre. RVG can also skip clusters hidden behind what it drew first
-//! (two passes, as niagara: `osw_gpu::Renderer::draw_visible`), remembering which were visible
+//! (two passes, as niagara: `osw_render::pass::rvg`), remembering which were visible
 //! in a [`ClusterHistory`]. All tests are conservative.
 
 use crate::triangle::TriangleView;

@@ -18,6 +18,7 @@ mod ui;
 mod window;
 
 use clap::Parser;
+use osw_gpu::RenderOptions;
 use osw_render::output::{frame_path, push_ids, write_png};
 use osw_render::results::DisplayFrame;
 use osw_scene::Camera;
@@ -119,20 +120,18 @@ fn run(a: &Args) -> anyhow::Result<()> {
             let start = path.first().copied().unwrap_or_else(|| overview(&scene));
             controls::Controls::new(&start, scene.node(0).aabb().extent().length() as f64 / 20.0, set.tau)
         });
-        (Some(Ui::new(window, controls, h, a.out.clone())), gpu)
+        (Some(Ui::new(window, controls, h, a.out.clone(), Arc::clone(&scene))), gpu)
     } else {
         (None, osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?)
     };
-    let mut r = osw_gpu::Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
-    r.cluster_tests = agreed.cluster_tests;
-    r.time_gpu = a.gpu_times;
-    if a.gpu_times && !r.times_gpu() {
-        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);
-    }
     // The next frame's gather overlaps this frame's draw (5M plant walk, tau 5: four pairs of
     // runs took 57.8 / 64.4, 56.3 / 59.9, 57.5 / 56.4 and 58.4 / 59.2 ms a frame, with /
     // without). RVG's stage time then ends when its draw is submitted, the previous one done.
-    r.overlap = true;
+    let options = RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, overlap: true, ..RenderOptions::default() };
+    let mut r = osw_gpu::Renderer::new(gpu, &scene, w, h, osw_gpu::limits::RESIDENCY_BYTES, options)?;
+    if a.gpu_times && !r.times_gpu() {
+        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);
+    }
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (notes_tx, notes) = std::sync::mpsc::channel();
     for (k, addr) in addrs.iter().enumerate() {
@@ -176,13 +175,17 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let camera = osw_render::packet::camera(&cam);
         let view = r.view(&camera);
         // RVG as prev's (hidden clusters culled where HC culled).
-        let drawn = osw_render::pass::rvg(&mut r, &view, &frames.visible, row.cull_skipped == 0, &mut clusters)?;
+        let drawn = osw_render::pass::rvg(&mut r, &scene, &view, &frames.visible, row.cull_skipped == 0, &mut clusters)?;
         (row.rvg_ms, row.rvg_gpu_ms) = (t.elapsed().as_secs_f64() * 1e3, drawn.gpu_ms());
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
-        let c = drawn.clusters;
-        (row.clusters, row.clusters_frustum_culled, row.clusters_cone_culled, row.clusters_occlusion_culled) =
-            (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
-        (row.triangles_backface_culled, row.triangles_small_culled) = (c.backface_culled, c.small_culled);
+        [
+            row.clusters,
+            row.clusters_frustum_culled,
+            row.clusters_cone_culled,
+            row.clusters_occlusion_culled,
+            row.triangles_backface_culled,
+            row.triangles_small_culled,
+        ] = osw_render::stats::cluster_columns(&drawn.clusters);
         // Read back once for the PNG and the window both (unless the window draws another view).
         let rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
         if let (false, Some(rgba)) = (a.no_frames, &rgba) {

@@ -5,7 +5,7 @@ use crate::Args;
 use crate::links::Cluster;
 use osw_render::Mode;
 use osw_render::results::{self, Details, DisplayFrame, Summary, SwitchSummary};
-use osw_render::stats::quantile;
+use osw_render::stats::{FrameStats, quantile};
 use osw_wire::config::Settings;
 
 pub fn write_outputs(
@@ -27,29 +27,13 @@ pub fn write_outputs(
     let ids_full: f64 = rows.iter().map(|r| r.ids_full as f64).sum();
     let bytes: f64 = rows.iter().map(|r| r.bytes as f64).sum();
     let id_bytes: f64 = rows.iter().map(|r| r.id_bytes as f64).sum();
-    let clusters = rows.iter().map(|r| r.clusters).sum::<u64>().max(1) as f64;
-    let share = |f: fn(&DisplayFrame) -> u64| rows.iter().map(f).sum::<u64>() as f64 / clusters;
+    // The keys every run has, as one GPU's run has them.
+    let frames: Vec<FrameStats> = rows.iter().map(FrameStats::from).collect();
     let s = Summary {
         mode: Mode::Switch,
         tau: set.tau,
-        frames: rows.len() as u64,
         frame_ms_median: quantile(&frame_ms, 0.5),
         frame_ms_p95: quantile(&frame_ms, 0.95),
-        triangles_drawn_mean: mean(|r| r.triangles_drawn as f64),
-        pvs_nodes_mean: mean(|r| r.pvs_nodes as f64),
-        tests_mean: mean(|r| r.tests as f64),
-        cull_skipped_frames: rows.iter().map(|r| r.cull_skipped as u64).sum(),
-        clusters_mean: mean(|r| r.clusters as f64),
-        clusters_frustum_culled_fraction: share(|r| r.clusters_frustum_culled),
-        clusters_cone_culled_fraction: share(|r| r.clusters_cone_culled),
-        clusters_occlusion_culled_fraction: share(|r| r.clusters_occlusion_culled),
-        triangles_backface_culled_mean: mean(|r| r.triangles_backface_culled as f64),
-        triangles_small_culled_mean: mean(|r| r.triangles_small_culled as f64),
-        hc_ms_median: quantile(&col(|r| r.hc_ms), 0.5),
-        hc_traversal_ms_median: quantile(&col(|r| r.hc_traversal_ms), 0.5),
-        hc_second_look_ms_median: quantile(&col(|r| r.hc_second_look_ms), 0.5),
-        hc_retest_ms_median: quantile(&col(|r| r.hc_retest_ms), 0.5),
-        rvg_ms_median: quantile(&col(|r| r.rvg_ms), 0.5),
         scene: set.scene.display().to_string(),
         scene_hash: osw_scene::format::hash_hex(scene.content_hash()),
         path: a.path.as_ref().map_or("(interactive walk)".into(), |p| p.display().to_string()),
@@ -83,6 +67,7 @@ pub fn write_outputs(
             // `osw run` merges in the nodes' own statistics.
             ..SwitchSummary::default()
         }),
+        ..Summary::of(&frames)
     };
     s.write(&a.out)?;
     std::fs::write(a.out.join("pvs.txt"), pvs)?;

@@ -10,9 +10,10 @@ use osw_cull::states::classify;
 use osw_gpu::Renderer;
 use osw_gpu::draw::Pass;
 use osw_render::results::DisplayFrame;
-use osw_scene::Camera;
+use osw_scene::{Camera, SceneFile};
 use std::io::Write as _;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Colours by state (the occlusion switch's colour plate): visible, occlusion-culled, frustum-culled.
@@ -43,6 +44,8 @@ pub struct Ui {
     /// Frames a second, smoothed.
     fps: f64,
     out: PathBuf,
+    /// The scene, for the views the window draws itself.
+    scene: Arc<SceneFile>,
 }
 
 /// Says what the display did on stdout (`osw run` passes it on); a closed stdout is no error.
@@ -51,7 +54,7 @@ fn say(what: String) {
 }
 
 impl Ui {
-    pub fn new(window: Window, controls: Option<Controls>, height: u32, out: PathBuf) -> Ui {
+    pub fn new(window: Window, controls: Option<Controls>, height: u32, out: PathBuf, scene: Arc<SceneFile>) -> Ui {
         let overlay = Overlay::load(height).map_err(|e| tracing::warn!("no overlay: {e}")).ok();
         Ui {
             window,
@@ -67,6 +70,7 @@ impl Ui {
             last_move: Instant::now(),
             fps: 0.0,
             out,
+            scene,
         }
     }
 
@@ -184,16 +188,16 @@ impl Ui {
         let (viewer, redraw) = (self.viewer(camera), self.redraws(camera));
         if self.state_colours {
             let (view, culling) = (r.view(&viewer), r.view(camera));
-            let scene = std::sync::Arc::clone(&r.scene);
+            let scene = &self.scene;
             let mut front = Vec::new();
             osw_cull::frustum_cull(scene.nodes(), &view, tau, &mut front);
             let s = classify(scene.nodes(), &front, visible, &culling.frustum);
-            r.draw(&view, &s.visible, Pass::Tinted(VISIBLE), true)?;
-            r.draw(&view, &s.occlusion_culled, Pass::Tinted(OCCLUDED), false)?;
-            r.draw(&view, &s.frustum_culled, Pass::Tinted(OUTSIDE), false)?;
+            r.draw(scene, &view, &s.visible, Pass::Tinted(VISIBLE), true)?;
+            r.draw(scene, &view, &s.occlusion_culled, Pass::Tinted(OCCLUDED), false)?;
+            r.draw(scene, &view, &s.frustum_culled, Pass::Tinted(OUTSIDE), false)?;
         } else if viewer != *camera {
             let view: View = r.view(&viewer);
-            r.draw(&view, visible, Pass::Color, true)?;
+            r.draw(&self.scene, &view, visible, Pass::Color, true)?;
         }
         // The frame as RVG drew it, read back once by the caller, unless it was drawn again.
         let mut rgba = match frame {

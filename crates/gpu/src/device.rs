@@ -39,7 +39,7 @@ pub struct Gpu {
 pub const WANTED: wgpu::Features = wgpu::Features::SHADER_EARLY_DEPTH_TEST.union(wgpu::Features::PRIMITIVE_INDEX);
 
 /// Features used where the adapter has them: pipeline statistics count a pass's fragments
-/// (`Renderer::count_fragments`), timestamps time a pass on the GPU (`Renderer::time_gpu`).
+/// (`RenderOptions::count_fragments`), timestamps time a pass on the GPU (`RenderOptions::time_gpu`).
 pub const OPTIONAL: wgpu::Features = wgpu::Features::PIPELINE_STATISTICS_QUERY.union(wgpu::Features::TIMESTAMP_QUERY);
 
 impl Gpu {

@@ -69,10 +69,9 @@ fn drawn(scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Vec<
 }
 
 impl Renderer {
-    pub fn exact(&mut self, view: &View, tau: f64, reference: Reference) -> Result<ExactFrame, RenderError> {
-        let scene = std::sync::Arc::clone(&self.scene);
-        let ids = drawn(&scene, view, tau, reference);
-        let drawn = self.draw(view, &ids, Pass::Item, true)?;
+    pub fn exact(&mut self, scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Result<ExactFrame, RenderError> {
+        let ids = drawn(scene, view, tau, reference);
+        let drawn = self.draw(scene, view, &ids, Pass::Item, true)?;
         let pass = std::mem::take(&mut self.indices);
         let items = self.read_items()?;
         let mut leaves: Vec<NodeId> = items.iter().map(|i| scene.node(i[0] - 1).parent).collect();
@@ -83,7 +82,7 @@ impl Renderer {
         let mut translucent: Vec<NodeId> = ids.iter().copied().filter(|&id| scene.has_translucent(id)).collect();
         let (mut translucent_triangles, mut drawn_triangles, mut first) = (0, drawn.triangles, true);
         while !translucent.is_empty() {
-            let round = self.draw_translucent(view, &translucent, Pass::Item, true)?;
+            let round = self.draw_translucent(scene, view, &translucent, Pass::Item, true)?;
             drawn_triangles += if std::mem::take(&mut first) { round.triangles } else { 0 };
             let found = self.read_items()?;
             if found.is_empty() {
@@ -100,7 +99,7 @@ impl Renderer {
         // The floors need the pass's triangles numbered as one draw numbered them.
         let (mut cluster_triangles, mut visible_draw_ms, mut cluster_draw_ms) = (None, None, None);
         if drawn.draws == 1 {
-            if let Some(clusters) = visible_clusters(&scene, &ids, &items)? {
+            if let Some(clusters) = visible_clusters(scene, &ids, &items)? {
                 cluster_triangles = Some(clusters.iter().map(|c| c.len() as u64).sum());
                 cluster_draw_ms = Some(self.draw_of_item_pass(view, &pass, clusters.into_iter().flatten())?);
             }
@@ -133,7 +132,7 @@ impl Renderer {
         self.indices.extend(triangles.flat_map(|t| &pass[t as usize * 3..t as usize * 3 + 3]));
         let start = std::time::Instant::now();
         self.submit(view, Pass::Color, crate::draw::Layer::Opaque, true, &mut Default::default())?;
-        // Done, also when the renderer keeps a draw in flight (`Renderer::overlap`).
+        // Done, also when the renderer keeps a draw in flight (`RenderOptions::overlap`).
         self.gpu.wait()?;
         Ok(start.elapsed().as_secs_f64() * 1e3)
     }

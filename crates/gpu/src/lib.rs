@@ -10,12 +10,15 @@
 //!   sec. 4.2), exact per pixel with forced early depth, optionally counting pixels (4.7.2).
 //! - [`pyramid`]: the fast HC test: a farthest-depth pyramid and a compute box test.
 //! - [`exact`]: item-buffer exact visibility (occlusion switch sec. 5) for verification.
-//! - [`renderer`]: the above bound to one scene and one image size.
+//! - [`renderer`]: the above for one scene and one image size: index lists submitted, boxes tested.
+//! - [`gather`]: a pass's index list from its nodes' clusters, less what their tests drop.
+//! - [`testers`]: the renderer as HC's visibility tester.
 
 pub mod boxtest;
 pub mod device;
 pub mod draw;
 pub mod exact;
+pub mod gather;
 pub mod limits;
 pub mod pyramid;
 mod ranges;
@@ -24,6 +27,7 @@ pub mod renderer;
 pub mod residency;
 pub mod shaders;
 pub mod target;
+pub mod testers;
 
 pub use device::{Gpu, GpuError};
-pub use renderer::Renderer;
+pub use renderer::{RenderOptions, Renderer};

@@ -1,4 +1,4 @@
-//! One scene, one image size, one device: draw, test boxes, exact visibility, read frames.
+//! One scene, one image size, one device: submit index lists, test boxes, read frames.
 //! Every operation submits its work and waits, so the CPU timings around it are GPU times on
 //! lavapipe (which runs on the CPU anyway).
 
@@ -8,13 +8,10 @@ use crate::draw::{DrawPipelines, Layer, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
-use osw_cull::cluster::{ClusterHistory, ClusterStats, ClusterTests, gather};
+use osw_cull::cluster::{ClusterStats, ClusterTests};
 use osw_cull::gathered::Gathered;
-use osw_cull::{Occluders, View, Visibility, VisibilityTester};
-use osw_scene::file::Indices;
-use osw_scene::format::ClusterRecord;
-use osw_scene::{NodeId, SceneError, SceneFile};
-use std::sync::Arc;
+use osw_cull::{View, Visibility};
+use osw_scene::{SceneError, SceneFile};
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
@@ -44,6 +41,18 @@ pub enum BoxTest {
     Queries,
 }
 
+/// Bartz 1999 sec. 3.3's interleaved sampling of exact box tests: one pixel line in `lines`
+/// is read, from line `first` (see shaders/boxtest.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sampling {
+    pub lines: u32,
+    pub first: u32,
+}
+
+impl Sampling {
+    pub const EVERY_LINE: Sampling = Sampling { lines: 1, first: 0 };
+}
+
 /// Background of colour frames: a pale sky, so that what is open to the outside reads as such.
 const SKY: wgpu::Color = wgpu::Color { r: 0.62, g: 0.74, b: 0.86, a: 1.0 };
 
@@ -59,9 +68,9 @@ pub struct DrawStats {
     /// Draw calls submitted (more than one when a list outgrew the GPU's buffers).
     pub draws: u32,
     /// Fragment shader invocations of the draws (lavapipe: the pixels covered, in whole 2x2
-    /// quads, before the depth test), when counted ([`Renderer::count_fragments`]).
+    /// quads, before the depth test), when counted ([`RenderOptions::count_fragments`]).
     pub fragments: u64,
-    /// GPU time of the draws' render passes, ns, from timestamps ([`Renderer::time_gpu`]).
+    /// GPU time of the draws' render passes, ns, from timestamps ([`RenderOptions::time_gpu`]).
     pub gpu_ns: Option<u64>,
 }
 
@@ -91,17 +100,12 @@ impl DrawStats {
     }
 }
 
-pub struct Renderer {
-    pub gpu: Gpu,
-    pub scene: Arc<SceneFile>,
-    pub target: Target,
-    pub residency: Residency,
+/// What a renderer does besides drawing, chosen once for its life.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RenderOptions {
     /// The cluster tests of colour and depth passes (the item pass, exact visibility's
     /// reference, draws every triangle).
     pub cluster_tests: ClusterTests,
-    /// Exact box tests read one pixel line in `.0`, from line `.1` (Bartz 1999 sec. 3.3's
-    /// interleaved sampling, see shaders/boxtest.wgsl); (1, 0) reads every line.
-    pub sampling: (u32, u32),
     /// Count each draw's fragments ([`DrawStats::fragments`]): a pipeline-statistics query
     /// and a read-back per draw, so off unless asked for. Without the adapter's feature the
     /// count stays 0 ([`Renderer::counts_fragments`]).
@@ -114,6 +118,22 @@ pub struct Renderer {
     /// drawn: one draw in flight, so that the CPU gathers the next frame while the GPU draws
     /// this one (the display). Read-backs still wait for everything before them.
     pub overlap: bool,
+}
+
+/// The device resources of one scene at one image size: geometry resident on the GPU, the
+/// attachments, the pipelines; passes gather their index lists ([`crate::gather`]) and submit
+/// them here. The scene is the caller's, passed to each call that reads it; residency keys on
+/// its node ids, so a renderer serves the one scene it was made for.
+pub struct Renderer {
+    pub gpu: Gpu,
+    pub target: Target,
+    pub residency: Residency,
+    options: RenderOptions,
+    /// The scene's origin and near plane, for [`Renderer::view`].
+    origin: glam::DVec3,
+    near: f64,
+    /// The scene's node count, to catch a call with another scene.
+    pub(crate) nodes: usize,
     draw: DrawPipelines,
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
@@ -132,9 +152,10 @@ pub struct Renderer {
     fragment_query: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
     /// The same for a pass's two timestamps.
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
+    /// The pass's index list, as gathered ([`crate::gather`]).
     pub(crate) indices: Vec<u32>,
     /// Each node's indices as last gathered, for passes of the same view.
-    gathered: Gathered,
+    pub(crate) gathered: Gathered,
     gpu_boxes: Vec<GpuBox>,
 }
 
@@ -142,36 +163,15 @@ fn storage(gpu: &Gpu, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu
     gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
 }
 
-/// Which clusters of a node a pass takes (node, cluster index, cluster), after the tests.
-type Select<'a> = dyn FnMut(NodeId, usize, &ClusterRecord) -> bool + 'a;
-
-/// One node's part of [`Renderer::gather`]: every cluster that passes `tests` through the
-/// indices kept for this view, or those that `select` takes.
-#[allow(clippy::too_many_arguments)]
-fn gather_node<I: Copy + Into<u32>>(
-    view: &View,
-    tests: ClusterTests,
-    id: NodeId,
-    geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
-    select: Option<&mut Select>,
-    gathered: &mut Gathered,
-    base: u32,
-    stats: &mut ClusterStats,
-    out: &mut Vec<u32>,
-) {
-    match select {
-        None => gathered.gather(view, tests, (id, base), geometry, stats, out),
-        Some(select) => gather(view, tests, geometry, stats, |k, c| select(id, k, c), base, out),
-    }
-}
-
-/// RVG's cluster occlusion test reads the pyramid this many levels finer than Peng 2014's 2x2
-/// texels: a box spans at most 64 texels a side. On the 5M plant walk at tau 5, 2 levels left
-/// 10,246 of 13,451 triangles a frame, 5 levels 8,960 (docs/measurements/2026-12-02-clusters.md).
-const CLUSTER_FINER: u32 = 5;
-
 impl Renderer {
-    pub fn new(gpu: Gpu, scene: Arc<SceneFile>, width: u32, height: u32, residency_bytes: u64) -> Result<Renderer, RenderError> {
+    pub fn new(
+        gpu: Gpu,
+        scene: &SceneFile,
+        width: u32,
+        height: u32,
+        residency_bytes: u64,
+        options: RenderOptions,
+    ) -> Result<Renderer, RenderError> {
         let max = crate::limits::MAX_SIZE;
         if width == 0 || height == 0 || width > max || height > max {
             return Err(RenderError::Size(width, height));
@@ -232,17 +232,16 @@ impl Renderer {
         Ok(Renderer {
             fragment_query,
             timestamps,
-            time_gpu: false,
-            count_fragments: false,
-            overlap: false,
+            options,
+            origin: scene.origin(),
+            near: osw_cull::view::near_of(scene),
+            nodes: scene.nodes().len(),
             queries,
             query_resolve,
             query_staging,
             pyramid,
             target,
             residency: Residency::new(residency_bytes),
-            cluster_tests: ClusterTests::default(),
-            sampling: (1, 0),
             draw,
             boxtest,
             view_buf,
@@ -256,23 +255,26 @@ impl Renderer {
             gathered: Gathered::default(),
             gpu_boxes: Vec::new(),
             gpu,
-            scene,
         })
+    }
+
+    pub fn options(&self) -> RenderOptions {
+        self.options
     }
 
     /// Whether draws count their fragments: asked for, and the adapter can.
     pub fn counts_fragments(&self) -> bool {
-        self.count_fragments && self.fragment_query.is_some()
+        self.options.count_fragments && self.fragment_query.is_some()
     }
 
     /// Whether draws are timed on the GPU: asked for, and the adapter has timestamps.
     pub fn times_gpu(&self) -> bool {
-        self.time_gpu && self.timestamps.is_some()
+        self.options.time_gpu && self.timestamps.is_some()
     }
 
     /// The view of `camera` with this scene's near plane (see [`osw_cull::view::near_of`]).
     pub fn view(&self, camera: &osw_scene::Camera) -> View {
-        View::new(camera, self.scene.origin(), self.target.width, self.target.height, osw_cull::view::near_of(&self.scene))
+        View::new(camera, self.origin, self.target.width, self.target.height, self.near)
     }
 
     /// Starts a frame: geometry used from here on is kept resident through the frame.
@@ -280,164 +282,15 @@ impl Renderer {
         self.residency.next_epoch();
     }
 
-    /// Draws LOD nodes `ids` (in the given order) for `view`. `clear` clears the pass's
-    /// attachments first (colour to the sky, item ids to 0, depth to 0 = infinitely far), else draws on top.
-    ///
-    /// One draw call: the nodes' indices, read from the mapped file and offset to their
-    /// vertices in the arena, are gathered in the given order (so triangles rasterise in the
-    /// same order as one draw per node would, and depth ties resolve alike), less the clusters
-    /// that the frustum and cone tests skip (none in the item pass). Colour passes then blend
-    /// the nodes' translucent clusters over it ([`Renderer::draw_translucent`]); the depth and
-    /// item passes draw only the opaque ones.
-    pub fn draw(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
-        let opaque = self.draw_opaque(view, ids, pass, clear)?;
-        match pass {
-            Pass::Color | Pass::Tinted(_) => Ok(opaque + self.draw_translucent(view, ids, pass, false)?),
-            Pass::Depth | Pass::Item => Ok(opaque),
-        }
-    }
-
-    fn draw_opaque(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
-        let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.cluster_tests };
-        let drawn = self.gather(view, ids, tests, None).and_then(|mut stats| {
-            self.submit(view, pass, Layer::Opaque, clear, &mut stats)?;
-            Ok(stats)
-        });
-        match drawn {
-            // More geometry than the largest GPU buffer holds (a frame at full detail of a
-            // billion triangles): the list in halves, each drawn and submitted in turn.
-            Err(RenderError::Residency(ResidencyError::TooLarge(_)) | RenderError::TooManyTriangles(..)) if ids.len() > 1 => {
-                let (a, b) = ids.split_at(ids.len() / 2);
-                // Nothing of the failed attempt was submitted, and everything submitted before
-                // it precedes any upload on the queue: all of it may make room now.
-                self.residency.next_epoch();
-                let first = self.draw_opaque(view, a, pass, clear)?;
-                self.residency.next_epoch();
-                let second = self.draw_opaque(view, b, pass, false)?;
-                Ok(first + second)
-            }
-            r => r,
-        }
-    }
-
-    /// The translucent clusters of `ids` over what is drawn: depth tested against it, never
-    /// written, blended in a colour pass. The nodes go far to near by their box centres, ties
-    /// by id, so that every mode blends the surfaces it shares with another in the same order
-    /// (a node one mode culls is hidden, and blends nothing in the other). `clear` clears the
-    /// colour (or item ids) only, keeping the depth.
-    pub fn draw_translucent(&mut self, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
-        let scene = Arc::clone(&self.scene);
-        let mut order: Vec<(f32, NodeId)> = ids
-            .iter()
-            .filter(|&&id| scene.has_translucent(id))
-            .map(|&id| (view.relative(scene.node(id).aabb().center()).length_squared(), id))
-            .collect();
-        let mut stats = DrawStats::default();
-        if order.is_empty() && !clear {
-            return Ok(stats);
-        }
-        order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        let tests = if pass == Pass::Item { ClusterTests::NONE } else { ClusterTests { occlusion: false, ..self.cluster_tests } };
-        self.indices.clear();
-        for (_, id) in order {
-            let base = self.residency.ensure(&self.gpu, &scene, id)?;
-            let g = scene.geometry(id)?;
-            let (out, s, clusters) = (&mut self.indices, &mut stats.clusters, &g.clusters[g.opaque..]);
-            match g.indices {
-                Indices::U16(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
-                Indices::U32(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
-            }
-            stats.nodes += 1;
-        }
-        self.submit(view, pass, Layer::Translucent, clear, &mut stats)?;
-        Ok(stats)
-    }
-
-    /// RVG's draw of the visible set with occlusion culling of clusters, in two passes as in
-    /// niagara: first the clusters of `ids` that `history` says were visible in the last frame,
-    /// then every cluster's box is tested against the farthest-depth pyramid of what that drew
-    /// (read back; on lavapipe the exact GPU box test per cluster took RVG from 43 to 63 ms,
-    /// this one breaks even: docs/measurements/2026-12-02-clusters.md), and those visible and not yet drawn
-    /// are drawn. Conservative: a cluster is skipped only when geometry drawn this frame hides
-    /// all of its box. `history` then holds this frame's visible clusters. Without the
-    /// occlusion test, [`Renderer::draw`].
-    pub fn draw_visible(
-        &mut self,
-        view: &View,
-        ids: &[NodeId],
-        pass: Pass,
-        history: &mut ClusterHistory,
-    ) -> Result<DrawStats, RenderError> {
-        let tests = self.cluster_tests;
-        if !tests.occlusion {
-            return self.draw(view, ids, pass, true);
-        }
-        let mut first = self.gather(view, ids, tests, Some(&mut |id, k, _| history.was_visible(id, k)))?;
-        self.submit(view, pass, Layer::Opaque, true, &mut first)?;
-        // Every cluster that passes the frustum and cone tests, its box tested against the
-        // farthest-depth pyramid of what the first pass drew (boxes around the eye or across
-        // the near plane count as visible, as in HC); the second pass draws those visible
-        // now and not drawn in the first.
-        let pyramid = osw_cull::hzb::Pyramid::new(view.width, view.height, self.target.read_depth(&self.gpu)?);
-        let vp = view.view_proj().as_dmat4();
-        let mut occluded = 0;
-        let mut stats = self.gather(
-            view,
-            ids,
-            tests,
-            Some(&mut |id, k, c: &ClusterRecord| {
-                let b = c.aabb();
-                let drawn = history.was_visible(id, k);
-                if view.frustum.needs_no_test(&b) || osw_cull::hzb::visible_box(&pyramid, &vp, view, &b, CLUSTER_FINER) {
-                    history.mark(id, k);
-                    return !drawn;
-                }
-                occluded += u64::from(!drawn);
-                false
-            }),
-        )?;
-        self.submit(view, pass, Layer::Opaque, false, &mut stats)?;
-        history.end_frame();
-        stats.triangles += first.triangles;
-        stats.fragments += first.fragments;
-        stats.clusters.occlusion_culled = occluded;
-        // The triangle tests ran on what the two passes drew.
-        stats.clusters.backface_culled += first.clusters.backface_culled;
-        stats.clusters.small_culled += first.clusters.small_culled;
-        Ok(stats + self.draw_translucent(view, ids, pass, false)?)
-    }
-
-    /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`
-    /// and `select(node, cluster index, cluster)` (all, through the indices kept for this view,
-    /// when `None`), less the triangles `tests` drop, making the nodes resident.
-    fn gather(
-        &mut self,
-        view: &View,
-        ids: &[NodeId],
-        tests: ClusterTests,
-        mut select: Option<&mut Select>,
-    ) -> Result<DrawStats, RenderError> {
-        let scene = Arc::clone(&self.scene);
-        let mut stats = DrawStats::default();
-        self.indices.clear();
-        for &id in ids {
-            let base = self.residency.ensure(&self.gpu, &scene, id)?;
-            let g = scene.geometry(id)?;
-            let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
-            let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
-            match g.indices {
-                Indices::U16(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
-                Indices::U32(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
-            }
-            stats.nodes += 1;
-        }
-        Ok(stats)
+    /// The depth attachment as it is now, rows top first.
+    pub fn read_depth(&self) -> Result<Vec<f32>, RenderError> {
+        Ok(self.target.read_depth(&self.gpu)?)
     }
 
     /// Draws the gathered indices in one call; counts them into `stats.triangles`, and their
     /// fragments into `stats.fragments` when [`Renderer::counts_fragments`]. A translucent
     /// layer keeps the depth when it clears.
-    pub(crate) fn submit(&mut self, view: &View, pass: Pass, layer: Layer, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
+    pub fn submit(&mut self, view: &View, pass: Pass, layer: Layer, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
         stats.draws = 1;
@@ -456,8 +309,8 @@ impl Renderer {
             q.write_buffer(&self.index_buf, 0, bytemuck::cast_slice(&self.indices));
         }
         let mut enc = self.gpu.device.create_command_encoder(&Default::default());
-        let query = self.fragment_query.as_ref().filter(|_| self.count_fragments);
-        let times = self.timestamps.as_ref().filter(|_| self.time_gpu);
+        let query = self.fragment_query.as_ref().filter(|_| self.options.count_fragments);
+        let times = self.timestamps.as_ref().filter(|_| self.options.time_gpu);
         {
             let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
             let color_view = match pass {
@@ -517,13 +370,13 @@ impl Renderer {
             enc.resolve_query_set(set, 0..2, resolve, 0);
             enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(16));
         }
-        if self.overlap {
+        if self.options.overlap {
             self.gpu.wait()?;
         }
         self.gpu.queue.submit([enc.finish()]);
         match query {
             Some((_, _, staging)) => stats.fragments = crate::readback::read(&self.gpu, staging, 8, bytemuck::pod_read_unaligned::<u64>)?,
-            None if !self.overlap => self.gpu.wait()?,
+            None if !self.options.overlap => self.gpu.wait()?,
             None => {}
         }
         if let Some((_, _, staging)) = times {
@@ -543,12 +396,19 @@ impl Renderer {
         self.gpu.queue.submit([enc.finish()]);
     }
 
-    /// Tests the boxes of BVH nodes `ids` against the occluders: the depth buffer as it is now
-    /// (exact tests) or the pyramid last built from it. Appends one answer per id.
-    pub fn test_boxes(&mut self, view: &View, ids: &[NodeId], test: BoxTest, out: &mut Vec<Visibility>) -> Result<(), RenderError> {
-        let mut words = Vec::with_capacity(ids.len());
-        let scene = Arc::clone(&self.scene);
-        self.test_raw(view, &mut ids.iter().map(|&id| scene.node(id).aabb()), test, &mut words)?;
+    /// Tests `boxes` (world space) against the occluders: the depth buffer as it is now (exact
+    /// tests, read on the lines of `sampling`) or the pyramid last built from it. Appends one
+    /// answer per box.
+    pub fn test_boxes(
+        &mut self,
+        view: &View,
+        boxes: impl IntoIterator<Item = osw_scene::Aabb>,
+        test: BoxTest,
+        sampling: Sampling,
+        out: &mut Vec<Visibility>,
+    ) -> Result<(), RenderError> {
+        let mut words = Vec::new();
+        self.test_raw(view, &mut boxes.into_iter(), test, sampling, &mut words)?;
         let counts = test == BoxTest::ExactCount;
         out.extend(words.iter().map(|&w| Visibility { visible: w > 0, pixels: counts.then_some(w) }));
         Ok(())
@@ -561,6 +421,7 @@ impl Renderer {
         view: &View,
         boxes: &mut dyn Iterator<Item = osw_scene::Aabb>,
         test: BoxTest,
+        sampling: Sampling,
         out: &mut Vec<u32>,
     ) -> Result<(), RenderError> {
         self.gpu.queue.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform::new(view)));
@@ -570,8 +431,8 @@ impl Renderer {
             for b in (&mut *boxes).take(chunk_len as usize) {
                 let (lo, hi) = view.test_box(&b);
                 let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
-                let (lines, first) = self.sampling;
-                self.gpu_boxes.push(GpuBox { lo: lo.extend(lines as f32).to_array(), hi: hi.extend(first as f32).to_array() });
+                let (lines, first) = (sampling.lines as f32, sampling.first as f32);
+                self.gpu_boxes.push(GpuBox { lo: lo.extend(lines).to_array(), hi: hi.extend(first).to_array() });
             }
             if self.gpu_boxes.is_empty() {
                 return Ok(());
@@ -643,62 +504,5 @@ impl Renderer {
     /// The colour attachment, RGBA8 rows top first.
     pub fn read_color(&self) -> Result<Vec<u8>, RenderError> {
         Ok(self.target.read_color(&self.gpu)?)
-    }
-}
-
-/// A [`VisibilityTester`] on the GPU box test; a GPU error ends the traversal with it.
-pub struct GpuTester<'a> {
-    pub renderer: &'a mut Renderer,
-    pub test: BoxTest,
-}
-
-impl VisibilityTester for GpuTester<'_> {
-    type Error = RenderError;
-
-    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), RenderError> {
-        self.renderer.test_boxes(view, ids, self.test, out)
-    }
-}
-
-/// An [`Occluders`] tester for the interleaved traversals (S&W, CHC): nodes to draw are
-/// collected and drawn depth-only into the occluder buffer right before the next test, so
-/// every test sees everything drawn before it was issued, in as few submissions as possible.
-pub struct InterleavedTester<'a> {
-    pub tester: GpuTester<'a>,
-    pending: Vec<NodeId>,
-}
-
-impl<'a> InterleavedTester<'a> {
-    pub fn new(renderer: &'a mut Renderer) -> InterleavedTester<'a> {
-        InterleavedTester { tester: GpuTester { renderer, test: BoxTest::Exact }, pending: Vec::new() }
-    }
-
-    /// Draws what is still pending.
-    pub fn finish(mut self, view: &View) -> Result<(), RenderError> {
-        self.flush(view)
-    }
-
-    fn flush(&mut self, view: &View) -> Result<(), RenderError> {
-        if !self.pending.is_empty() {
-            self.tester.renderer.draw(view, &self.pending, crate::draw::Pass::Depth, false)?;
-        }
-        self.pending.clear();
-        Ok(())
-    }
-}
-
-impl VisibilityTester for InterleavedTester<'_> {
-    type Error = RenderError;
-
-    fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<Visibility>) -> Result<(), RenderError> {
-        self.flush(view)?;
-        self.tester.test(view, ids, out)
-    }
-}
-
-impl Occluders for InterleavedTester<'_> {
-    fn render(&mut self, lods: &[NodeId]) -> Result<(), RenderError> {
-        self.pending.extend_from_slice(lods);
-        Ok(())
     }
 }

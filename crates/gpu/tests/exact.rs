@@ -8,20 +8,19 @@ use glam::DVec3;
 use osw_cull::cluster::ClusterTests;
 use osw_gpu::draw::Pass;
 use osw_gpu::exact::Reference;
-use osw_gpu::renderer::Renderer;
+use osw_gpu::renderer::{RenderOptions, Renderer};
 use osw_scene::{Camera, NodeKind};
-use std::sync::Arc;
 
 #[test]
 fn drawing_only_the_visible_triangles_gives_the_whole_image() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plant.osw");
-    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 100_000, 3, &path).unwrap());
+    let scene = osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 100_000, 3, &path).unwrap();
     let root = scene.node(0).aabb();
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
-    let mut r = Renderer::new(gpu, Arc::clone(&scene), 192, 128, osw_gpu::limits::RESIDENCY_BYTES).unwrap();
     // The item pass draws every triangle: so does the reference image.
-    r.cluster_tests = ClusterTests::NONE;
+    let options = RenderOptions { cluster_tests: ClusterTests::NONE, ..RenderOptions::default() };
+    let mut r = Renderer::new(gpu, &scene, 192, 128, osw_gpu::limits::RESIDENCY_BYTES, options).unwrap();
     let mut leaves: Vec<u32> =
         (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.kind() == NodeKind::Leaf).map(|n| n.first_lod).collect();
     leaves.sort_unstable();
@@ -29,9 +28,9 @@ fn drawing_only_the_visible_triangles_gives_the_whole_image() {
     for (k, eye) in [DVec3::new(0.0, 5.0, -60.0), DVec3::new(30.0, 25.0, 10.0), DVec3::new(-8.0, 2.0, 3.0)].into_iter().enumerate() {
         let view = r.view(&Camera::look_at(c + eye, c, 60.0));
         r.begin_frame();
-        let e = r.exact(&view, 0.0, Reference::Independent).unwrap();
+        let e = r.exact(&scene, &view, 0.0, Reference::Independent).unwrap();
         let floor = r.read_color().unwrap();
-        let whole = r.draw(&view, &leaves, Pass::Color, true).unwrap();
+        let whole = r.draw(&scene, &view, &leaves, Pass::Color, true).unwrap();
         let image = r.read_color().unwrap();
         assert!(e.visible_draw_ms.is_some_and(|ms| ms > 0.0) && e.cluster_draw_ms.is_some_and(|ms| ms > 0.0), "camera {k}: {e:?}");
         assert!(e.cluster_triangles.is_some_and(|c| c > e.triangles), "camera {k}: {e:?}");

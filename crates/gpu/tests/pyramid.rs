@@ -10,31 +10,30 @@ use glam::DVec3;
 use osw_cull::VisibilityTester;
 use osw_cull::hzb::{HzbTester, Pyramid};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{BoxTest, Renderer};
+use osw_gpu::renderer::{BoxTest, RenderOptions, Renderer, Sampling};
 use osw_scene::Camera;
-use std::sync::Arc;
 
 #[test]
 fn the_gpu_pyramid_answers_as_the_cpu_reference() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plant.osw");
-    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap());
+    let scene = osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap();
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
     let (w, h) = (300, 200);
-    let mut r = Renderer::new(gpu, Arc::clone(&scene), w, h, osw_gpu::limits::RESIDENCY_BYTES).unwrap();
+    let mut r = Renderer::new(gpu, &scene, w, h, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
     let root = scene.node(0).aabb();
     let eye = root.center().as_dvec3() + DVec3::new(0.0, 1.7 - root.center().y as f64, -0.3 * root.extent().z as f64);
     let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0));
     // Occluders: every leaf's coarsest level.
     let occluders: Vec<u32> =
         (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod + n.lod_count - 1).collect();
-    r.draw(&view, &occluders, Pass::Depth, true).unwrap();
+    r.draw(&scene, &view, &occluders, Pass::Depth, true).unwrap();
     r.build_pyramid();
     let boxes: Vec<u32> = (0..scene.bvh_count()).collect();
     let mut gpu_answers = Vec::new();
-    r.test_boxes(&view, &boxes, BoxTest::Pyramid, &mut gpu_answers).unwrap();
+    r.test_boxes(&view, boxes.iter().map(|&i| scene.node(i).aabb()), BoxTest::Pyramid, Sampling::EVERY_LINE, &mut gpu_answers).unwrap();
 
-    let cpu_pyramid = Pyramid::new(w, h, r.target.read_depth(&r.gpu).unwrap());
+    let cpu_pyramid = Pyramid::new(w, h, r.read_depth().unwrap());
     let mut cpu_answers = Vec::new();
     // finer 3: the GPU shader's default.
     HzbTester { nodes: scene.nodes(), pyramid: &cpu_pyramid, finer: 3 }.test(&view, &boxes, &mut cpu_answers);

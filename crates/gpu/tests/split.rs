@@ -4,15 +4,14 @@
 
 use glam::DVec3;
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::Renderer;
+use osw_gpu::renderer::{RenderOptions, Renderer};
 use osw_scene::Camera;
-use std::sync::Arc;
 
 #[test]
 fn a_pass_larger_than_the_arena_is_drawn_in_parts_with_the_same_pixels() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plant.osw");
-    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 300_000, 5, &path).unwrap());
+    let scene = osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 300_000, 5, &path).unwrap();
     let root = scene.node(0).aabb();
     let camera = Camera::look_at(
         root.center().as_dvec3() + scene.origin() + DVec3::new(0.0, 40.0, -120.0),
@@ -23,11 +22,11 @@ fn a_pass_larger_than_the_arena_is_drawn_in_parts_with_the_same_pixels() {
     let lods: Vec<u32> = (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod).collect();
     let frame = |cap: u64| {
         let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
-        let mut r = Renderer::new(gpu, Arc::clone(&scene), 160, 120, osw_gpu::limits::RESIDENCY_BYTES).unwrap();
+        let mut r = Renderer::new(gpu, &scene, 160, 120, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
         r.residency.max_arena_bytes = cap;
         let view = r.view(&camera);
         r.begin_frame();
-        let drawn = r.draw(&view, &lods, Pass::Color, true).unwrap();
+        let drawn = r.draw(&scene, &view, &lods, Pass::Color, true).unwrap();
         (r.read_color().unwrap(), drawn, r.residency.stats)
     };
     let (whole, drawn_whole, stats_whole) = frame(u64::MAX);

@@ -83,13 +83,12 @@ fn run(a: &Args) -> anyhow::Result<()> {
         _ => None,
     };
     let (w, h) = set.size;
-    let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
+    let scene = osw_scene::SceneFile::open(&set.scene)?;
     let agreed = a.agreed.resolve(cfg).map_err(anyhow::Error::msg)?;
     let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone(), agreed.said(set.size));
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
-    let mut renderer = osw_gpu::Renderer::new(gpu, scene, w, h, osw_gpu::limits::RESIDENCY_BYTES)?;
-    renderer.cluster_tests = agreed.cluster_tests;
-    renderer.time_gpu = a.gpu_times;
+    let options = osw_gpu::RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, ..Default::default() };
+    let renderer = osw_gpu::Renderer::new(gpu, &scene, w, h, osw_gpu::limits::RESIDENCY_BYTES, options)?;
     if a.gpu_times && !renderer.times_gpu() {
         anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", renderer.gpu.info.name);
     }
@@ -108,7 +107,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let mut io = inbox::Inbox::new(index, events, gate);
     io.wait =
         std::time::Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;
-    let mut sw = switch::Switch::new(set.batch, a.full, renderer, io);
+    let mut sw = switch::Switch::new(set.batch, a.full, scene, renderer, io);
     sw.adaptive = agreed.adaptive;
     sw.keyframe_part_bytes = a.keyframe_part_bytes.clamp(5, osw_wire::limits::KEYFRAME_PART_BYTES);
     sw.payoff = (!agreed.always_cull).then(|| osw_cull::payoff::Payoff::new(osw_cull::payoff::CullCost::at(w as u64 * h as u64)));

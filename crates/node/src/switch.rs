@@ -25,7 +25,7 @@ use osw_gpu::renderer::{DrawStats, Renderer};
 use osw_render::packet;
 use osw_render::pass::{self, HcOptions, HcPass};
 use osw_render::results::NodeFrame;
-use osw_scene::NodeId;
+use osw_scene::{NodeId, SceneFile};
 use osw_wire::clock::now_us;
 use osw_wire::messages::{Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Rejoin};
 use std::time::Instant;
@@ -43,6 +43,7 @@ pub struct Switch {
     pub payoff: Option<Payoff>,
     /// Whether HC of the next frame culls, decided as OR prepares its depth buffer.
     next: Option<bool>,
+    scene: SceneFile,
     pub renderer: Renderer,
     pub io: Inbox,
     /// V(i-1), sorted LOD ids.
@@ -54,7 +55,8 @@ pub struct Switch {
 }
 
 impl Switch {
-    pub fn new(batch: usize, full: bool, renderer: Renderer, io: Inbox) -> Switch {
+    /// A switch node on `renderer`, made for `scene`.
+    pub fn new(batch: usize, full: bool, scene: SceneFile, renderer: Renderer, io: Inbox) -> Switch {
         Switch {
             batch,
             full,
@@ -62,6 +64,7 @@ impl Switch {
             adaptive: 0.0,
             payoff: None,
             next: None,
+            scene,
             renderer,
             io,
             visible: Vec::new(),
@@ -138,15 +141,23 @@ impl Switch {
         if duty == Duty::Solo && cull {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let t = Instant::now();
-            let or = pass::or(r, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?;
+            let or = pass::or(r, &self.scene, &view, &self.visible, cam.tau_px, true, &mut self.occluders)?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
         }
         let mut pvs = Vec::new();
         let hc = if cull {
-            pass::hc(r, &view, cam.tau_px, HcOptions { adaptive: self.adaptive, ..HcOptions::default() }, &self.visible, &mut pvs)?
+            pass::hc(
+                r,
+                &self.scene,
+                &view,
+                cam.tau_px,
+                HcOptions { adaptive: self.adaptive, ..HcOptions::default() },
+                &self.visible,
+                &mut pvs,
+            )?
         } else {
             // Frustum culled only: occlusion culling did not pay where this node last ran it.
-            let stats = frustum_cull(r.scene.nodes(), &view, cam.tau_px, &mut pvs);
+            let stats = frustum_cull(self.scene.nodes(), &view, cam.tau_px, &mut pvs);
             pvs.sort_unstable();
             HcPass { stats, ..HcPass::default() }
         };
@@ -154,7 +165,7 @@ impl Switch {
         (f.hc_traversal_ms, f.hc_second_look_ms, f.hc_retest_ms) = (times.traversal_ms, times.second_look_ms, times.retest_ms);
         // A frame without occluders (the first) culls nothing, whatever culling would save.
         if let Some(p) = self.payoff.as_mut().filter(|_| cull && !self.visible.is_empty()) {
-            p.judge_hc(r.scene.nodes(), &hc, &pvs);
+            p.judge_hc(self.scene.nodes(), &hc, &pvs);
         }
         (f.batches, f.ids_sent) = self.send_visible_set(i, duty, &pvs)?;
         let hc_us = t.elapsed().as_micros() as u64;
@@ -215,17 +226,18 @@ impl Switch {
     fn or(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
         let Some((cam, _)) = self.io.camera(i + 1, false)? else { return Ok(None) };
         let t = Instant::now();
-        let max_id = self.renderer.scene.header().node_count;
+        let max_id = self.scene.header().node_count;
         self.renderer.begin_frame();
         let view = self.renderer.view(&packet::camera(&cam));
         // This node is HC of the next frame: whether it culls is decided now, from the last
         // frame it culled; when it does not, OR draws nothing, and only follows V(i).
         let cull = self.payoff.as_mut().is_none_or(Payoff::cull);
         let (mut drawn, mut or_ms) = (DrawStats::default(), 0.0);
+        let scene = &self.scene;
         let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn = drawn + pass::or(r, &view, ids, cam.tau_px, clear, scratch)?;
+                drawn = drawn + pass::or(r, scene, &view, ids, cam.tau_px, clear, scratch)?;
                 or_ms += ms(t);
             }
             Ok(())
@@ -280,7 +292,7 @@ impl Switch {
         self.io.roles.asked();
         let deadline = Instant::now() + self.io.wait;
         loop {
-            if let Some((frame, visible)) = self.io.keyframe(self.renderer.scene.header().node_count)? {
+            if let Some((frame, visible)) = self.io.keyframe(self.scene.header().node_count)? {
                 self.visible = visible;
                 let first = self.io.roles.rejoined(frame);
                 tracing::warn!("rejoined at frame {first}");

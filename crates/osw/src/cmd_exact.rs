@@ -30,11 +30,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !(a.tau >= 0.0 && a.tau.is_finite()) {
         anyhow::bail!("--tau {}: expected a finite number >= 0", a.tau);
     }
-    let (cams, mut r) = a.walk.open()?;
+    let (cams, scene, mut r) = a.walk.open(Default::default())?;
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, "exact");
     let reference = if a.frustum_cut { Reference::FrustumCut } else { Reference::Independent };
-    let res = osw_render::run::exact_path(&mut r, &cams, a.tau, reference, &a.out, &|| bar.inc(1));
+    let res = osw_render::run::exact_path(&mut r, &scene, &cams, a.tau, reference, &a.out, &|| bar.inc(1));
     bar.finish_and_clear();
     res?;
     out!("exact: {} frames → {}", cams.len(), a.out.display());

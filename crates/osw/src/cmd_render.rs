@@ -84,12 +84,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !a.mode.adaptive() && a.adaptive > 0.0 {
         anyhow::bail!("--adaptive is ovc's and prev's (Bartz 1999 eq. 1); --mode is {}", a.mode.name());
     }
-    let (cams, mut r) = a.walk.open()?;
-    r.count_fragments = a.fragments;
+    let options = osw_gpu::RenderOptions { count_fragments: a.fragments, time_gpu: a.gpu_times, ..Default::default() };
+    let (cams, scene, mut r) = a.walk.open(options)?;
     if a.fragments && !r.counts_fragments() {
         anyhow::bail!("--fragments: adapter {} has no pipeline statistics queries", r.gpu.info.name);
     }
-    r.time_gpu = a.gpu_times;
     if a.gpu_times && !r.times_gpu() {
         anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);
     }
@@ -106,7 +105,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         out: &a.out,
         write_frames: !a.no_frames,
     };
-    let s = render_path(&mut r, &cams, &spec, &|| bar.inc(1));
+    let s = render_path(&mut r, &scene, &cams, &spec, &|| bar.inc(1));
     bar.finish_and_clear();
     let s = s?;
     if let Some(d) = s.render() {

@@ -1,8 +1,9 @@
 //! Command-line arguments shared by the commands that render a path: scene, path, image size,
 //! adapter, residency budget.
 
+use osw_gpu::{RenderOptions, Renderer};
+use osw_scene::SceneFile;
 use std::path::PathBuf;
-use std::sync::Arc;
 
 #[derive(clap::Args, Clone)]
 pub struct WalkArgs {
@@ -42,14 +43,15 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 impl WalkArgs {
-    /// Reads the path, opens the scene and a renderer for it.
-    pub fn open(&self) -> anyhow::Result<(Vec<osw_scene::Camera>, osw_gpu::Renderer)> {
+    /// Reads the path, opens the scene and a renderer for it with `options` and these
+    /// cluster tests.
+    pub fn open(&self, options: RenderOptions) -> anyhow::Result<(Vec<osw_scene::Camera>, SceneFile, Renderer)> {
         let cams = osw_scene::path::read(&self.path)?;
-        let scene = Arc::new(osw_scene::SceneFile::open(&self.scene)?);
+        let scene = SceneFile::open(&self.scene)?;
         let gpu = osw_gpu::Gpu::new(self.adapter.as_deref())?;
         tracing::info!("adapter: {} ({:?})", gpu.info.name, gpu.info.device_type);
-        let mut r = osw_gpu::Renderer::new(gpu, scene, self.size.0, self.size.1, self.residency_mib << 20)?;
-        r.cluster_tests = self.cluster_tests;
-        Ok((cams, r))
+        let options = RenderOptions { cluster_tests: self.cluster_tests, ..options };
+        let r = Renderer::new(gpu, &scene, self.size.0, self.size.1, self.residency_mib << 20, options)?;
+        Ok((cams, scene, r))
     }
 }

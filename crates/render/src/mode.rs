@@ -27,8 +27,9 @@ use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::payoff::Alternating;
 use osw_cull::{HcStats, View, frustum_cull, hardware_cull};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{BoxTest, InterleavedTester, RenderError, Renderer};
-use osw_scene::NodeId;
+use osw_gpu::renderer::{BoxTest, RenderError, Renderer, Sampling};
+use osw_gpu::testers::{GpuTester, InterleavedTester};
+use osw_scene::{NodeId, SceneFile};
 use std::time::Instant;
 
 /// Every method osw runs, by the name runs, reports and results use. All but the switch run
@@ -153,10 +154,9 @@ impl ModeState {
     }
 
     /// Renders one frame for `view` into the renderer's colour target.
-    pub fn frame(&mut self, r: &mut Renderer, view: &View) -> Result<FrameStats, RenderError> {
+    pub fn frame(&mut self, r: &mut Renderer, scene: &SceneFile, view: &View) -> Result<FrameStats, RenderError> {
         r.begin_frame();
         let mut s = FrameStats::default();
-        let scene = std::sync::Arc::clone(&r.scene);
         let nodes = scene.nodes();
         let mut pvs = Vec::new();
         // Whether this frame's occlusion culling is expected to pay (prev and chc; see
@@ -174,31 +174,28 @@ impl ModeState {
             }
             Mode::Sw | Mode::Chc | Mode::Ovc => {
                 let t = Instant::now();
-                r.draw(view, &[], Pass::Depth, true)?;
+                r.draw(scene, view, &[], Pass::Depth, true)?;
                 let chc = self.chc.get_or_insert_with(|| ChcState::new(scene.bvh_count()));
                 let opts = if self.mode == Mode::Ovc { self.ovc } else { OvcOptions::default() };
                 // Eq. 2: T_budget = T_render of the previous frame times F (none on the first).
                 let budget_ms = opts.budget.zip(self.last_render_ms).map(|(f, render)| f * render);
-                r.sampling = (opts.sampling.max(1), self.frames % opts.sampling.max(1));
-                let mut occ = InterleavedTester::new(r);
-                if opts.adaptive > 0.0 {
-                    occ.tester.test = BoxTest::ExactCount;
-                }
+                let test = if opts.adaptive > 0.0 { BoxTest::ExactCount } else { BoxTest::Exact };
+                let lines = opts.sampling.max(1);
+                let sampling = Sampling { lines, first: self.frames % lines };
+                let mut occ = InterleavedTester::new(GpuTester { sampling, ..GpuTester::new(r, scene, test) });
                 let hc = match self.mode {
                     Mode::Chc => chc.frame(nodes, view, self.tau, &mut occ, &mut pvs),
                     _ => ovc(nodes, view, self.tau, &opts, budget_ms, &mut occ, &mut || ms(t), &mut pvs),
                 };
-                // Sampled tests are ovc's alone: back to reading every line, also after an error.
-                let finished = hc.and_then(|hc| occ.finish(view).map(|()| hc));
-                r.sampling = (1, 0);
+                let hc = hc.and_then(|hc| occ.finish(view).map(|()| hc))?;
                 s.hc_ms = ms(t);
-                finished?
+                hc
             }
             Mode::Hzb => {
                 let t = Instant::now();
                 let occluders = select_occluders(nodes, scene.bvh_count(), view, ACTIVE_OCCLUDERS);
-                let or = r.draw(view, &occluders, Pass::Depth, true)?;
-                let depth = r.target.read_depth(&r.gpu)?;
+                let or = r.draw(scene, view, &occluders, Pass::Depth, true)?;
+                let depth = r.read_depth()?;
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let pyramid = Pyramid::new(view.width, view.height, depth);
@@ -210,12 +207,12 @@ impl ModeState {
             Mode::Prev | Mode::Switch => {
                 let t = Instant::now();
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
-                let front = pass::or(r, view, &self.older, self.tau, true, &mut self.occluders)?;
-                let or = front + pass::or(r, view, &self.added, self.tau, false, &mut self.occluders)?;
+                let front = pass::or(r, scene, view, &self.older, self.tau, true, &mut self.occluders)?;
+                let or = front + pass::or(r, scene, view, &self.added, self.tau, false, &mut self.occluders)?;
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
-                let hc = pass::hc(r, view, self.tau, opts, &self.visible, &mut pvs)?;
+                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut pvs)?;
                 s.hc_ms = ms(t);
                 (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
                     (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
@@ -235,18 +232,22 @@ impl ModeState {
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {
-            Mode::Prev | Mode::Switch => pass::rvg(r, view, &pvs, cull, &mut self.clusters)?,
-            _ => r.draw(view, &pvs, Pass::Color, true)?,
+            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, cull, &mut self.clusters)?,
+            _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
         };
         (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         (self.last_render_ms, self.frames) = (Some(s.rvg_ms), self.frames + 1);
         (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
         s.fragments = r.counts_fragments().then_some(drawn.fragments);
-        let c = drawn.clusters;
-        (s.clusters, s.clusters_frustum_culled, s.clusters_cone_culled, s.clusters_occlusion_culled) =
-            (c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled);
-        (s.triangles_backface_culled, s.triangles_small_culled) = (c.backface_culled, c.small_culled);
+        [
+            s.clusters,
+            s.clusters_frustum_culled,
+            s.clusters_cone_culled,
+            s.clusters_occlusion_culled,
+            s.triangles_backface_culled,
+            s.triangles_small_culled,
+        ] = crate::stats::cluster_columns(&drawn.clusters);
         (s.tests, s.retests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
             (hc.tests, hc.retests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
         (s.tests_front, s.tests_siblings, s.tests_new) = (hc.tests_front, hc.tests_siblings, hc.tests_new);

@@ -7,7 +7,7 @@ use crate::results::{self, Details, ExactFrame, RenderSummary, Summary};
 use crate::stats::FrameStats;
 use osw_gpu::exact::Reference;
 use osw_gpu::renderer::{RenderError, Renderer};
-use osw_scene::Camera;
+use osw_scene::{Camera, SceneFile};
 use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
@@ -44,7 +44,7 @@ pub struct RunSpec<'a> {
 
 /// Renders every camera of `cams` as `spec` says: frames (when `write_frames`), `stats.csv`,
 /// `pvs.txt`, `summary.json`. Calls `tick` after each frame.
-pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn Fn()) -> Result<Summary, RunError> {
+pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &RunSpec, tick: &dyn Fn()) -> Result<Summary, RunError> {
     let (mode, tau, out, write_frames) = (spec.mode, spec.tau, spec.out, spec.write_frames);
     if write_frames {
         std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
@@ -59,7 +59,7 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     let mut pvs = String::new();
     for (i, cam) in cams.iter().enumerate() {
         let view = r.view(cam);
-        let mut s = state.frame(r, &view)?;
+        let mut s = state.frame(r, scene, &view)?;
         s.frame = i as u64;
         frames.push(s);
         push_ids(&mut pvs, state.visible());
@@ -70,12 +70,12 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
     }
     results::csv::write(&out.join("stats.csv"), &frames).map_err(|e| RunError::Output(e.to_string()))?;
     write(&out.join("pvs.txt"), &pvs)?;
-    let (header, stats) = (r.scene.header(), &r.residency.stats);
+    let (header, stats) = (scene.header(), &r.residency.stats);
     let summary = Summary {
         mode,
         tau,
         scene: spec.scene.display().to_string(),
-        scene_hash: osw_scene::format::hash_hex(r.scene.content_hash()),
+        scene_hash: osw_scene::format::hash_hex(scene.content_hash()),
         path: spec.path.display().to_string(),
         width: r.target.width,
         height: r.target.height,
@@ -103,13 +103,21 @@ pub fn render_path(r: &mut Renderer, cams: &[Camera], spec: &RunSpec, tick: &dyn
 /// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles,
 /// triangles of the clusters holding them, triangles drawn into the item buffer, ms to draw only
 /// the visible ones, and only their clusters) and `exact_leaves.txt` (the visible leaves of each frame).
-pub fn exact_path(r: &mut Renderer, cams: &[Camera], tau: f64, reference: Reference, out: &Path, tick: &dyn Fn()) -> Result<(), RunError> {
+pub fn exact_path(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    cams: &[Camera],
+    tau: f64,
+    reference: Reference,
+    out: &Path,
+    tick: &dyn Fn(),
+) -> Result<(), RunError> {
     let mut rows = Vec::with_capacity(cams.len());
     let mut leaves = String::new();
     for (i, cam) in cams.iter().enumerate() {
         r.begin_frame();
         let view = r.view(cam);
-        let e = r.exact(&view, tau, reference)?;
+        let e = r.exact(scene, &view, tau, reference)?;
         rows.push(ExactFrame {
             frame: i as u64,
             visible_leaves: e.leaves.len() as u64,

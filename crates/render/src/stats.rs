@@ -1,7 +1,8 @@
 //! Per-frame statistics of a run on one GPU (`stats.csv`, [`crate::results::csv`]) and what
 //! they sum up to in `summary.json` ([`Summary::of`], [`RenderSummary::of`]).
 
-use crate::results::{RenderSummary, Summary};
+use crate::results::{DisplayFrame, RenderSummary, Summary};
+use osw_cull::cluster::ClusterStats;
 use serde::{Deserialize, Serialize};
 
 /// One frame. Times in milliseconds.
@@ -59,6 +60,40 @@ pub struct FrameStats {
     /// empty otherwise.
     pub or_gpu_ms: Option<f64>,
     pub rvg_gpu_ms: Option<f64>,
+}
+
+/// The six cluster columns that `stats.csv` and the display's rows share, in their order
+/// (clusters, frustum-, cone- and occlusion-culled; triangles back-face and small culled),
+/// from RVG's draw.
+pub fn cluster_columns(c: &ClusterStats) -> [u64; 6] {
+    [c.clusters, c.frustum_culled, c.cone_culled, c.occlusion_culled, c.backface_culled, c.small_culled]
+}
+
+/// The display's frame as one GPU's: the keys every summary has ([`Summary::of`]).
+impl From<&DisplayFrame> for FrameStats {
+    fn from(r: &DisplayFrame) -> FrameStats {
+        FrameStats {
+            frame: r.frame,
+            total_ms: r.frame_ms,
+            hc_ms: r.hc_ms,
+            hc_traversal_ms: r.hc_traversal_ms,
+            hc_second_look_ms: r.hc_second_look_ms,
+            hc_retest_ms: r.hc_retest_ms,
+            rvg_ms: r.rvg_ms,
+            rvg_gpu_ms: r.rvg_gpu_ms,
+            pvs_nodes: r.pvs_nodes,
+            triangles_drawn: r.triangles_drawn,
+            tests: r.tests,
+            cull_skipped: r.cull_skipped,
+            clusters: r.clusters,
+            clusters_frustum_culled: r.clusters_frustum_culled,
+            clusters_cone_culled: r.clusters_cone_culled,
+            clusters_occlusion_culled: r.clusters_occlusion_culled,
+            triangles_backface_culled: r.triangles_backface_culled,
+            triangles_small_culled: r.triangles_small_culled,
+            ..FrameStats::default()
+        }
+    }
 }
 
 /// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).

@@ -6,18 +6,17 @@
 
 use glam::DVec3;
 use osw_gpu::exact::Reference;
-use osw_gpu::renderer::Renderer;
+use osw_gpu::renderer::{RenderOptions, Renderer};
 use osw_render::pass::{self, HcOptions};
 use osw_scene::{Camera, NodeId};
-use std::sync::Arc;
 
 #[test]
 fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plant.osw");
-    let scene = Arc::new(osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap());
+    let scene = osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap();
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
-    let mut r = Renderer::new(gpu, Arc::clone(&scene), 256, 256, osw_gpu::limits::RESIDENCY_BYTES).unwrap();
+    let mut r = Renderer::new(gpu, &scene, 256, 256, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
     let root = scene.node(0).aabb();
     let (c, e) = (root.center().as_dvec3(), root.extent().as_dvec3());
     let eye = c + DVec3::new(0.9 * e.x, 0.1 * e.y, 0.0);
@@ -25,22 +24,24 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let before = r.view(&Camera::look_at(eye, eye + DVec3::X, 60.0));
     r.begin_frame();
     let mut previous = Vec::new();
-    pass::hc(&mut r, &before, 0.0, HcOptions::default(), &[], &mut previous).unwrap();
+    pass::hc(&mut r, &scene, &before, 0.0, HcOptions::default(), &[], &mut previous).unwrap();
     assert!(!previous.is_empty(), "nothing visible before the turn: OR would draw nothing");
     // Frame i turns to the plant: OR draws V(i-1) for it, then HC.
     let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0));
     let mut run = |min: usize| {
         r.begin_frame();
-        pass::or(&mut r, &after, &previous, 0.0, true, &mut Vec::new()).unwrap();
+        pass::or(&mut r, &scene, &after, &previous, 0.0, true, &mut Vec::new()).unwrap();
         let mut pvs = Vec::new();
         let stats =
-            pass::hc(&mut r, &after, 0.0, HcOptions { new_occluders_min: min, ..HcOptions::default() }, &previous, &mut pvs).unwrap().stats;
+            pass::hc(&mut r, &scene, &after, 0.0, HcOptions { new_occluders_min: min, ..HcOptions::default() }, &previous, &mut pvs)
+                .unwrap()
+                .stats;
         (pvs, stats)
     };
     let (with, with_stats) = run(1);
     let (without, without_stats) = run(usize::MAX);
     r.begin_frame();
-    let exact = r.exact(&after, 0.0, Reference::Independent).unwrap();
+    let exact = r.exact(&scene, &after, 0.0, Reference::Independent).unwrap();
     let leaves = |pvs: &[NodeId]| -> Vec<NodeId> {
         let mut l: Vec<NodeId> = pvs.iter().map(|&id| scene.node(id).parent).collect();
         l.sort_unstable();

@@ -6,8 +6,9 @@ use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid};
 use osw_cull::retest::retest_additions;
 use osw_cull::{HcStats, View, VisibilityTester, frustum_cull, hardware_cull_from};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{BoxTest, GpuTester, RenderError, Renderer};
-use osw_scene::NodeId;
+use osw_gpu::renderer::{BoxTest, RenderError, Renderer};
+use osw_gpu::testers::GpuTester;
+use osw_scene::{NodeId, SceneFile};
 use std::time::Instant;
 
 /// How prev's HC tests boxes (`osw render --hc`); the switch's nodes use the hybrid.
@@ -66,9 +67,7 @@ const HYBRID_SECOND_FINER: u32 = 6;
 /// back and the pyramid rebuilt: about as much as drawing them costs again).
 struct HybridTester<'a> {
     r: &'a mut Renderer,
-    /// The renderer's scene, held apart so that a test reads the node table while the tester
-    /// holds the renderer.
-    nodes: &'a [osw_scene::NodeRecord],
+    scene: &'a SceneFile,
     pyramid: Pyramid,
     min: usize,
     /// The new occluders drawn so far (the retest need not draw them again).
@@ -85,7 +84,7 @@ impl VisibilityTester for HybridTester<'_> {
     type Error = RenderError;
 
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) -> Result<(), RenderError> {
-        let Ok(()) = HzbTester { nodes: self.nodes, pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
+        let Ok(()) = HzbTester { nodes: self.scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
         Ok(())
     }
 
@@ -93,8 +92,8 @@ impl VisibilityTester for HybridTester<'_> {
         if lods.len() < self.min {
             return Ok(false);
         }
-        self.r.draw(view, lods, Pass::Depth, false)?;
-        self.pyramid = Pyramid::new(view.width, view.height, self.r.target.read_depth(&self.r.gpu)?);
+        self.r.draw(self.scene, view, lods, Pass::Depth, false)?;
+        self.pyramid = Pyramid::new(view.width, view.height, self.r.read_depth()?);
         self.drawn.extend_from_slice(lods);
         Ok(true)
     }
@@ -158,6 +157,7 @@ fn ms(t: Instant) -> f64 {
 ///    additions are drawn into the depth buffer and tested again, exactly.
 pub fn hc(
     r: &mut Renderer,
+    scene: &SceneFile,
     view: &View,
     tau: f64,
     opts: HcOptions,
@@ -165,23 +165,23 @@ pub fn hc(
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcPass, RenderError> {
     let t = Instant::now();
-    let traversal = traverse(r, view, tau, opts, previous, pvs)?;
-    let nodes = r.scene.nodes();
+    let traversal = traverse(r, scene, view, tau, opts, previous, pvs)?;
+    let nodes = scene.nodes();
     // The triangles of what the traversal found: the later passes only drop from it.
     let found = osw_cull::payoff::triangles(nodes, pvs);
     let traversal_ms = ms(t);
     let t = Instant::now();
     let mut look = Dropped::default();
     if let Some(pyramid) = &traversal.pyramid {
-        look = second_look(r, view, opts.adaptive, pyramid, pvs)?;
+        look = second_look(r, scene, view, opts.adaptive, pyramid, pvs)?;
     }
     let second_look_ms = ms(t);
     let t = Instant::now();
-    let again = retest(r, view, opts.adaptive, previous, &traversal.drawn, pvs)?;
+    let again = retest(r, scene, view, opts.adaptive, previous, &traversal.drawn, pvs)?;
     let retest_ms = ms(t);
     let stats = traversal.stats;
     let retests = look.tests + again.tests;
-    let culled_triangles = stats.culled_triangles + found - osw_cull::payoff::triangles(r.scene.nodes(), pvs);
+    let culled_triangles = stats.culled_triangles + found - osw_cull::payoff::triangles(nodes, pvs);
     Ok(HcPass {
         stats: HcStats {
             tests: stats.tests + retests,
@@ -207,13 +207,13 @@ struct Traversal {
 /// PVS to `pvs`, sorted and without duplicates.
 fn traverse(
     r: &mut Renderer,
+    scene: &SceneFile,
     view: &View,
     tau: f64,
     opts: HcOptions,
     previous: &[NodeId],
     pvs: &mut Vec<NodeId>,
 ) -> Result<Traversal, RenderError> {
-    let scene = std::sync::Arc::clone(&r.scene);
     let nodes = scene.nodes();
     let mut t = Traversal { stats: HcStats::default(), drawn: Vec::new(), pyramid: None };
     // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing): every
@@ -221,8 +221,8 @@ fn traverse(
     if previous.is_empty() {
         t.stats = frustum_cull(nodes, view, tau, pvs);
     } else if opts.test == HcTest::Hybrid {
-        let pyramid = Pyramid::new(view.width, view.height, r.target.read_depth(&r.gpu)?);
-        let mut tester = HybridTester { r, nodes, pyramid, min: opts.new_occluders_min, drawn: Vec::new() };
+        let pyramid = Pyramid::new(view.width, view.height, r.read_depth()?);
+        let mut tester = HybridTester { r, scene, pyramid, min: opts.new_occluders_min, drawn: Vec::new() };
         t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs)?;
         t.drawn = tester.drawn;
         t.drawn.sort_unstable();
@@ -238,7 +238,7 @@ fn traverse(
             _ if tau > 0.0 => BoxTest::ExactCount,
             _ => BoxTest::Exact,
         };
-        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut GpuTester { renderer: r, test }, pvs)?;
+        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut GpuTester::new(r, scene, test), pvs)?;
     }
     pvs.sort_unstable();
     pvs.dedup();
@@ -258,13 +258,19 @@ struct Dropped {
 /// drawn, against the traversal's pyramid read finer (or, with adaptive culling, which scores
 /// pixel counts, exactly on the GPU): what the traversal's coarse rectangles let through
 /// would otherwise be drawn as an addition, dropped, and found again the next frame.
-fn second_look(r: &mut Renderer, view: &View, adaptive: f64, pyramid: &Pyramid, pvs: &mut Vec<NodeId>) -> Result<Dropped, RenderError> {
-    let scene = std::sync::Arc::clone(&r.scene);
+fn second_look(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    view: &View,
+    adaptive: f64,
+    pyramid: &Pyramid,
+    pvs: &mut Vec<NodeId>,
+) -> Result<Dropped, RenderError> {
     let nodes = scene.nodes();
     let vp = view.view_proj().as_dmat4();
     let small: Vec<NodeId> = pvs.iter().copied().filter(|&id| Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_SECOND_PX).collect();
     let (hidden, adaptive_culled) = if adaptive > 0.0 {
-        drop_hidden(r, view, &small, adaptive, pvs)?
+        drop_hidden(r, scene, view, &small, adaptive, pvs)?
     } else {
         let mut seen = Vec::with_capacity(small.len());
         let Ok(()) = HzbTester { nodes, pyramid, finer: HYBRID_SECOND_FINER }.test(view, &small, &mut seen);
@@ -281,6 +287,7 @@ fn second_look(r: &mut Renderer, view: &View, adaptive: f64, pyramid: &Pyramid, 
 /// dropped. Only geometry of this frame's PVS is added as occluder: conservative.
 fn retest(
     r: &mut Renderer,
+    scene: &SceneFile,
     view: &View,
     adaptive: f64,
     previous: &[NodeId],
@@ -293,18 +300,17 @@ fn retest(
     }
     let undrawn: Vec<NodeId> = added.iter().copied().filter(|id| drawn.binary_search(id).is_err()).collect();
     if !undrawn.is_empty() {
-        r.draw(view, &undrawn, Pass::Depth, false)?;
+        r.draw(scene, view, &undrawn, Pass::Depth, false)?;
     }
     // Box by box when few (one round trip), or where Bartz 1999's eq. 1 scores each addition's own
     // pixels; through the hierarchy when many (a region came into view). Exactly on the GPU,
     // also in the hybrid: measured, its pyramid read finer kept 18% more nodes.
     if adaptive > 0.0 || added.len() < RETEST_HIERARCHY_MIN {
-        let (hidden, adaptive_culled) = drop_hidden(r, view, &added, adaptive, pvs)?;
+        let (hidden, adaptive_culled) = drop_hidden(r, scene, view, &added, adaptive, pvs)?;
         return Ok(Dropped { tests: added.len() as u32, hidden, adaptive: adaptive_culled });
     }
-    let scene = std::sync::Arc::clone(&r.scene);
     let mut still = Vec::new();
-    let s = retest_additions(scene.nodes(), view, &kept, &added, &mut GpuTester { renderer: r, test: BoxTest::Exact }, &mut still)?;
+    let s = retest_additions(scene.nodes(), view, &kept, &added, &mut GpuTester::new(r, scene, BoxTest::Exact), &mut still)?;
     let hidden = added.len().saturating_sub(still.len()) as u32;
     *pvs = kept;
     pvs.extend(still);
@@ -318,15 +324,23 @@ fn retest(
 /// approximate knob, applied where HC tests exactly. Returns how many it removed, and how many
 /// of those only adaptive culling did. As in HC, boxes around the eye or across the near plane
 /// are not tested.
-fn drop_hidden(r: &mut Renderer, view: &View, ids: &[NodeId], adaptive: f64, pvs: &mut Vec<NodeId>) -> Result<(u32, u32), RenderError> {
-    let ids: Vec<NodeId> = ids.iter().copied().filter(|&id| !view.frustum.needs_no_test(&r.scene.node(id).aabb())).collect();
+fn drop_hidden(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    view: &View,
+    ids: &[NodeId],
+    adaptive: f64,
+    pvs: &mut Vec<NodeId>,
+) -> Result<(u32, u32), RenderError> {
+    let ids: Vec<NodeId> = ids.iter().copied().filter(|&id| !view.frustum.needs_no_test(&scene.node(id).aabb())).collect();
     if ids.is_empty() {
         return Ok((0, 0));
     }
     let mut seen = Vec::with_capacity(ids.len());
-    r.test_boxes(view, &ids, if adaptive > 0.0 { BoxTest::ExactCount } else { BoxTest::Exact }, &mut seen)?;
+    let test = if adaptive > 0.0 { BoxTest::ExactCount } else { BoxTest::Exact };
+    GpuTester::new(r, scene, test).test(view, &ids, &mut seen)?;
     let faint =
-        |id: NodeId, px: Option<u32>| px.is_some_and(|p| osw_cull::ovc::adapcull(view, &r.scene.node(id).aabb(), p as f64) < adaptive);
+        |id: NodeId, px: Option<u32>| px.is_some_and(|p| osw_cull::ovc::adapcull(view, &scene.node(id).aabb(), p as f64) < adaptive);
     let mut dropped = (0, 0);
     let hidden: Vec<NodeId> = ids
         .iter()

@@ -5,14 +5,22 @@ use osw_cull::View;
 use osw_cull::front::update_front;
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
-use osw_scene::NodeId;
+use osw_scene::{NodeId, SceneFile};
 
 /// Draws `ids` re-selected for `view` at `tau` (the front update of sec. 4.6) into the depth
 /// buffer; `clear` starts a new one. OR draws the front of V(i-2), then HC's additions of
 /// frame i-1 as they arrive: HC chose those for camera i-1, so they are re-selected too and
 /// every occluder is geometry at tau for camera i (tau may also change between frames).
 /// `front` is scratch space kept across frames.
-pub fn or(r: &mut Renderer, view: &View, ids: &[NodeId], tau: f64, clear: bool, front: &mut Vec<NodeId>) -> Result<DrawStats, RenderError> {
-    update_front(r.scene.nodes(), ids, view, tau, front);
-    r.draw(view, front, Pass::Depth, clear)
+pub fn or(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    view: &View,
+    ids: &[NodeId],
+    tau: f64,
+    clear: bool,
+    front: &mut Vec<NodeId>,
+) -> Result<DrawStats, RenderError> {
+    update_front(scene.nodes(), ids, view, tau, front);
+    r.draw(scene, view, front, Pass::Depth, clear)
 }

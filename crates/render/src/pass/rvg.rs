@@ -2,22 +2,89 @@
 //! the display, so that the switch's frames are prev's.
 
 use osw_cull::View;
-use osw_cull::cluster::ClusterHistory;
-use osw_gpu::draw::Pass;
+use osw_cull::cluster::{ClusterHistory, ClusterStats};
+use osw_cull::hzb::{Pyramid, visible_box};
+use osw_gpu::draw::{Layer, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
-use osw_scene::NodeId;
+use osw_scene::format::ClusterRecord;
+use osw_scene::{NodeId, SceneFile};
 
-/// Draws `pvs` in colour. Where the frame was occlusion culled, its hidden clusters are culled
-/// too, in two passes against the depth of the clusters visible last frame
-/// ([`Renderer::draw_visible`]); a frame whose culling was skipped because it did not pay
-/// (osw_cull::payoff) is drawn as vfc draws: the clusters' depth read-back and pyramid are
-/// occlusion culling's cost as much as HC's tests are. `history` holds the last frame's visible
-/// clusters; a frame drawn without the test leaves none, so that the next culled frame finds
-/// its clusters in its second pass rather than trust a view several frames old.
-pub fn rvg(r: &mut Renderer, view: &View, pvs: &[NodeId], culled: bool, history: &mut ClusterHistory) -> Result<DrawStats, RenderError> {
-    if culled {
-        return r.draw_visible(view, pvs, Pass::Color, history);
+/// RVG's cluster occlusion test reads the pyramid this many levels finer than Peng 2014's 2x2
+/// texels: a box spans at most 64 texels a side. On the 5M plant walk at tau 5, 2 levels left
+/// 10,246 of 13,451 triangles a frame, 5 levels 8,960 (docs/measurements/2026-12-02-clusters.md).
+const CLUSTER_FINER: u32 = 5;
+
+/// Draws `pvs` in colour. Where the frame was occlusion culled and the renderer's cluster
+/// tests include occlusion, its hidden clusters are culled too ([`visible_clusters`]); a frame
+/// whose culling was skipped because it did not pay (osw_cull::payoff) is drawn as vfc draws:
+/// the clusters' depth read-back and pyramid are occlusion culling's cost as much as HC's
+/// tests are. `history` holds the last frame's visible clusters; a frame drawn without the
+/// test leaves none, so that the next culled frame finds its clusters in its second pass
+/// rather than trust a view several frames old.
+pub fn rvg(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    view: &View,
+    pvs: &[NodeId],
+    culled: bool,
+    history: &mut ClusterHistory,
+) -> Result<DrawStats, RenderError> {
+    if culled && r.options().cluster_tests.occlusion {
+        return visible_clusters(r, scene, view, pvs, history);
     }
     *history = ClusterHistory::default();
-    r.draw(view, pvs, Pass::Color, true)
+    r.draw(scene, view, pvs, Pass::Color, true)
+}
+
+/// The opaque clusters of `pvs` with occlusion culling, in two passes as in niagara: first
+/// those that `history` says were visible in the last frame, then every cluster's box is
+/// tested against the farthest-depth pyramid of what that drew (read back; on lavapipe the
+/// exact GPU box test per cluster took RVG from 43 to 63 ms, this one breaks even:
+/// docs/measurements/2026-12-02-clusters.md), and those visible and not yet drawn are drawn.
+/// Conservative: a cluster is skipped only when geometry drawn this frame hides all of its
+/// box. `history` then holds this frame's visible clusters. The translucent clusters are
+/// blended over both.
+fn visible_clusters(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    view: &View,
+    pvs: &[NodeId],
+    history: &mut ClusterHistory,
+) -> Result<DrawStats, RenderError> {
+    let tests = r.options().cluster_tests;
+    let mut first = r.gather(scene, view, pvs, tests, Some(&mut |id, k, _| history.was_visible(id, k)))?;
+    r.submit(view, Pass::Color, Layer::Opaque, true, &mut first)?;
+    // Every cluster that passes the frustum and cone tests, its box tested against the
+    // pyramid (boxes around the eye or across the near plane count as visible, as in HC).
+    let pyramid = Pyramid::new(view.width, view.height, r.read_depth()?);
+    let vp = view.view_proj().as_dmat4();
+    let mut occluded = 0;
+    let mut second = r.gather(
+        scene,
+        view,
+        pvs,
+        tests,
+        Some(&mut |id, k, c: &ClusterRecord| {
+            let b = c.aabb();
+            let drawn = history.was_visible(id, k);
+            if view.frustum.needs_no_test(&b) || visible_box(&pyramid, &vp, view, &b, CLUSTER_FINER) {
+                history.mark(id, k);
+                return !drawn;
+            }
+            occluded += u64::from(!drawn);
+            false
+        }),
+    )?;
+    r.submit(view, Pass::Color, Layer::Opaque, false, &mut second)?;
+    history.end_frame();
+    // Both gathers count every cluster of the nodes; the triangle tests ran on what each drew.
+    let both = first + second;
+    let clusters = ClusterStats {
+        occlusion_culled: occluded,
+        backface_culled: both.clusters.backface_culled,
+        small_culled: both.clusters.small_culled,
+        ..second.clusters
+    };
+    let opaque = DrawStats { nodes: second.nodes, clusters, ..both };
+    Ok(opaque + r.draw_translucent(scene, view, pvs, Pass::Color, false)?)
 }

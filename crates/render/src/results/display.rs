@@ -10,7 +10,7 @@ pub struct DisplayFrame {
     /// Time from the previous displayed frame to this one.
     pub frame_ms: f64,
     /// RVG's gather and submit of this frame's draw, which waits for the draw before it (the
-    /// display keeps one draw in flight: `osw_gpu::Renderer::overlap`).
+    /// display keeps one draw in flight: `osw_gpu::RenderOptions::overlap`).
     pub rvg_ms: f64,
     /// RVG's draw on the GPU, from timestamps (`osw-display --gpu-times`); empty otherwise.
     pub rvg_gpu_ms: Option<f64>,

@@ -1,0 +1,146 @@
+//! A pass's index list: the opaque or translucent clusters of its nodes, read from the mapped
+//! scene and offset to their vertices in the arena, less what the cluster and triangle tests
+//! drop (osw_cull::cluster). Drawing is this step and [`Renderer::submit`]; RVG's two-pass
+//! cluster occlusion culling (osw_render::pass::rvg) calls the two itself.
+
+use crate::draw::{Layer, Pass};
+use crate::renderer::{DrawStats, RenderError, Renderer};
+use crate::residency::ResidencyError;
+use osw_cull::View;
+use osw_cull::cluster::{ClusterStats, ClusterTests, gather};
+use osw_cull::gathered::Gathered;
+use osw_scene::file::Indices;
+use osw_scene::format::ClusterRecord;
+use osw_scene::{NodeId, SceneFile};
+
+/// Which clusters of a node a pass takes (node, cluster index, cluster), after the tests.
+pub type Select<'a> = dyn FnMut(NodeId, usize, &ClusterRecord) -> bool + 'a;
+
+/// One node's part of [`Renderer::gather`]: every cluster that passes `tests` through the
+/// indices kept for this view, or those that `select` takes.
+#[allow(clippy::too_many_arguments)]
+fn gather_node<I: Copy + Into<u32>>(
+    view: &View,
+    tests: ClusterTests,
+    id: NodeId,
+    geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
+    select: Option<&mut Select>,
+    gathered: &mut Gathered,
+    base: u32,
+    stats: &mut ClusterStats,
+    out: &mut Vec<u32>,
+) {
+    match select {
+        None => gathered.gather(view, tests, (id, base), geometry, stats, out),
+        Some(select) => gather(view, tests, geometry, stats, |k, c| select(id, k, c), base, out),
+    }
+}
+
+impl Renderer {
+    /// Draws LOD nodes `ids` (in the given order) for `view`. `clear` clears the pass's
+    /// attachments first (colour to the sky, item ids to 0, depth to 0 = infinitely far), else draws on top.
+    ///
+    /// One draw call: the nodes' indices, read from the mapped file and offset to their
+    /// vertices in the arena, are gathered in the given order (so triangles rasterise in the
+    /// same order as one draw per node would, and depth ties resolve alike), less the clusters
+    /// that the frustum and cone tests skip (none in the item pass). Colour passes then blend
+    /// the nodes' translucent clusters over it ([`Renderer::draw_translucent`]); the depth and
+    /// item passes draw only the opaque ones.
+    pub fn draw(&mut self, scene: &SceneFile, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+        let opaque = self.draw_opaque(scene, view, ids, pass, clear)?;
+        match pass {
+            Pass::Color | Pass::Tinted(_) => Ok(opaque + self.draw_translucent(scene, view, ids, pass, false)?),
+            Pass::Depth | Pass::Item => Ok(opaque),
+        }
+    }
+
+    fn draw_opaque(&mut self, scene: &SceneFile, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+        let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.options().cluster_tests };
+        let drawn = self.gather(scene, view, ids, tests, None).and_then(|mut stats| {
+            self.submit(view, pass, Layer::Opaque, clear, &mut stats)?;
+            Ok(stats)
+        });
+        match drawn {
+            // More geometry than the largest GPU buffer holds (a frame at full detail of a
+            // billion triangles): the list in halves, each drawn and submitted in turn.
+            Err(RenderError::Residency(ResidencyError::TooLarge(_)) | RenderError::TooManyTriangles(..)) if ids.len() > 1 => {
+                let (a, b) = ids.split_at(ids.len() / 2);
+                // Nothing of the failed attempt was submitted, and everything submitted before
+                // it precedes any upload on the queue: all of it may make room now.
+                self.residency.next_epoch();
+                let first = self.draw_opaque(scene, view, a, pass, clear)?;
+                self.residency.next_epoch();
+                let second = self.draw_opaque(scene, view, b, pass, false)?;
+                Ok(first + second)
+            }
+            r => r,
+        }
+    }
+
+    /// The translucent clusters of `ids` over what is drawn: depth tested against it, never
+    /// written, blended in a colour pass. The nodes go far to near by their box centres, ties
+    /// by id, so that every mode blends the surfaces it shares with another in the same order
+    /// (a node one mode culls is hidden, and blends nothing in the other). `clear` clears the
+    /// colour (or item ids) only, keeping the depth.
+    pub fn draw_translucent(
+        &mut self,
+        scene: &SceneFile,
+        view: &View,
+        ids: &[NodeId],
+        pass: Pass,
+        clear: bool,
+    ) -> Result<DrawStats, RenderError> {
+        let mut order: Vec<(f32, NodeId)> = ids
+            .iter()
+            .filter(|&&id| scene.has_translucent(id))
+            .map(|&id| (view.relative(scene.node(id).aabb().center()).length_squared(), id))
+            .collect();
+        let mut stats = DrawStats::default();
+        if order.is_empty() && !clear {
+            return Ok(stats);
+        }
+        order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let tests = if pass == Pass::Item { ClusterTests::NONE } else { ClusterTests { occlusion: false, ..self.options().cluster_tests } };
+        self.indices.clear();
+        for (_, id) in order {
+            let base = self.residency.ensure(&self.gpu, scene, id)?;
+            let g = scene.geometry(id)?;
+            let (out, s, clusters) = (&mut self.indices, &mut stats.clusters, &g.clusters[g.opaque..]);
+            match g.indices {
+                Indices::U16(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
+                Indices::U32(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
+            }
+            stats.nodes += 1;
+        }
+        self.submit(view, pass, Layer::Translucent, clear, &mut stats)?;
+        Ok(stats)
+    }
+
+    /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`
+    /// and `select(node, cluster index, cluster)` (all, through the indices kept for this view,
+    /// when `None`), less the triangles `tests` drop, making the nodes resident.
+    pub fn gather(
+        &mut self,
+        scene: &SceneFile,
+        view: &View,
+        ids: &[NodeId],
+        tests: ClusterTests,
+        mut select: Option<&mut Select>,
+    ) -> Result<DrawStats, RenderError> {
+        debug_assert_eq!(scene.nodes().len(), self.nodes, "a renderer serves the scene it was made for");
+        let mut stats = DrawStats::default();
+        self.indices.clear();
+        for &id in ids {
+            let base = self.residency.ensure(&self.gpu, scene, id)?;
+            let g = scene.geometry(id)?;
+            let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
+            let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
+            match g.indices {
+                Indices::U16(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
+                Indices::U32(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
+            }
+            stats.nodes += 1;
+        }
+        Ok(stats)
+    }
+}
