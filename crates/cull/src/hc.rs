@@ -72,7 +72,7 @@ pub fn hardware_cull<E>(
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
-    traverse(nodes, view, tau, &[], &Coherence::default(), tester, pvs)
+    traverse(nodes, view, tau, &[], &Coherence::default(), tester, pvs, &mut Vec::new())
 }
 
 /// What V(i-1) says of the hierarchy: the BVH nodes above it, taken as visible untested, and
@@ -102,8 +102,41 @@ pub fn hardware_cull_from<E>(
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
+    hardware_cull_seen(nodes, view, tau, previous, &mut Vec::new(), tester, pvs)
+}
+
+/// [`hardware_cull_from`], also taking the groups in `seen` (and the nodes above them) as
+/// visible without a test, and leaving in `seen` the groups this traversal found visible.
+///
+/// CHC's visible interior nodes: a group found visible whose subtree V(i-1) holds no LOD of
+/// (a region that passes the box tests but whose geometry the retest finds hidden) would be
+/// tested again from its highest node every frame, a chain of tests down to the nodes that
+/// are hidden; CHC opens such a node untested the next frame and tests its children. As
+/// in CHC, a group opened untested and none of whose children is found visible is not in
+/// `seen` afterwards: it is tested the frame after. `seen` may be several frames old (the
+/// switch's HC node has its own from two frames back): any set of groups is conservative.
+pub fn hardware_cull_seen<E>(
+    nodes: &[NodeRecord],
+    view: &View,
+    tau: f64,
+    previous: &[NodeId],
+    seen: &mut Vec<NodeId>,
+    tester: &mut dyn VisibilityTester<Error = E>,
+    pvs: &mut Vec<NodeId>,
+) -> Result<HcStats, E> {
     let owners = previous.iter().filter_map(|&id| owner(nodes, id)).collect();
-    traverse(nodes, view, tau, previous, &Coherence { above: above(nodes, previous), owners }, tester, pvs)
+    let mut above = above(nodes, previous);
+    for &id in seen.iter().filter(|&&id| (id as usize) < nodes.len()) {
+        let mut up = id;
+        while let Some(n) = nodes.get(up as usize) {
+            if !above.insert(up) {
+                break;
+            }
+            up = n.parent;
+        }
+    }
+    seen.clear();
+    traverse(nodes, view, tau, previous, &Coherence { above, owners }, tester, pvs, seen)
 }
 
 /// The BVH node that owns LOD or HLOD `id`: a leaf for its LODs, a group for its HLOD.
@@ -129,6 +162,8 @@ pub(crate) fn above(nodes: &[NodeRecord], ids: &[NodeId]) -> HashSet<NodeId> {
     set
 }
 
+/// The traversal; `seen` gets the groups its tests found visible.
+#[allow(clippy::too_many_arguments)]
 fn traverse<E>(
     nodes: &[NodeRecord],
     view: &View,
@@ -137,6 +172,7 @@ fn traverse<E>(
     coherence: &Coherence,
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
+    seen: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
     let above = &coherence.above;
     let mut stats = HcStats::default();
@@ -180,6 +216,7 @@ fn traverse<E>(
         test_round(tester, view, &mut batch, &mut answers, &mut stats)?;
         for (&id, vis) in batch.iter().zip(&answers) {
             if vis.visible {
+                seen.push(id);
                 refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
             } else {
                 stats.occlusion_culled += 1;
@@ -516,11 +553,18 @@ pub(crate) mod tests {
             let root_stats = hardware_cull(nodes, &this, tau, &mut t, &mut want).unwrap();
             hardware_cull_from(nodes, &this, tau, &previous, &mut t, &mut got).unwrap();
             let coherent = hardware_cull_from(nodes, &this, tau, &want, &mut t, &mut again).unwrap();
-            for v in [&mut want, &mut got, &mut again] {
+            // Any nodes taken as found visible before, of this camera or none, hidden or not.
+            let mut seen: Vec<NodeId> = (0..nodes.len() as u32).filter(|&id| (id as u64 ^ !seed).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 60 == 0).collect();
+            let mut with_seen = Vec::new();
+            hardware_cull_seen(nodes, &this, tau, &previous, &mut seen, &mut t, &mut with_seen).unwrap();
+            for v in [&mut want, &mut got, &mut again, &mut with_seen] {
                 v.sort_unstable();
             }
             proptest::prop_assert_eq!(&got, &want);
             proptest::prop_assert_eq!(&again, &want);
+            proptest::prop_assert_eq!(&with_seen, &want);
+            // What it leaves in `seen` is what its tests found visible.
+            proptest::prop_assert!(seen.iter().all(|id| t.marked.contains(id)));
             proptest::prop_assert!(coherent.tests <= root_stats.tests, "{coherent:?} vs {root_stats:?}");
             // Every test falls in one place; from the root every test is new; frustum culling
             // makes none.

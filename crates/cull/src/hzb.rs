@@ -5,9 +5,10 @@
 //! minimum of the four below it, and a box is hidden when its nearest depth (its maximum) is
 //! below the farthest occluder depth over its rectangle.
 //!
-//! The same pyramid and test, read a few levels finer, are the first test of `prev`'s and the
-//! switch's default HC (`--hc hybrid`): every round of its traversal then costs no GPU round
-//! trip.
+//! The same pyramid and test, read a few levels finer, down to the pixels under a box where
+//! its texels let it through ([`Pyramid::reaches`]), and on the halves of a box that passes
+//! ([`visible_parts`]), are the first test of `prev`'s and the switch's default HC (`--hc
+//! hybrid`): every round of its traversal then costs no GPU round trip.
 
 use crate::frustum::Containment;
 use crate::tester::{Visibility, VisibilityTester};
@@ -82,14 +83,20 @@ impl Pyramid {
         Pyramid { levels }
     }
 
+    /// The level where the level-0 pixel rectangle [x0, x1] x [y0, y1] spans at most
+    /// 2^(1 + finer) texels a side (finer = 0: Peng 2014's 2x2).
+    fn level_of(&self, x0: u32, y0: u32, x1: u32, y1: u32, finer: u32) -> usize {
+        let span = (x1 - x0).max(y1 - y0) + 1;
+        let level = (u32::BITS - (span.max(1) - 1).leading_zeros()).saturating_sub(finer) as usize;
+        level.min(self.levels.len() - 1)
+    }
+
     /// Farthest depth over the level-0 pixel rectangle [x0, x1] x [y0, y1] (inclusive), read
     /// at the level where the rectangle spans at most 2^(1 + finer) texels a side (finer = 0:
     /// Peng 2014's 2x2): conservative, the texels cover the rectangle.
     pub fn farthest(&self, x0: u32, y0: u32, x1: u32, y1: u32, finer: u32) -> f32 {
-        let span = (x1 - x0).max(y1 - y0) + 1;
-        let level = (u32::BITS - (span.max(1) - 1).leading_zeros()).saturating_sub(finer) as usize;
-        let (w, h, d) = &self.levels[level.min(self.levels.len() - 1)];
-        let s = level.min(self.levels.len() - 1);
+        let s = self.level_of(x0, y0, x1, y1, finer);
+        let (w, h, d) = &self.levels[s];
         let (tx0, ty0, tx1, ty1) = (x0 >> s, y0 >> s, (x1 >> s).min(w - 1), (y1 >> s).min(h - 1));
         let mut far = f32::INFINITY;
         for y in ty0..=ty1 {
@@ -98,6 +105,47 @@ impl Pyramid {
             }
         }
         far
+    }
+}
+
+impl Pyramid {
+    /// Whether some pixel of the rectangle `rect` = [x0, x1] x [y0, y1] (inclusive, inside the image)
+    /// lies at or behind depth `nearest`: the pyramid read from the level of
+    /// [`Pyramid::farthest`] down, only under texels that let `nearest` through, to the pixels
+    /// themselves. What `farthest` answers for the texels that cover the rectangle, this
+    /// answers for the rectangle: a box behind a near occluder with gaps passes a coarse texel
+    /// through a gap beside it. After `budget` texels read it answers true (conservative).
+    pub fn reaches(&self, rect: (u32, u32, u32, u32), nearest: f32, finer: u32, budget: u32) -> bool {
+        let level = self.level_of(rect.0, rect.1, rect.2, rect.3, finer);
+        let mut left = budget;
+        self.reaches_below(level, rect, (0, 0, u32::MAX, u32::MAX), nearest, &mut left)
+    }
+
+    /// [`Pyramid::reaches`] at `level`, over the texels of `rect` (level-0 pixels) within
+    /// `within` (texels of this level).
+    fn reaches_below(&self, level: usize, rect: (u32, u32, u32, u32), within: (u32, u32, u32, u32), nearest: f32, left: &mut u32) -> bool {
+        let (w, h, d) = &self.levels[level];
+        let (x0, y0, x1, y1) = rect;
+        let tx0 = (x0 >> level).max(within.0);
+        let ty0 = (y0 >> level).max(within.1);
+        let tx1 = (x1 >> level).min(w - 1).min(within.2);
+        let ty1 = (y1 >> level).min(h - 1).min(within.3);
+        for y in ty0..=ty1 {
+            for x in tx0..=tx1 {
+                if *left == 0 {
+                    return true;
+                }
+                *left -= 1;
+                // Rounding margin: f32 depth against an f64 corner depth.
+                if nearest < d[(y * w + x) as usize] - 1e-7 {
+                    continue;
+                }
+                if level == 0 || self.reaches_below(level - 1, rect, (2 * x, 2 * y, 2 * x + 1, 2 * y + 1), nearest, left) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 }
 
@@ -113,6 +161,12 @@ pub struct HzbTester<'a> {
     pub pyramid: &'a Pyramid,
     /// Levels below Peng 2014's 2x2-texel choice to read (see [`Pyramid::farthest`]).
     pub finer: u32,
+    /// Texels to read below that level, to the pixels ([`Pyramid::reaches`]); 0: that
+    /// level's texels alone, as Peng 2014.
+    pub budget: u32,
+    /// Times a box that passes is halved along its longest side and its halves tested
+    /// ([`visible_parts`]); 0: the box alone.
+    pub splits: u32,
 }
 
 impl VisibilityTester for HzbTester<'_> {
@@ -183,23 +237,48 @@ impl Footprint {
 
 impl HzbTester<'_> {
     fn visible(&self, vp: &DMat4, view: &View, id: NodeId) -> bool {
-        visible_box(self.pyramid, vp, view, &self.nodes[id as usize].aabb(), self.finer)
+        visible_parts(self.pyramid, vp, view, &self.nodes[id as usize].aabb(), (self.finer, self.budget), self.splits)
     }
 }
 
 /// Whether any of box `b` may be nearer than the farthest depth under its screen rectangle
 /// (read `finer` levels below Peng 2014's 2x2 texels): false only when all of it is hidden.
 /// `vp`: the view's camera-relative view-projection in f64.
-pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, finer: u32) -> bool {
+/// With a `budget`, the texels that let it through are read down to the pixels under its
+/// rectangle ([`Pyramid::reaches`]).
+pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, finer: u32, budget: u32) -> bool {
     let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of_box(vp, view, b) else { return true };
     let (w, h) = (view.width as f64, view.height as f64);
     if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
         return false;
     }
     let clamp = |v: f64, m: f64| v.clamp(0.0, m - 1.0) as u32;
-    let far = pyramid.farthest(clamp(x0.floor(), w), clamp(y0.floor(), h), clamp(x1.floor(), w), clamp(y1.floor(), h), finer);
+    let (x0, y0, x1, y1) = (clamp(x0.floor(), w), clamp(y0.floor(), h), clamp(x1.floor(), w), clamp(y1.floor(), h));
+    if budget > 0 {
+        return pyramid.reaches((x0, y0, x1, y1), nearest as f32, finer, budget);
+    }
     // Rounding margin: f32 depth against an f64 corner depth.
-    nearest as f32 >= far - 1e-7
+    nearest as f32 >= pyramid.farthest(x0, y0, x1, y1, finer) - 1e-7
+}
+
+/// [`visible_box`] (`read`: its `finer` and `budget`), and where the box passes, its halves
+/// along its longest side, `splits` times over: visible when a part is. A footprint takes the
+/// box's nearest depth over all of its rectangle, so a long box seen at a slant (a pipe
+/// along a wall) passes behind an occluder that hides every part of it; each half has a
+/// smaller rectangle and a farther nearest depth. The halves cover the box: conservative.
+pub fn visible_parts(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, read: (u32, u32), splits: u32) -> bool {
+    if !visible_box(pyramid, vp, view, b, read.0, read.1) {
+        return false;
+    }
+    if splits == 0 {
+        return true;
+    }
+    let axis = b.extent().max_position();
+    let mid = 0.5 * (b.min[axis] + b.max[axis]);
+    let (mut lo, mut hi) = (*b, *b);
+    lo.max[axis] = mid;
+    hi.min[axis] = mid;
+    visible_parts(pyramid, vp, view, &lo, read, splits - 1) || visible_parts(pyramid, vp, view, &hi, read, splits - 1)
 }
 
 #[cfg(test)]
@@ -218,6 +297,87 @@ mod tests {
         // One level finer: the 2x2 rectangle is read at level 0, texel by texel.
         assert_eq!(p.farthest(0, 0, 1, 0, 1), 0.5);
         assert_eq!(p.farthest(0, 0, 0, 1, 1), 0.8);
+    }
+
+    /// A `w` x `h` depth image of random depths, reproducible by `seed`.
+    fn noise(w: u32, h: u32, seed: u32) -> Vec<f32> {
+        let mut rng = seed;
+        (0..w * h)
+            .map(|_| {
+                rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+                (rng >> 8) as f32 / (1 << 24) as f32
+            })
+            .collect()
+    }
+
+    #[test]
+    fn reaching_the_pixels_answers_for_the_rectangle_itself() {
+        // Against the pixels read one by one: with budget to spare, `reaches` is exact; with
+        // little, it may only add visible answers; `farthest` at the start level never hides
+        // a rectangle that `reaches` finds.
+        let (w, h) = (61u32, 45u32);
+        let p = Pyramid::new(w, h, noise(w, h, 11).iter().map(|d| 0.5 + 0.5 * d).collect());
+        let depth = &p.levels[0].2;
+        let mut rng = 5u32;
+        let mut next = |m: u32| {
+            rng = rng.wrapping_mul(22695477).wrapping_add(1);
+            (rng >> 8) % m
+        };
+        let (mut hidden, mut shown) = (0, 0);
+        for _ in 0..2000 {
+            let (x0, y0) = (next(w), next(h));
+            let (x1, y1) = ((x0 + next(24)).min(w - 1), (y0 + next(24)).min(h - 1));
+            let nearest = 0.48 + 0.06 * next(1000) as f32 / 1000.0;
+            let brute = (y0..=y1).any(|y| (x0..=x1).any(|x| nearest >= depth[(y * w + x) as usize] - 1e-7));
+            for finer in [0, 3] {
+                assert_eq!(p.reaches((x0, y0, x1, y1), nearest, finer, u32::MAX), brute, "({x0},{y0})-({x1},{y1}) at {nearest}");
+                assert!(!brute || p.reaches((x0, y0, x1, y1), nearest, finer, 3), "a small budget hid a visible rectangle");
+                assert!(!brute || nearest >= p.farthest(x0, y0, x1, y1, finer) - 1e-7);
+            }
+            (hidden, shown) = (hidden + u32::from(!brute), shown + u32::from(brute));
+        }
+        assert!(hidden > 100 && shown > 100, "too one-sided to tell: {hidden} hidden, {shown} shown");
+    }
+
+    #[test]
+    fn a_box_split_into_parts_is_visible_wherever_a_point_of_it_is() {
+        // The reference: points on a grid through each box, projected, against the depth at
+        // their pixel. A part test that hides a box with a visible point fails.
+        use osw_scene::Camera;
+        let (w, h) = (96u32, 64u32);
+        let view = View::new(&Camera::look_at(DVec3::new(0.0, 0.0, 10.0), DVec3::ZERO, 60.0), DVec3::ZERO, w, h, 0.01);
+        let vp = view.view_proj().as_dmat4();
+        // Occluders: a wall of random depth in front of the boxes, with gaps.
+        let depth: Vec<f32> = noise(w, h, 3).iter().map(|d| if *d < 0.15 { 0.0 } else { 0.9 + 0.1 * d }).collect();
+        let p = Pyramid::new(w, h, depth.clone());
+        let (mut culled_whole, mut culled_parts, mut visible) = (0, 0, 0);
+        let mut rng = 9u32;
+        let mut unit = || {
+            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+            (rng >> 8) as f32 / (1 << 24) as f32
+        };
+        for _ in 0..500 {
+            let c = glam::Vec3::new(8.0 * unit() - 4.0, 6.0 * unit() - 3.0, -6.0 * unit());
+            let e = glam::Vec3::new(3.0 * unit(), 0.3 * unit(), 3.0 * unit()) + 0.05;
+            let b = Aabb { min: c - e, max: c + e };
+            let seen = (0..=16).flat_map(|i| (0..=16).flat_map(move |j| (0..=16).map(move |k| (i, j, k)))).any(|(i, j, k)| {
+                let t = glam::Vec3::new(i as f32, j as f32, k as f32) / 16.0;
+                let q = (b.min + (b.max - b.min) * t).as_dvec3() - view.eye;
+                let clip = vp * q.extend(1.0);
+                let (x, y) = ((clip.x / clip.w + 1.0) * 0.5 * w as f64, (1.0 - clip.y / clip.w) * 0.5 * h as f64);
+                clip.w > 0.0
+                    && (0.0..w as f64).contains(&x)
+                    && (0.0..h as f64).contains(&y)
+                    && clip.z / clip.w >= depth[(y as u32 * w + x as u32) as usize] as f64
+            });
+            let whole = visible_box(&p, &vp, &view, &b, 0, 0);
+            let parts = visible_parts(&p, &vp, &view, &b, (3, 64), 4);
+            assert!(!seen || parts, "box {b:?} has a visible point but its parts were hidden");
+            assert!(!parts || whole, "a part passed where the whole box did not");
+            (culled_whole, culled_parts, visible) =
+                (culled_whole + u32::from(!whole), culled_parts + u32::from(!parts), visible + u32::from(seen));
+        }
+        assert!(visible > 50 && culled_parts > culled_whole, "{visible} visible; culled {culled_whole} whole, {culled_parts} in parts");
     }
 
     #[test]

@@ -33,6 +33,6 @@ pub mod tester;
 pub mod triangle;
 pub mod view;
 
-pub use hc::{HcStats, frustum_cull, hardware_cull, hardware_cull_from};
+pub use hc::{HcStats, frustum_cull, hardware_cull, hardware_cull_from, hardware_cull_seen};
 pub use tester::{AllVisible, Occluders, Visibility, VisibilityTester};
 pub use view::View;

@@ -48,7 +48,12 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             let pyramid = osw_cull::hzb::Pyramid::new(1024, 1024, r.read_depth().expect("depth"));
             let mut out = Vec::with_capacity(boxes.len());
-            osw_cull::VisibilityTester::test(&mut osw_cull::hzb::HzbTester { nodes, pyramid: &pyramid, finer: 3 }, &view, &ids, &mut out);
+            osw_cull::VisibilityTester::test(
+                &mut osw_cull::hzb::HzbTester { nodes, pyramid: &pyramid, finer: 3, budget: 0, splits: 0 },
+                &view,
+                &ids,
+                &mut out,
+            );
             out
         })
     });

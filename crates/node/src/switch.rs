@@ -50,6 +50,8 @@ pub struct Switch {
     visible: Vec<NodeId>,
     /// Scratch space for the occluders OR draws.
     occluders: Vec<NodeId>,
+    /// The groups this node's last HC found visible (osw_cull::hardware_cull_seen).
+    seen: Vec<NodeId>,
     /// When the peer's end of the previous frame arrived (this node was OR), for the display.
     peer_eof_received_us: u64,
 }
@@ -69,6 +71,7 @@ impl Switch {
             io,
             visible: Vec::new(),
             occluders: Vec::new(),
+            seen: Vec::new(),
             peer_eof_received_us: 0,
         }
     }
@@ -146,15 +149,8 @@ impl Switch {
         }
         let mut pvs = Vec::new();
         let hc = if cull {
-            pass::hc(
-                r,
-                &self.scene,
-                &view,
-                cam.tau_px,
-                HcOptions { adaptive: self.adaptive, ..HcOptions::default() },
-                &self.visible,
-                &mut pvs,
-            )?
+            let opts = HcOptions { adaptive: self.adaptive, ..HcOptions::default() };
+            pass::hc(r, &self.scene, &view, cam.tau_px, opts, &self.visible, &mut self.seen, &mut pvs)?
         } else {
             // Frustum culled only: occlusion culling did not pay where this node last ran it.
             let stats = frustum_cull(self.scene.nodes(), &view, cam.tau_px, &mut pvs);

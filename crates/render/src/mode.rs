@@ -109,6 +109,8 @@ pub struct ModeState {
     added: Vec<NodeId>,
     removed: Vec<NodeId>,
     occluders: Vec<NodeId>,
+    /// The groups HC last found visible (osw_cull::hardware_cull_seen).
+    seen: Vec<NodeId>,
     chc: Option<ChcState>,
     /// RVG's visible clusters of the last frame (prev).
     clusters: ClusterHistory,
@@ -139,6 +141,7 @@ impl ModeState {
             added: Vec::new(),
             removed: Vec::new(),
             occluders: Vec::new(),
+            seen: Vec::new(),
             chc: None,
             clusters: ClusterHistory::default(),
             ovc: OvcOptions::default(),
@@ -199,7 +202,13 @@ impl ModeState {
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let pyramid = Pyramid::new(view.width, view.height, depth);
-                let Ok(hc) = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, finer: 0 }, &mut pvs);
+                let Ok(hc) = hardware_cull(
+                    nodes,
+                    view,
+                    self.tau,
+                    &mut HzbTester { nodes, pyramid: &pyramid, finer: 0, budget: 0, splits: 0 },
+                    &mut pvs,
+                );
                 s.hc_ms = ms(t);
                 hc
             }
@@ -212,7 +221,7 @@ impl ModeState {
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
-                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut pvs)?;
+                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen, &mut pvs)?;
                 s.hc_ms = ms(t);
                 (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
                     (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);

@@ -24,7 +24,7 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let before = r.view(&Camera::look_at(eye, eye + DVec3::X, 60.0));
     r.begin_frame();
     let mut previous = Vec::new();
-    pass::hc(&mut r, &scene, &before, 0.0, HcOptions::default(), &[], &mut previous).unwrap();
+    pass::hc(&mut r, &scene, &before, 0.0, HcOptions::default(), &[], &mut Vec::new(), &mut previous).unwrap();
     assert!(!previous.is_empty(), "nothing visible before the turn: OR would draw nothing");
     // Frame i turns to the plant: OR draws V(i-1) for it, then HC.
     let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0));
@@ -32,10 +32,18 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
         r.begin_frame();
         pass::or(&mut r, &scene, &after, &previous, 0.0, true, &mut Vec::new()).unwrap();
         let mut pvs = Vec::new();
-        let stats =
-            pass::hc(&mut r, &scene, &after, 0.0, HcOptions { new_occluders_min: min, ..HcOptions::default() }, &previous, &mut pvs)
-                .unwrap()
-                .stats;
+        let stats = pass::hc(
+            &mut r,
+            &scene,
+            &after,
+            0.0,
+            HcOptions { new_occluders_min: min, ..HcOptions::default() },
+            &previous,
+            &mut Vec::new(),
+            &mut pvs,
+        )
+        .unwrap()
+        .stats;
         (pvs, stats)
     };
     let (with, with_stats) = run(1);

@@ -4,7 +4,7 @@
 
 use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid};
 use osw_cull::retest::retest_additions;
-use osw_cull::{HcStats, View, VisibilityTester, frustum_cull, hardware_cull_from};
+use osw_cull::{HcStats, View, VisibilityTester, frustum_cull, hardware_cull_seen};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{BoxTest, RenderError, Renderer};
 use osw_gpu::testers::GpuTester;
@@ -62,6 +62,16 @@ const HYBRID_SECOND_PX: f64 = 512.0;
 /// levels drop 77, 8 levels 88.5 for 3 ms.
 const HYBRID_SECOND_FINER: u32 = 6;
 
+/// How the hybrid's traversal tests a box against its pyramid: texels read below the box's
+/// level, down to the pixels under it (osw_cull::hzb::Pyramid::reaches), and times a passing
+/// box is halved (osw_cull::hzb::visible_parts). The coarse test let through boxes that the
+/// retest's exact GPU test then hid, the same ones every frame, each reached by a chain of
+/// tests from a visible ancestor. On the 20M plant walk (tau 1, 1024x1024, every frame
+/// culled) the traversal's tests went from 1,524 a frame to 1,258 with the pixels, 1,266
+/// with 4 halvings, 1,158 with both, and HC from 22 to 11 ms (docs/measurements/2026-12-03-hc-tests.md).
+const PIXELS_BUDGET: u32 = 1024;
+const SPLITS: u32 = 4;
+
 /// `--hc hybrid`'s tester: boxes against the CPU pyramid of the depth buffer, which new
 /// occluders found by the traversal join, at least `min` at a time (drawn, the depth read
 /// back and the pyramid rebuilt: about as much as drawing them costs again).
@@ -74,17 +84,22 @@ struct HybridTester<'a> {
     drawn: Vec<NodeId>,
 }
 
-/// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]). Measured on
-/// the plant walks of `scripts/scale.sh` (2M, 20M, 100M): 64 and 128 halve HC's tests at
-/// 100M but read back on most frames (HC 13 → 23 ms at 20M); 256 reads back only where a
-/// region comes into view, and 512 leaves most of those frames' tests.
-pub const NEW_OCCLUDERS_MIN: usize = 256;
+/// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]). With the
+/// coarse box test, 64 and 128 halved HC's tests at 100M but read back on most frames (HC 13
+/// → 23 ms at 20M), so 256 were taken. With the tests read to the pixels
+/// ([`PIXELS_BUDGET`]), few boxes pass where nothing came into view, and a region coming into
+/// view is what the tests are spent on (2,000 of a frame's 2,200 there, 200 elsewhere): on
+/// the 20M plant walk 256, 64, 32 and 16 left 1,224, 1,028, 895 and 800 tests a frame (CHC:
+/// 797) for HC means of 19.2, 21.9, 23.2 and 21.4 ms.
+pub const NEW_OCCLUDERS_MIN: usize = 16;
 
 impl VisibilityTester for HybridTester<'_> {
     type Error = RenderError;
 
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) -> Result<(), RenderError> {
-        let Ok(()) = HzbTester { nodes: self.scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER }.test(view, ids, out);
+        let Ok(()) =
+            HzbTester { nodes: self.scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER, budget: PIXELS_BUDGET, splits: SPLITS }
+                .test(view, ids, out);
         Ok(())
     }
 
@@ -140,8 +155,10 @@ fn ms(t: Instant) -> f64 {
 
 /// HC (occlusion switch alg. 4.1) against the depth buffer as OR left it, shared by `prev` and
 /// the switch node: appends the PVS to `pvs` (empty), sorted and without duplicates.
-/// `previous` is V(i-1) (sorted), which OR drew as occluders; the nodes above it are taken as
-/// visible, so the tests are its front, in about one round (see osw_cull::hc). Three passes:
+/// `previous` is V(i-1) (sorted), which OR drew as occluders; the nodes above it, and the
+/// groups in `seen` that an earlier traversal found visible, are taken as visible, so the
+/// tests are its front, in about one round (see osw_cull::hc); `seen` then holds this
+/// traversal's. Three passes:
 ///
 /// 1. The traversal ([`traverse`]). With `hybrid` (the default) the depth buffer is read back
 ///    once and every round is tested on the CPU against its farthest-depth pyramid: sec. 4.7.1
@@ -155,6 +172,7 @@ fn ms(t: Instant) -> f64 {
 ///    view (a turn, a disocclusion) there are no occluders at all, so everything behind it is
 ///    found visible for one frame and gone the next, sent to RVG and the peer twice. Those
 ///    additions are drawn into the depth buffer and tested again, exactly.
+#[allow(clippy::too_many_arguments)]
 pub fn hc(
     r: &mut Renderer,
     scene: &SceneFile,
@@ -162,10 +180,11 @@ pub fn hc(
     tau: f64,
     opts: HcOptions,
     previous: &[NodeId],
+    seen: &mut Vec<NodeId>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcPass, RenderError> {
     let t = Instant::now();
-    let traversal = traverse(r, scene, view, tau, opts, previous, pvs)?;
+    let traversal = traverse(r, scene, view, tau, opts, (previous, seen), pvs)?;
     let nodes = scene.nodes();
     // The triangles of what the traversal found: the later passes only drop from it.
     let found = osw_cull::payoff::triangles(nodes, pvs);
@@ -211,7 +230,7 @@ fn traverse(
     view: &View,
     tau: f64,
     opts: HcOptions,
-    previous: &[NodeId],
+    (previous, seen): (&[NodeId], &mut Vec<NodeId>),
     pvs: &mut Vec<NodeId>,
 ) -> Result<Traversal, RenderError> {
     let nodes = scene.nodes();
@@ -219,11 +238,12 @@ fn traverse(
     // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing): every
     // test would pass, so none is made.
     if previous.is_empty() {
+        seen.clear();
         t.stats = frustum_cull(nodes, view, tau, pvs);
     } else if opts.test == HcTest::Hybrid {
         let pyramid = Pyramid::new(view.width, view.height, r.read_depth()?);
         let mut tester = HybridTester { r, scene, pyramid, min: opts.new_occluders_min, drawn: Vec::new() };
-        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut tester, pvs)?;
+        t.stats = hardware_cull_seen(nodes, view, tau, previous, seen, &mut tester, pvs)?;
         t.drawn = tester.drawn;
         t.drawn.sort_unstable();
         t.pyramid = Some(tester.pyramid);
@@ -238,7 +258,7 @@ fn traverse(
             _ if tau > 0.0 => BoxTest::ExactCount,
             _ => BoxTest::Exact,
         };
-        t.stats = hardware_cull_from(nodes, view, tau, previous, &mut GpuTester::new(r, scene, test), pvs)?;
+        t.stats = hardware_cull_seen(nodes, view, tau, previous, seen, &mut GpuTester::new(r, scene, test), pvs)?;
     }
     pvs.sort_unstable();
     pvs.dedup();
@@ -273,7 +293,7 @@ fn second_look(
         drop_hidden(r, scene, view, &small, adaptive, pvs)?
     } else {
         let mut seen = Vec::with_capacity(small.len());
-        let Ok(()) = HzbTester { nodes, pyramid, finer: HYBRID_SECOND_FINER }.test(view, &small, &mut seen);
+        let Ok(()) = HzbTester { nodes, pyramid, finer: HYBRID_SECOND_FINER, budget: 0, splits: 0 }.test(view, &small, &mut seen);
         let dropped: Vec<NodeId> = small.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
         pvs.retain(|id| dropped.binary_search(id).is_err());
         (dropped.len() as u32, 0)

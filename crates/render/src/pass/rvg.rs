@@ -67,7 +67,7 @@ fn visible_clusters(
         Some(&mut |id, k, c: &ClusterRecord| {
             let b = c.aabb();
             let drawn = history.was_visible(id, k);
-            if view.frustum.needs_no_test(&b) || visible_box(&pyramid, &vp, view, &b, CLUSTER_FINER) {
+            if view.frustum.needs_no_test(&b) || visible_box(&pyramid, &vp, view, &b, CLUSTER_FINER, 0) {
                 history.mark(id, k);
                 return !drawn;
             }
