@@ -109,8 +109,10 @@ pub struct ModeState {
     added: Vec<NodeId>,
     removed: Vec<NodeId>,
     occluders: Vec<NodeId>,
-    /// The groups HC last found visible (osw_cull::hardware_cull_seen).
-    seen: Vec<NodeId>,
+    /// The nodes HC found visible (osw_cull::hardware_cull_seen), one set per parity of the
+    /// frame: the switch's two HC nodes each keep their own, from two frames back, and prev
+    /// takes the same sets so that its visible sets are the switch's.
+    seen: [Vec<NodeId>; 2],
     chc: Option<ChcState>,
     /// RVG's visible clusters of the last frame (prev).
     clusters: ClusterHistory,
@@ -141,7 +143,7 @@ impl ModeState {
             added: Vec::new(),
             removed: Vec::new(),
             occluders: Vec::new(),
-            seen: Vec::new(),
+            seen: [Vec::new(), Vec::new()],
             chc: None,
             clusters: ClusterHistory::default(),
             ovc: OvcOptions::default(),
@@ -221,7 +223,7 @@ impl ModeState {
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
-                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen, &mut pvs)?;
+                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[self.frames as usize % 2], &mut pvs)?;
                 s.hc_ms = ms(t);
                 (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
                     (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
