@@ -105,16 +105,18 @@ pub fn hardware_cull_from<E>(
     hardware_cull_seen(nodes, view, tau, previous, &mut Vec::new(), tester, pvs)
 }
 
-/// [`hardware_cull_from`], also taking the groups in `seen` (and the nodes above them) as
-/// visible without a test, and leaving in `seen` the groups this traversal found visible.
+/// [`hardware_cull_from`], also taking the BVH nodes in `seen` (and those above them) as
+/// visible without a test, and leaving in `seen` the nodes this traversal's tests found
+/// visible.
 ///
-/// CHC's visible interior nodes: a group found visible whose subtree V(i-1) holds no LOD of
+/// CHC's visible interior nodes: a node found visible whose subtree V(i-1) holds no LOD of
 /// (a region that passes the box tests but whose geometry the retest finds hidden) would be
 /// tested again from its highest node every frame, a chain of tests down to the nodes that
 /// are hidden; CHC opens such a node untested the next frame and tests its children. As
-/// in CHC, a group opened untested and none of whose children is found visible is not in
+/// in CHC, a node opened untested and none of whose children is found visible is not in
 /// `seen` afterwards: it is tested the frame after. `seen` may be several frames old (the
-/// switch's HC node has its own from two frames back): any set of groups is conservative.
+/// switch's HC node has its own from two frames back): any set of nodes is conservative
+/// (a node whose LOD meets tau is still tested before its LOD joins the PVS).
 pub fn hardware_cull_seen<E>(
     nodes: &[NodeRecord],
     view: &View,
@@ -126,14 +128,8 @@ pub fn hardware_cull_seen<E>(
 ) -> Result<HcStats, E> {
     let owners = previous.iter().filter_map(|&id| owner(nodes, id)).collect();
     let mut above = above(nodes, previous);
-    for &id in seen.iter().filter(|&&id| (id as usize) < nodes.len()) {
-        let mut up = id;
-        while let Some(n) = nodes.get(up as usize) {
-            if !above.insert(up) {
-                break;
-            }
-            up = n.parent;
-        }
+    for &id in seen.iter() {
+        insert_with_ancestors(nodes, id, &mut above);
     }
     seen.clear();
     traverse(nodes, view, tau, previous, &Coherence { above, owners }, tester, pvs, seen)
@@ -150,19 +146,25 @@ pub(crate) fn owner(nodes: &[NodeRecord], id: NodeId) -> Option<NodeId> {
 pub(crate) fn above(nodes: &[NodeRecord], ids: &[NodeId]) -> HashSet<NodeId> {
     let mut set = HashSet::new();
     for &id in ids {
-        let Some(owner) = owner(nodes, id) else { continue };
-        let mut up = nodes.get(owner as usize).map_or(u32::MAX, |o| o.parent);
-        while let Some(p) = nodes.get(up as usize) {
-            if !set.insert(up) {
-                break;
-            }
-            up = p.parent;
+        if let Some(o) = owner(nodes, id).and_then(|o| nodes.get(o as usize)) {
+            insert_with_ancestors(nodes, o.parent, &mut set);
         }
     }
     set
 }
 
-/// The traversal; `seen` gets the groups its tests found visible.
+/// Inserts node `id` and its ancestors into `set`, up to the first already in it (none for
+/// an id outside the table, such as the root's parent).
+fn insert_with_ancestors(nodes: &[NodeRecord], mut id: NodeId, set: &mut HashSet<NodeId>) {
+    while let Some(n) = nodes.get(id as usize) {
+        if !set.insert(id) {
+            break;
+        }
+        id = n.parent;
+    }
+}
+
+/// The traversal; `seen` gets the nodes its tests found visible.
 #[allow(clippy::too_many_arguments)]
 fn traverse<E>(
     nodes: &[NodeRecord],

@@ -50,7 +50,7 @@ pub struct Switch {
     visible: Vec<NodeId>,
     /// Scratch space for the occluders OR draws.
     occluders: Vec<NodeId>,
-    /// The groups this node's last HC found visible (osw_cull::hardware_cull_seen).
+    /// The BVH nodes this node's last HC found visible (osw_cull::hardware_cull_seen).
     seen: Vec<NodeId>,
     /// When the peer's end of the previous frame arrived (this node was OR), for the display.
     peer_eof_received_us: u64,

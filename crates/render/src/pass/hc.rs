@@ -156,7 +156,7 @@ fn ms(t: Instant) -> f64 {
 /// HC (occlusion switch alg. 4.1) against the depth buffer as OR left it, shared by `prev` and
 /// the switch node: appends the PVS to `pvs` (empty), sorted and without duplicates.
 /// `previous` is V(i-1) (sorted), which OR drew as occluders; the nodes above it, and the
-/// groups in `seen` that an earlier traversal found visible, are taken as visible, so the
+/// nodes in `seen` that an earlier traversal found visible, are taken as visible, so the
 /// tests are its front, in about one round (see osw_cull::hc); `seen` then holds this
 /// traversal's. Three passes:
 ///
