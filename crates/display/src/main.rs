@@ -164,7 +164,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let mut rows: Vec<DisplayFrame> = Vec::with_capacity(path.len());
     let mut pvs_txt = String::new();
     let mut clusters = osw_cull::cluster::ClusterHistory::default();
-    let mut last = Instant::now();
+    let (mut last, mut cpu) = (Instant::now(), osw_render::stats::cpu_ms());
     let mut i = 0;
     while i < requested {
         let (cam, mut row) = frames.frame(i as u64, rows.last_mut(), &mut || {
@@ -194,6 +194,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
         row.rss_kb = osw_render::stats::resident_bytes() >> 10;
         row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
+        (row.cpu_ms, cpu) = (osw_render::stats::cpu_ms() - cpu, osw_render::stats::cpu_ms());
         last = Instant::now();
         if let Some(u) = ui.as_mut() {
             u.show(&mut r, rgba, &frames.visible, &camera, cam.tau_px, &row)?;

@@ -98,7 +98,7 @@ impl Switch {
 
     /// Runs frames from `first` until the display says goodbye.
     pub fn run(&mut self, first: u64) -> anyhow::Result<Vec<NodeFrame>> {
-        let (mut log, mut i) = (Vec::new(), first);
+        let (mut log, mut i, mut cpu) = (Vec::new(), first, osw_render::stats::cpu_ms());
         loop {
             self.io.drain();
             let f = match self.io.roles.step(i) {
@@ -118,7 +118,10 @@ impl Switch {
                 Step::Frame(Duty::Or) => self.or(i)?,
                 Step::Frame(_) => self.hc(i)?,
             };
-            if let Some(f) = f {
+            if let Some(mut f) = f {
+                // All of this process's CPU time since the last frame: waits, sends and
+                // lavapipe's threads included.
+                (f.cpu_ms, cpu) = (osw_render::stats::cpu_ms() - cpu, osw_render::stats::cpu_ms());
                 i = f.frame + 1;
                 log.push(f);
             }
@@ -178,7 +181,7 @@ impl Switch {
         }
         self.visible = pvs;
         [f.bytes_to_peer, f.bytes_to_display] = self.io.sent;
-        (f.ms, f.tests, f.rss_kb) = (ms(t), hc.tests, rss_kb());
+        (f.ms, f.tests, f.retests, f.rss_kb) = (ms(t), hc.tests, hc.retests, rss_kb());
         Ok(Some(f))
     }
 

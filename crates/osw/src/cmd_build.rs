@@ -14,7 +14,8 @@ pub struct Args {
     /// binary, float or double).
     input: Option<PathBuf>,
     /// Generate a scene instead: city, teapots, plant (streamed: any size, a site of buildings
-    /// above 100M) or forest (Bartz 1999's trees before a castle).
+    /// above 100M), forest (Bartz 1999's trees before a castle) or isosurface (Yoon 2003's
+    /// second environment: one closed object, a sponge of noise, layer behind layer).
     #[arg(long = "gen", value_name = "KIND")]
     generator: Option<GenKind>,
     /// Triangle budget of a generated scene.

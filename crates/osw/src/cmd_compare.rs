@@ -1,11 +1,16 @@
 //! `osw compare`: image error between two runs frame by frame and, given `osw exact` output,
-//! each run's culling error (false-culled leaves, PVS/exact for leaves and triangles).
+//! each run's culling error (false-culled leaves, PVS/exact for leaves and triangles), and with
+//! `--popping` each run's temporal error (osw_render::popping).
 
-use anyhow::bail;
+use crate::walk_args::WalkArgs;
+use anyhow::{Context, bail};
 use osw_render::compare::{CullError, ImageError, cull_error, image_error};
 use osw_render::output::{frame_path, read_ids, read_png};
-use osw_render::results::{self, Compare, Culling, DisplayFrame, ExactFrame, Summary};
+use osw_render::popping::popping;
+use osw_render::results::{self, Compare, Culling, DisplayFrame, ExactFrame, Popping, Summary};
+use osw_render::stats::mean;
 use osw_render::{FrameStats, Mode};
+use osw_scene::format::NodeKind;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -23,6 +28,11 @@ pub struct Args {
     /// visible at that tau, culling error apart from LOD error (0 for a conservative method).
     #[arg(long, requires = "exact")]
     exact_lod: Option<PathBuf>,
+    /// Temporal error of each run: the pixels that pop when each frame's visible set is drawn
+    /// with the previous camera's choice of detail (osw_render::popping). Draws every frame
+    /// twice more, with the scene, path and size each run's summary names.
+    #[arg(long)]
+    popping: bool,
     /// Output directory: compare.json and compare.csv.
     #[arg(long)]
     out: PathBuf,
@@ -34,6 +44,7 @@ struct FrameRow {
     image: Option<ImageError>,
     a: Option<CullError>,
     b: Option<CullError>,
+    popping: [Option<f64>; 2],
 }
 
 /// A line of compare.csv: a frame's image error and each run's culling error, empty where
@@ -50,6 +61,8 @@ struct CompareRow {
     b_false_culled: Option<u32>,
     b_leaf_ratio: Option<f64>,
     b_triangle_ratio: Option<f64>,
+    a_popping_fraction: Option<f64>,
+    b_popping_fraction: Option<f64>,
 }
 
 fn side(errors: &[CullError]) -> Culling {
@@ -74,6 +87,42 @@ fn triangles_drawn(dir: &Path, s: &Summary) -> anyhow::Result<Option<Vec<u64>>> 
         Mode::Switch => results::csv::read::<DisplayFrame>(&path)?.iter().map(|f| f.triangles_drawn).collect(),
         _ => results::csv::read::<FrameStats>(&path)?.iter().map(|f| f.triangles_drawn).collect(),
     }))
+}
+
+/// Each frame's popping (osw_render::popping) in the run in `dir`, none for frame 0 (no frame
+/// before it): its visible sets drawn again with the scene, path, size and tau its summary names.
+fn popping_of(dir: &Path, s: &Summary, frames: usize) -> anyhow::Result<Vec<Option<f64>>> {
+    let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
+    if pvs.len() < frames {
+        bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), pvs.len());
+    }
+    let walk = WalkArgs {
+        scene: s.scene.clone().into(),
+        path: s.path.clone().into(),
+        size: (s.width, s.height),
+        adapter: None,
+        residency_mib: crate::walk_args::RESIDENCY_MIB,
+        cluster_tests: Default::default(),
+    };
+    let (cams, scene, mut r) = walk.open(Default::default()).with_context(|| format!("drawing {} again", dir.display()))?;
+    if cams.len() < frames {
+        bail!("{}: {} cameras, the runs have {frames} frames", s.path, cams.len());
+    }
+    let lod = |id: &u32| scene.nodes().get(*id as usize).is_some_and(|n| n.kind() == NodeKind::Lod);
+    if let Some((i, id)) = pvs[..frames].iter().enumerate().find_map(|(i, ids)| Some((i, ids.iter().find(|id| !lod(id))?))) {
+        bail!("{}: frame {i} names node {id}, which is not a LOD of {}", dir.join("pvs.txt").display(), s.scene);
+    }
+    let bar = crate::progress::frames(frames as u64, "popping");
+    let (mut out, mut scratch) = (vec![None], Vec::new());
+    for i in 1..frames {
+        r.begin_frame();
+        let (before, now) = (r.view(&cams[i - 1]), r.view(&cams[i]));
+        out.push(Some(popping(&mut r, &scene, (&before, &now), &pvs[i], s.tau, &mut scratch)?));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    out.truncate(frames);
+    Ok(out)
 }
 
 /// `osw exact` output: the visible nodes and the exact.csv row of each of `frames` frames.
@@ -162,6 +211,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         report.exact = Some(exact.display().to_string());
     }
+    if a.popping {
+        for (k, (dir, s)) in [(&a.a, &sa), (&a.b, &sb)].into_iter().enumerate() {
+            let popping = popping_of(dir, s, frames)?;
+            for (row, p) in rows.iter_mut().zip(&popping) {
+                row.popping[k] = *p;
+            }
+            let p: Vec<f64> = popping.into_iter().flatten().collect();
+            let side = Popping { fraction_mean: mean(p.iter().copied()), fraction_max: p.iter().copied().fold(0.0, f64::max) };
+            if k == 0 { report.popping_a = Some(side) } else { report.popping_b = Some(side) }
+        }
+    }
     let images: Vec<ImageError> = rows.iter().filter_map(|r| r.image).collect();
     let mut psnr: Vec<f64> = images.iter().filter_map(|i| i.psnr_db).collect();
     psnr.sort_by(f64::total_cmp);
@@ -190,6 +250,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 b_false_culled: r.b.map(|e| e.false_culled_leaves),
                 b_leaf_ratio: r.b.map(|e| e.leaf_ratio()),
                 b_triangle_ratio: r.b.map(|e| e.triangle_ratio()),
+                a_popping_fraction: r.popping[0],
+                b_popping_fraction: r.popping[1],
             }
         })
         .collect();
@@ -205,7 +267,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         )
     };
     out!(
-        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{}{}{} → {}",
+        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{}{}{}{} → {}",
         report.frame_ms_median_a,
         report.frame_ms_median_b,
         report.speedup_a_over_b,
@@ -223,6 +285,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             sb.rvg_ms_median,
             report.visible_cluster_draw_ms_median.map_or(String::new(), |c| format!(", only their clusters {c:.1}"))
         )),
+        match (&report.popping_a, &report.popping_b) {
+            (Some(pa), Some(pb)) =>
+                format!("; popping a {:.3}% of pixels a frame (mean), b {:.3}%", pa.fraction_mean * 100.0, pb.fraction_mean * 100.0),
+            _ => String::new(),
+        },
         a.out.display()
     );
     Ok(())

@@ -151,6 +151,7 @@ impl Plan<'_> {
             &self.exact.display().to_string(),
             "--exact-lod",
             &self.exact_dir(tau).display().to_string(),
+            "--popping",
             "--out",
             &dir.join("compare").display().to_string(),
         ]
@@ -199,6 +200,7 @@ fn entry(mode: Mode, tau: f64, adaptive: f64, dir: &Path) -> anyhow::Result<Entr
         identical_frames: c.identical_frames as u64,
         differing_fraction_mean: c.differing_fraction_mean,
         differing_fraction_max: c.differing_fraction_max,
+        popping_fraction_mean: c.popping_a.as_ref().ok_or_else(|| missing("popping_a"))?.fraction_mean,
         traffic: s.switch().map(Traffic::from),
         error: None,
     })
@@ -525,7 +527,8 @@ fn markdown(r: &Report, a: &Args) -> String {
     table(&mut md, &header, &rows);
     md.push_str(
         "## Error against run time\n\nPSNR against full-detail vfc (∞ when every frame is identical), pixels that differ, \
-         and the frame time that buys it. The plot is `error_vs_time.png`.\n\n",
+         popping (temporal error: pixels that change by more than 2/255 when a frame's nodes are drawn with the previous \
+         frame's detail, osw_render::popping) and the frame time that buys it. The plot is `error_vs_time.png`.\n\n",
     );
     let header: Vec<String> = [
         "method",
@@ -536,6 +539,7 @@ fn markdown(r: &Report, a: &Args) -> String {
         "identical frames",
         "differing px mean %",
         "differing px max %",
+        "popping px mean %",
         "PVS/exact triangles",
     ]
     .map(String::from)
@@ -551,6 +555,7 @@ fn markdown(r: &Report, a: &Args) -> String {
             format!("{}/{}", e.identical_frames, r.frames),
             format!("{:.3}", e.differing_fraction_mean * 100.0),
             format!("{:.3}", e.differing_fraction_max * 100.0),
+            format!("{:.3}", e.popping_fraction_mean * 100.0),
             format!("{:.2}", e.pvs_exact_triangles),
         ]
     });

@@ -9,8 +9,9 @@
 use crate::cmd_report::osw;
 use crate::plot::{Chart, Series};
 use anyhow::{Context, bail};
-use osw_render::Mode;
-use osw_render::results::{self, DisplayFrame, Input, NodeFrame, Summary};
+use osw_render::results::{self, DisplayFrame, Duty, Input, NodeFrame, Summary};
+use osw_render::stats::{mean, quantile};
+use osw_render::{FrameStats, Mode};
 use osw_scene::build::BuildReport;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -35,6 +36,12 @@ pub struct Args {
     /// Frames of each walk.
     #[arg(long, default_value_t = 100)]
     frames: u32,
+    /// Cost-adaptive culling (osw_cull::payoff) in prev and the switch: frames where
+    /// occlusion culling last cost more than it saved are frustum culled only. Off by default,
+    /// so that every mode culls every frame, as CHC's paper runs it; runs go to
+    /// runs/SIZE/MODE-tauT-adaptive.
+    #[arg(long)]
+    cost_adaptive: bool,
     /// Image size of every run.
     #[arg(long, default_value = "1024x1024")]
     size: String,
@@ -92,15 +99,20 @@ struct Row {
     frame_ms_median: f64,
     frame_ms_p95: f64,
     hc_tests_mean: f64,
-    /// Of those, the retests after the traversal, and the traversal's tests of V(i-1)'s nodes,
-    /// their siblings and what came into view (one GPU's runs: prev; none for the switch).
+    /// Of those, the retests after the traversal (the switch's from its nodes' statistics),
+    /// the first pass's (the rest), and the traversal's tests of V(i-1)'s nodes, their
+    /// siblings and what came into view (one GPU's runs: prev; none for the switch).
     hc_retests_mean: Option<f64>,
+    hc_first_pass_tests_mean: f64,
     hc_tests_where: Option<[f64; 3]>,
     hc_ms_median: f64,
     or_ms_median: f64,
     rvg_ms_median: f64,
     triangles_drawn_mean: f64,
     pvs_nodes_mean: f64,
+    /// CPU time a frame, all threads of every process of the run (on lavapipe the GPU's work
+    /// is CPU work), the median frame's: the switch's three processes share this host's cores.
+    cpu_ms_median: f64,
     /// Peak resident memory per process: `render`, or `display`, `node_a`, `node_b`.
     peak_rss_kb: BTreeMap<String, u64>,
     error: Option<String>,
@@ -144,13 +156,14 @@ fn scene(out: &Path, triangles: u64, frames: u32) -> anyhow::Result<(Scene, Path
 }
 
 /// One mode at one tau into `dir`, unless a run of the same scene, walk, tau and size is there.
-fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, dir: &Path) -> anyhow::Result<Summary> {
+fn run_one(scene: &Path, walk: &Path, size: &str, (mode, tau, adaptive): (Mode, f64, bool), dir: &Path) -> anyhow::Result<Summary> {
     let hash = osw_scene::format::hash_hex(osw_scene::SceneFile::open(scene)?.content_hash());
     let (w, h) = crate::walk_args::parse_size(size).map_err(anyhow::Error::msg)?;
     let input = Input { scene_hash: hash, path: walk.display().to_string(), width: w, height: h };
     if let Ok(s) = Summary::read(dir)
         && Input::of(&s) == input
         && s.tau == tau
+        && (adaptive || s.cull_skipped_frames == 0)
     {
         return Ok(s);
     }
@@ -163,7 +176,7 @@ fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, dir: &Pa
     args.extend(strings(&["--scene", &scene.display().to_string(), "--path", &walk.display().to_string(), "--size", size]));
     args.extend(strings(&["--tau", &tau.to_string(), "--no-frames", "--out", &dir.display().to_string()]));
     // CHC as CHC runs it: every frame culled (cost-adaptive culling is osw's).
-    if mode == Mode::Chc {
+    if mode == Mode::Chc || !adaptive {
         args.push("--always-cull".into());
     }
     osw(&args, &dir.join("run.log"))?;
@@ -172,21 +185,32 @@ fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, dir: &Pa
 
 fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row> {
     let mut peak = BTreeMap::new();
-    match s.render() {
+    let (retests, cpu_ms) = match s.render() {
         Some(r) => {
             peak.insert("render".into(), r.peak_rss_kb);
+            let frames: Vec<FrameStats> = results::csv::read(&dir.join("stats.csv"))?;
+            (r.retests_mean, quantile(&frames.iter().map(|f| f.cpu_ms).collect::<Vec<_>>(), 0.5))
         }
-        // The switch's processes: the most each sampled over its frames.
+        // The switch's processes: the most each sampled over its frames; the CPU time of
+        // each frame, the display's and both nodes' (HC of the frame and OR for the next) summed;
+        // the retests of the frames each was HC.
         None => {
             let most = |rss: Option<u64>, file: &str| rss.with_context(|| format!("{}: no frames", dir.join(file).display()));
             let display: Vec<DisplayFrame> = results::csv::read(&dir.join("stats.csv"))?;
             peak.insert("display".into(), most(display.iter().map(|f| f.rss_kb).max(), "stats.csv")?);
+            let mut cpu: BTreeMap<u64, f64> = display.iter().map(|f| (f.frame, f.cpu_ms)).collect();
+            let mut hc = Vec::new();
             for (k, file) in [("node_a", "node-a.csv"), ("node_b", "node-b.csv")] {
                 let node: Vec<NodeFrame> = results::csv::read(&dir.join(file))?;
                 peak.insert(k.into(), most(node.iter().map(|f| f.rss_kb).max(), file)?);
+                for f in &node {
+                    cpu.entry(f.frame).and_modify(|ms| *ms += f.cpu_ms);
+                }
+                hc.extend(node.iter().filter(|f| f.duty != Duty::Or).map(|f| f.retests as f64));
             }
+            (mean(hc), quantile(&cpu.into_values().collect::<Vec<_>>(), 0.5))
         }
-    }
+    };
     Ok(Row {
         triangles,
         mode: s.mode,
@@ -194,13 +218,15 @@ fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row>
         frame_ms_median: s.frame_ms_median,
         frame_ms_p95: s.frame_ms_p95,
         hc_tests_mean: s.tests_mean,
-        hc_retests_mean: s.render().map(|r| r.retests_mean),
+        hc_retests_mean: Some(retests),
+        hc_first_pass_tests_mean: s.tests_mean - retests,
         hc_tests_where: s.render().map(|r| [r.tests_front_mean, r.tests_siblings_mean, r.tests_new_mean]),
         hc_ms_median: s.hc_ms_median,
         or_ms_median: s.or_ms_median().with_context(|| format!("{}: no OR time (no node statistics with OR frames)", dir.display()))?,
         rvg_ms_median: s.rvg_ms_median,
         triangles_drawn_mean: s.triangles_drawn_mean,
         pvs_nodes_mean: s.pvs_nodes_mean,
+        cpu_ms_median: cpu_ms,
         peak_rss_kb: peak,
         error: None,
     })
@@ -228,11 +254,14 @@ pub fn run(mut a: Args) -> anyhow::Result<()> {
         for &tau in &a.taus {
             for &mode in &a.modes {
                 bar.set_message(format!("{} {mode} tau {tau}", s.label));
-                let dir = a.out.join("runs").join(&s.label).join(format!("{mode}-tau{tau}"));
-                let r = run_one(&file, &walk, &a.size, mode, tau, &dir).and_then(|v| row(n, tau, &dir, &v)).unwrap_or_else(|e| {
-                    bar.println(format!("osw: {} {mode} at tau {tau} failed: {e:#}", s.label));
-                    Row { triangles: n, mode, tau, error: Some(format!("{e:#}")), ..Default::default() }
-                });
+                let name = format!("{mode}-tau{tau}{}", if a.cost_adaptive { "-adaptive" } else { "" });
+                let dir = a.out.join("runs").join(&s.label).join(name);
+                let r = run_one(&file, &walk, &a.size, (mode, tau, a.cost_adaptive), &dir)
+                    .and_then(|v| row(n, tau, &dir, &v))
+                    .unwrap_or_else(|e| {
+                        bar.println(format!("osw: {} {mode} at tau {tau} failed: {e:#}", s.label));
+                        Row { triangles: n, mode, tau, error: Some(format!("{e:#}")), ..Default::default() }
+                    });
                 rows.push(r);
                 bar.inc(1);
             }
@@ -302,26 +331,34 @@ fn markdown(s: &Sweep, a: &Args) -> String {
             sc.file_bytes as f64 / 1e9
         );
     }
-    let columns: [Column; 10] = [
+    let columns: [Column; 13] = [
         ("frame ms", |r| format!("{:.1}", r.frame_ms_median)),
+        ("CPU ms", |r| format!("{:.1}", r.cpu_ms_median)),
         ("p95 ms", |r| format!("{:.1}", r.frame_ms_p95)),
         ("OR ms", |r| format!("{:.1}", r.or_ms_median)),
         ("HC ms", |r| format!("{:.1}", r.hc_ms_median)),
         ("RVG ms", |r| format!("{:.1}", r.rvg_ms_median)),
         ("HC tests", |r| format!("{:.0}", r.hc_tests_mean)),
+        ("first pass", |r| format!("{:.0}", r.hc_first_pass_tests_mean)),
         ("retests", |r| r.hc_retests_mean.map_or("-".into(), |t| format!("{t:.0}"))),
         ("traversal: V(i-1) / siblings / new", |r| {
             r.hc_tests_where.map_or("-".into(), |w| format!("{:.0} / {:.0} / {:.0}", w[0], w[1], w[2]))
         }),
         ("triangles drawn", |r| format!("{:.0}", r.triangles_drawn_mean)),
+        ("PVS nodes", |r| format!("{:.0}", r.pvs_nodes_mean)),
         ("peak MB", |r| r.peak_rss_kb.values().map(|kb| format!("{:.0}", *kb as f64 * 1.024e-3)).collect::<Vec<_>>().join(" / ")),
     ];
     for &tau in &a.taus {
-        let _ = write!(out, "\n## tau {tau}\n\n| plant | mode | {} | vfc / mode |\n|", columns.map(|c| c.0).join(" | "));
-        out.push_str(&" --- |".repeat(columns.len() + 3));
+        let _ = write!(
+            out,
+            "\n## tau {tau}\n\n| plant | mode | {} | vfc / mode | first pass / CHC's | retests / CHC's tests |\n|",
+            columns.map(|c| c.0).join(" | ")
+        );
+        out.push_str(&" --- |".repeat(columns.len() + 5));
         out.push('\n');
         for sc in &s.scenes {
-            let vfc = s.runs.iter().find(|r| r.triangles == sc.triangles && r.tau == tau && r.mode == Mode::Vfc && r.error.is_none());
+            let of = |m: Mode| s.runs.iter().find(|r| r.triangles == sc.triangles && r.tau == tau && r.mode == m && r.error.is_none());
+            let (vfc, chc) = (of(Mode::Vfc), of(Mode::Chc));
             for r in s.runs.iter().filter(|r| r.triangles == sc.triangles && r.tau == tau) {
                 let cells: Vec<String> = match &r.error {
                     Some(_) => vec!["failed".into(); columns.len()],
@@ -331,11 +368,22 @@ fn markdown(s: &Sweep, a: &Args) -> String {
                     Some(v) if r.error.is_none() && r.frame_ms_median > 0.0 => format!("{:.2}", v.frame_ms_median / r.frame_ms_median),
                     _ => "–".into(),
                 };
-                let _ = writeln!(out, "| {} | {} | {} | {ratio} |", sc.label, r.mode, cells.join(" | "));
+                // CHC tests in one pass: its tests are what HC's first pass is held to.
+                let to_chc = |n: Option<f64>| match (chc, n) {
+                    (Some(c), Some(n)) if r.error.is_none() && r.hc_tests_mean > 0.0 && c.hc_tests_mean > 0.0 => {
+                        format!("{:.2}x", n / c.hc_tests_mean)
+                    }
+                    _ => "–".into(),
+                };
+                let (first, again) = (to_chc(Some(r.hc_first_pass_tests_mean)), to_chc(r.hc_retests_mean));
+                let _ = writeln!(out, "| {} | {} | {} | {ratio} | {first} | {again} |", sc.label, r.mode, cells.join(" | "));
             }
         }
     }
-    out.push_str("\npeak MB: one figure per process (render; display / node a / node b for the switch).\n");
+    out.push_str("\nCPU ms: CPU time of the median frame, all threads of every process (lavapipe draws on the CPU); the switch's three processes share this host's cores. first pass: HC's tests before its retests; CHC tests in one pass. peak MB: one figure per process (render; display / node a / node b for the switch).\n");
+    if !a.cost_adaptive {
+        out.push_str("Every mode culled every frame (`--cost-adaptive` lets prev and the switch skip culling where it does not pay).\n");
+    }
     out
 }
 

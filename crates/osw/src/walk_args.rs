@@ -5,6 +5,9 @@ use osw_gpu::{RenderOptions, Renderer};
 use osw_scene::SceneFile;
 use std::path::PathBuf;
 
+/// The default geometry residency budget, MiB.
+pub const RESIDENCY_MIB: u64 = 1024;
+
 #[derive(clap::Args, Clone)]
 pub struct WalkArgs {
     /// Scene file.
@@ -21,7 +24,7 @@ pub struct WalkArgs {
     #[arg(long, value_name = "NAME")]
     pub adapter: Option<String>,
     /// Geometry residency budget in MiB (least recently used geometry is dropped above it).
-    #[arg(long, default_value_t = 1024, value_name = "MIB")]
+    #[arg(long, default_value_t = RESIDENCY_MIB, value_name = "MIB")]
     pub residency_mib: u64,
     /// Cluster tests of the passes that draw: a list of `frustum`, `cone` (per cluster),
     /// `backface`, `small` (per triangle of a cluster drawn) and `occlusion` (RVG's two passes, in

@@ -222,7 +222,7 @@ fn bad_command_lines_are_refused() {
     let o = d.path().join("o.osw");
     let out = osw(&["build", "--gen", "castle", "-o", o.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("expected city, teapots, plant or forest"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected city, teapots, plant, forest or isosurface"));
     osw_err(&["build", "--gen", "city", "--chunk-triangles", "0", "-o", o.to_str().unwrap()], "chunk-triangles");
     osw_err(&["build", "--gen", "city", "--bucket-triangles", "0", "-o", o.to_str().unwrap()], "bucket-triangles");
     osw_err(&["build", "--gen", "plant", "--triangles", "5000000000", "-o", o.to_str().unwrap()], "u32");

@@ -11,9 +11,10 @@ use std::path::Path;
 #[test]
 fn every_mode_matches_vfc_at_tau_zero_on_every_generator() {
     let d = tempfile::tempdir().unwrap();
-    for kind in ["plant", "city", "teapots", "forest"] {
+    for kind in ["plant", "city", "teapots", "forest", "isosurface"] {
         let scene = build_gen(d.path(), kind, 150_000, 4);
-        let path = camera_path(&scene, "walk", 24);
+        // The isosurface has no floor to walk on: around it, its layers hide one another.
+        let path = camera_path(&scene, if kind == "isosurface" { "orbit" } else { "walk" }, 24);
         let run = check_conservative(d.path(), &scene, &path, kind);
         // Every mode and HC test culls: on a walk each draws fewer triangles than vfc. Two
         // exceptions, the baseline's own: teapots' large occluder is the ground, which faces
@@ -233,6 +234,48 @@ fn image_error_is_reported_at_tau_above_zero() {
     };
     assert_eq!(culling(&d.path().join("prev8")), 0);
     assert!(culling(&broken) > 0);
+}
+
+#[test]
+fn popping_is_the_change_of_detail_between_frames() {
+    // A city approached from far away, each camera held for two frames: at tau 8 the detail
+    // changes as the camera comes nearer (frames 2, 4), never while it holds still (1, 3, 5),
+    // and at tau 0 (full detail everywhere) never.
+    let d = tempfile::tempdir().unwrap();
+    let scene_path = build_gen(d.path(), "city", 150_000, 1);
+    let scene = SceneFile::open(&scene_path).unwrap();
+    let (o, root) = (scene.origin(), scene.node(0).aabb());
+    let (c, diag) = (root.center().as_dvec3(), root.extent().length() as f64);
+    let cam = |k: f64| Camera::look_at(o + c + DVec3::new(0.3, 0.4, -1.0) * diag * k, o + c, 60.0);
+    let path = d.path().join("approach.csv");
+    write_path(&path, &[cam(4.0), cam(4.0), cam(1.5), cam(1.5), cam(0.7), cam(0.7)]);
+    render(&scene_path, &path, ("vfc", "exact"), "0", &d.path().join("full"));
+    render(&scene_path, &path, ("vfc", "exact"), "8", &d.path().join("tau8"));
+    let cmp = d.path().join("cmp");
+    osw_ok(&["compare", "--a", s(&d.path().join("tau8")), "--b", s(&d.path().join("full")), "--popping", "--out", s(&cmp)]);
+    let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp.join("compare.json")).unwrap()).unwrap();
+    // Frame 0 has no frame before it: its cell is empty.
+    let column = |name: &str| -> Vec<f64> {
+        let text = std::fs::read_to_string(cmp.join("compare.csv")).unwrap();
+        let col = text.lines().next().unwrap().split(',').position(|h| h == name).unwrap();
+        let cells: Vec<&str> = text.lines().skip(1).map(|l| l.split(',').nth(col).unwrap()).collect();
+        assert!(cells.len() == 6 && cells[0].is_empty(), "{name}: {cells:?}");
+        cells[1..].iter().map(|c| c.parse().unwrap()).collect()
+    };
+    let popping = column("a_popping_fraction");
+    assert!(popping[0] == 0.0 && popping[2] == 0.0 && popping[4] == 0.0, "the camera held still: {popping:?}");
+    assert!(popping[1] > 0.0 && popping[3] > 0.0, "the camera came nearer: {popping:?}");
+    assert!(popping.iter().all(|&p| p < 0.5), "{popping:?}");
+    assert_eq!(column("b_popping_fraction"), vec![0.0; 5], "full detail never pops");
+    let mean = popping.iter().sum::<f64>() / 5.0;
+    assert!((c["popping_a"]["fraction_mean"].as_f64().unwrap() - mean).abs() < 1e-12, "{c}");
+    assert_eq!(c["popping_b"]["fraction_max"].as_f64(), Some(0.0), "{c}");
+    // A visible set naming a BVH node (the root) rather than a LOD is refused, not drawn.
+    let broken = d.path().join("broken");
+    std::fs::create_dir_all(&broken).unwrap();
+    std::fs::copy(d.path().join("tau8/summary.json"), broken.join("summary.json")).unwrap();
+    std::fs::write(broken.join("pvs.txt"), "0\n".repeat(6)).unwrap();
+    osw_err(&["compare", "--a", s(&broken), "--b", s(&d.path().join("full")), "--popping", "--out", s(&cmp)], "which is not a LOD");
 }
 
 fn write_path(p: &Path, cams: &[Camera]) {

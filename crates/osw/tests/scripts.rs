@@ -111,6 +111,11 @@ fn scale_sweeps_sizes_and_resumes() {
     for r in runs {
         assert!(r["error"].is_null() && r["frame_ms_median"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["peak_rss_kb"].as_object().unwrap().values().all(|kb| kb.as_u64().unwrap() > 0), "{r}");
+        // Every run's CPU time, the switch's summed over its three processes; its retests
+        // from its nodes' statistics, a part of the tests the display counted.
+        assert!(r["cpu_ms_median"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["hc_retests_mean"].as_f64().is_some_and(|n| n >= 0.0), "{r}");
+        assert!(r["hc_first_pass_tests_mean"].as_f64().is_some_and(|n| n >= 0.0), "{r}");
     }
     assert_eq!(runs.iter().filter(|r| r["mode"] == "switch").map(|r| r["peak_rss_kb"].as_object().unwrap().len()).sum::<usize>(), 6);
     for sc in v["scenes"].as_array().unwrap() {

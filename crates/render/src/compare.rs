@@ -38,6 +38,12 @@ pub fn image_error(a: &[u8], b: &[u8]) -> ImageError {
     }
 }
 
+/// Pixels of `a` and `b` (RGBA8, the same size) where a channel of RGB differs by more than
+/// `above` levels.
+pub fn changed_pixels(a: &[u8], b: &[u8], above: u8) -> u64 {
+    a.chunks_exact(4).zip(b.chunks_exact(4)).filter(|(p, q)| (0..3).any(|k| p[k].abs_diff(q[k]) > above)).count() as u64
+}
+
 /// Culling error of one frame against exact visibility.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct CullError {
@@ -118,5 +124,15 @@ mod tests {
         assert_eq!(e.differing_fraction, 0.5);
         assert_eq!(e.max_channel_diff, 3);
         assert!((e.psnr_db.unwrap() - 10.0 * (255.0f64 * 255.0 / 1.5).log10()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn changed_pixels_count_channels_over_the_threshold_and_ignore_alpha() {
+        let a = vec![10u8, 20, 30, 255, 0, 0, 0, 255, 100, 100, 100, 255];
+        let mut b = a.clone();
+        (b[1], b[4], b[11]) = (22, 3, 0); // pixel 0 off by 2, pixel 1 by 3, pixel 2 in alpha only
+        assert_eq!(changed_pixels(&a, &b, 2), 1);
+        assert_eq!(changed_pixels(&a, &b, 1), 2);
+        assert_eq!(changed_pixels(&a, &a, 0), 0);
     }
 }

@@ -17,6 +17,7 @@ pub mod mode;
 pub mod output;
 pub mod packet;
 pub mod pass;
+pub mod popping;
 pub mod results;
 pub mod run;
 pub mod settings;

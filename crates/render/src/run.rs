@@ -58,9 +58,9 @@ pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
     let mut pvs = String::new();
     for (i, cam) in cams.iter().enumerate() {
-        let view = r.view(cam);
+        let (view, cpu) = (r.view(cam), crate::stats::cpu_ms());
         let mut s = state.frame(r, scene, &view)?;
-        s.frame = i as u64;
+        (s.frame, s.cpu_ms) = (i as u64, crate::stats::cpu_ms() - cpu);
         frames.push(s);
         push_ids(&mut pvs, state.visible());
         if write_frames {

@@ -11,6 +11,8 @@ pub struct FrameStats {
     pub frame: u64,
     /// OR + HC + RVG: the frame's time without writing its PNG.
     pub total_ms: f64,
+    /// CPU time of the process over the frame, all threads ([`cpu_ms`]).
+    pub cpu_ms: f64,
     pub or_ms: f64,
     pub hc_ms: f64,
     /// HC's passes (crate::pass::hc): prev's; 0 in the other modes.
@@ -102,6 +104,17 @@ pub fn resident_bytes() -> u64 {
         .ok()
         .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
         .map_or(0, |pages| pages * 4096)
+}
+
+/// CPU time this process has used so far, all threads, in ms: on lavapipe the GPU's work is
+/// CPU work too, so this is what a run takes from the host's cores (0 where unsupported).
+pub fn cpu_ms() -> f64 {
+    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes one timespec through the pointer it is given.
+    match unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) } {
+        0 => t.tv_sec as f64 * 1e3 + t.tv_nsec as f64 * 1e-6,
+        _ => 0.0,
+    }
 }
 
 /// Peak resident memory of this process so far in KiB (Linux /proc VmHWM; 0 elsewhere).

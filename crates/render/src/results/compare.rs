@@ -42,6 +42,20 @@ pub struct Compare {
     /// The same for the clusters holding a visible triangle: the floor of culling whole clusters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visible_cluster_draw_ms_median: Option<f64>,
+    /// Each run's temporal error (osw_render::popping); None without `--popping`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub popping_a: Option<Popping>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub popping_b: Option<Popping>,
+}
+
+/// One run's popping: the fraction of pixels a frame whose colour changes by more than
+/// osw_render::popping::POPPING_ABOVE when the frame's nodes are drawn with the previous
+/// frame's detail, over the frames after the first.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Popping {
+    pub fraction_mean: f64,
+    pub fraction_max: f64,
 }
 
 /// One run's culling error against exact visibility.

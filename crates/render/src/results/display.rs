@@ -32,6 +32,8 @@ pub struct DisplayFrame {
     pub degraded: u32,
     /// Resident memory once the frame is shown (a soak shows it flat).
     pub rss_kb: u64,
+    /// CPU time of the display's process since the previous frame, all threads.
+    pub cpu_ms: f64,
     pub bytes: u64,
     /// Of `bytes`, the messages that carry ids (deltas, keyframes), their headers included.
     pub id_bytes: u64,

@@ -19,7 +19,7 @@ mod node;
 mod report;
 mod summary;
 
-pub use compare::{Compare, Culling};
+pub use compare::{Compare, Culling, Popping};
 pub use display::DisplayFrame;
 pub use exact::ExactFrame;
 pub use input::Input;

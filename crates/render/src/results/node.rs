@@ -31,6 +31,11 @@ pub struct NodeFrame {
     pub or_gpu_ms: Option<f64>,
     pub nodes_drawn: u32,
     pub tests: u32,
+    /// Of `tests`, those HC made again after its traversal (small boxes and additions).
+    pub retests: u32,
+    /// CPU time of this process since its previous frame, all threads
+    /// (osw_render::stats::cpu_ms).
+    pub cpu_ms: f64,
     /// 1 when HC frustum culled only (cost-adaptive culling).
     pub cull_skipped: u32,
     pub ids_sent: u64,

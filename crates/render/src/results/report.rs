@@ -63,6 +63,8 @@ pub struct Entry {
     pub identical_frames: u64,
     pub differing_fraction_mean: f64,
     pub differing_fraction_max: f64,
+    /// Temporal error: the pixels a frame that pop (osw_render::popping), mean.
+    pub popping_fraction_mean: f64,
     /// The switch's traffic and latency (its display's summary); none for the other modes.
     #[serde(deserialize_with = "required")]
     pub traffic: Option<Traffic>,

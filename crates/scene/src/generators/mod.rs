@@ -1,6 +1,6 @@
 //! Procedural scenes, deterministic for a seed, sized by a triangle budget: the CHC city and
-//! teapot scenes (CHC sec. 6.1), the power plant of the occlusion switch, CHC and Yoon 2003 and the forest of
-//! Bartz 1999.
+//! teapot scenes (CHC sec. 6.1), the power plant of the occlusion switch, CHC and Yoon 2003, the forest of
+//! Bartz 1999 and Yoon 2003's isosurface.
 //!
 //! Units are metres; the ground is at y = 0. Each generator first measures the average cost of
 //! its repeating unit (a building, a teapot, a plant bay) on a sample, then lays out as many
@@ -8,6 +8,7 @@
 
 pub mod city;
 pub mod forest;
+pub mod isosurface;
 pub mod plant;
 pub mod shapes;
 pub mod teapots;
@@ -21,6 +22,7 @@ pub enum GenKind {
     Teapots,
     Plant,
     Forest,
+    Isosurface,
 }
 
 impl std::str::FromStr for GenKind {
@@ -31,7 +33,8 @@ impl std::str::FromStr for GenKind {
             "teapots" => Ok(GenKind::Teapots),
             "plant" => Ok(GenKind::Plant),
             "forest" => Ok(GenKind::Forest),
-            _ => Err(format!("unknown generator {s:?}: expected city, teapots, plant or forest")),
+            "isosurface" => Ok(GenKind::Isosurface),
+            _ => Err(format!("unknown generator {s:?}: expected city, teapots, plant, forest or isosurface")),
         }
     }
 }
@@ -59,6 +62,7 @@ pub fn generate(kind: GenKind, triangles: u64, seed: u64) -> Generated {
         GenKind::Plant => Generated { objects: plant::generate(triangles, seed), notes: Vec::new() },
         GenKind::Teapots => teapots::generate(triangles, seed),
         GenKind::Forest => Generated { objects: forest::generate(triangles, seed), notes: Vec::new() },
+        GenKind::Isosurface => Generated { objects: isosurface::generate(triangles, seed), notes: Vec::new() },
     }
 }
 
