@@ -32,7 +32,19 @@ pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
     if (mesh.triangle_count() as f64 / triangles as f64 - 1.0).abs() > 0.1 {
         mesh = surface_nets(&noise, resize(cells, mesh.triangle_count()));
     }
-    vec![Object::new("isosurface", mesh)]
+    vec![Object::new("isosurface", without_cavities(mesh))]
+}
+
+/// `mesh` less its cavities: a pocket of outside enclosed by the solid is a part wound inwards
+/// (negative volume). Nothing outside the solid sees it, and without it every part is closed
+/// and wound outwards, which the build checks before it lets back faces be culled
+/// (crate::cluster::Parts).
+fn without_cavities(mut mesh: Mesh) -> Mesh {
+    let parts = crate::cluster::Parts::of(&mesh);
+    let mut kept = Vec::with_capacity(mesh.indices.len());
+    kept.extend(mesh.indices.chunks_exact(3).filter(|t| parts.closed_box(t).is_some()).flatten());
+    mesh.indices = kept;
+    mesh
 }
 
 /// The field at `p` in the unit cube: negative inside the solid.
@@ -233,6 +245,14 @@ mod tests {
             .filter(|&(i, j, k)| field(&noise, DVec3::new(i as f64, j as f64, k as f64) / n as f64) < 0.0);
         let grid = inside.count() as f64 / (n as f64).powi(3) * SIDE.powi(3);
         assert!((volume / grid - 1.0).abs() < 0.1, "enclosed {volume:.0} m³, the grid's points say {grid:.0}");
+    }
+
+    #[test]
+    fn without_its_cavities_the_object_is_closed() {
+        let m = generate(100_000, 1).remove(0).mesh;
+        assert!(crate::cluster::Parts::of(&m).all_closed());
+        // The cavities were there: the surface as extracted has parts wound inwards.
+        assert!(!crate::cluster::Parts::of(&surface_nets(&Noise::new(1), 64)).all_closed());
     }
 
     #[test]
