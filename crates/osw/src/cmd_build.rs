@@ -52,6 +52,9 @@ pub struct Args {
 
 /// Most triangles of a generated scene: node and header triangle counts are u32.
 const MOST_TRIANGLES: u64 = 4_000_000_000;
+/// Most triangles of a generator that makes its scene in memory (all but the plant): about 6 GB
+/// of mesh and build tables at 100M.
+const MOST_IN_MEMORY: u64 = 100_000_000;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Colors {
@@ -94,6 +97,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     "--triangles {} is above the {}M a scene file holds (triangle counts are u32)",
                     a.triangles,
                     MOST_TRIANGLES / 1_000_000
+                );
+            }
+            if kind != GenKind::Plant && a.triangles > MOST_IN_MEMORY {
+                bail!(
+                    "--triangles {}: --gen {} makes its scene in memory, at most {}M triangles (the plant streams at any size)",
+                    a.triangles,
+                    format!("{kind:?}").to_lowercase(),
+                    MOST_IN_MEMORY / 1_000_000
                 );
             }
             let input = format!("--gen {kind:?} --triangles {} --seed {}", a.triangles, a.seed).to_lowercase();

@@ -226,6 +226,7 @@ fn bad_command_lines_are_refused() {
     osw_err(&["build", "--gen", "city", "--chunk-triangles", "0", "-o", o.to_str().unwrap()], "chunk-triangles");
     osw_err(&["build", "--gen", "city", "--bucket-triangles", "0", "-o", o.to_str().unwrap()], "bucket-triangles");
     osw_err(&["build", "--gen", "plant", "--triangles", "5000000000", "-o", o.to_str().unwrap()], "u32");
+    osw_err(&["build", "--gen", "isosurface", "--triangles", "1000000000", "-o", o.to_str().unwrap()], "in memory");
     for f in ["1.5", "-0.1", "NaN"] {
         let arg = format!("--loose-split={f}");
         osw_err(&["build", "--gen", "city", &arg, "-o", o.to_str().unwrap()], "--loose-split must be a fraction");
