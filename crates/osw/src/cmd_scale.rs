@@ -102,7 +102,7 @@ struct Row {
     /// Of those, the retests after the traversal (the switch's from its nodes' statistics),
     /// the first pass's (the rest), and the traversal's tests of V(i-1)'s nodes, their
     /// siblings and what came into view (one GPU's runs: prev; none for the switch).
-    hc_retests_mean: Option<f64>,
+    hc_retests_mean: f64,
     hc_first_pass_tests_mean: f64,
     hc_tests_where: Option<[f64; 3]>,
     hc_ms_median: f64,
@@ -218,7 +218,7 @@ fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row>
         frame_ms_median: s.frame_ms_median,
         frame_ms_p95: s.frame_ms_p95,
         hc_tests_mean: s.tests_mean,
-        hc_retests_mean: Some(retests),
+        hc_retests_mean: retests,
         hc_first_pass_tests_mean: s.tests_mean - retests,
         hc_tests_where: s.render().map(|r| [r.tests_front_mean, r.tests_siblings_mean, r.tests_new_mean]),
         hc_ms_median: s.hc_ms_median,
@@ -340,7 +340,7 @@ fn markdown(s: &Sweep, a: &Args) -> String {
         ("RVG ms", |r| format!("{:.1}", r.rvg_ms_median)),
         ("HC tests", |r| format!("{:.0}", r.hc_tests_mean)),
         ("first pass", |r| format!("{:.0}", r.hc_first_pass_tests_mean)),
-        ("retests", |r| r.hc_retests_mean.map_or("-".into(), |t| format!("{t:.0}"))),
+        ("retests", |r| format!("{:.0}", r.hc_retests_mean)),
         ("traversal: V(i-1) / siblings / new", |r| {
             r.hc_tests_where.map_or("-".into(), |w| format!("{:.0} / {:.0} / {:.0}", w[0], w[1], w[2]))
         }),
@@ -369,13 +369,13 @@ fn markdown(s: &Sweep, a: &Args) -> String {
                     _ => "–".into(),
                 };
                 // CHC tests in one pass: its tests are what HC's first pass is held to.
-                let to_chc = |n: Option<f64>| match (chc, n) {
-                    (Some(c), Some(n)) if r.error.is_none() && r.hc_tests_mean > 0.0 && c.hc_tests_mean > 0.0 => {
+                let to_chc = |n: f64| match chc {
+                    Some(c) if r.error.is_none() && r.hc_tests_mean > 0.0 && c.hc_tests_mean > 0.0 => {
                         format!("{:.2}x", n / c.hc_tests_mean)
                     }
                     _ => "–".into(),
                 };
-                let (first, again) = (to_chc(Some(r.hc_first_pass_tests_mean)), to_chc(r.hc_retests_mean));
+                let (first, again) = (to_chc(r.hc_first_pass_tests_mean), to_chc(r.hc_retests_mean));
                 let _ = writeln!(out, "| {} | {} | {} | {ratio} | {first} | {again} |", sc.label, r.mode, cells.join(" | "));
             }
         }
