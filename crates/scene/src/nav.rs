@@ -18,7 +18,9 @@
 use crate::file::{SceneError, SceneFile};
 use crate::format::NodeKind;
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Eye height above a floor, and the slab [low, high] above it in which geometry blocks a
 /// walker (below: kerbs and stair steps; above: doorways' lintels and overhead pipes).
@@ -59,13 +61,13 @@ impl Floors {
         let cell_size = (root.extent().x.max(root.extent().z) / 4096.0).max(0.2);
         let (nx, nz) = (((root.extent().x / cell_size) as usize + 1).max(1), ((root.extent().z / cell_size) as usize + 1).max(1));
         let grid = Grid { min: root.min, cell_size, nx, nz };
-        let mut found: Vec<(u32, f32)> = Vec::new();
-        for_each_opaque_triangle(scene, |p| {
+        let mut found: Vec<(u32, f32)> = leaves_in_parallel(scene, |p, found: &mut Vec<(u32, f32)>| {
             let n = (p[1] - p[0]).cross(p[2] - p[0]);
             if n.y.abs() >= FLAT * n.length() {
                 grid.for_each_centre_in(p, |c, h| found.push((c as u32, h)));
             }
-        })?;
+        })?
+        .concat();
         let mut f = Floors { grid, start: Vec::new(), cell: Vec::new(), height: Vec::new(), blocked: Vec::new(), roofed: Vec::new() };
         found.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
         let mut next = found.iter().peekable();
@@ -85,16 +87,18 @@ impl Floors {
             debug_assert!(f.height.len() > first);
         }
         f.start.push(f.height.len() as u32);
-        f.blocked = vec![false; f.height.len()];
-        f.roofed = vec![false; f.height.len()];
-        let Floors { grid, start, height, blocked, roofed, .. } = &mut f;
-        for_each_opaque_triangle(scene, |p| {
+        // Marked from every thread at once: a floor is blocked (roofed) when any triangle
+        // blocks (roofs) it, whichever thread sees it first.
+        let blocked: Vec<AtomicBool> = (0..f.height.len()).map(|_| AtomicBool::new(false)).collect();
+        let roofed: Vec<AtomicBool> = (0..f.height.len()).map(|_| AtomicBool::new(false)).collect();
+        let Floors { grid, start, height, .. } = &f;
+        leaves_in_parallel(scene, |p, _: &mut ()| {
             let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
             let reaches = |i: usize, (y0, y1): (f32, f32)| y1 >= height[i] + SLAB_LOW && y0 <= height[i] + SLAB_HIGH;
             let one_cell = grid.cells_under(lo, hi).nth(1).is_none();
             for c in grid.cells_under(lo, hi) {
                 let floors = start[c] as usize..start[c + 1] as usize;
-                if !floors.clone().any(|i| !blocked[i] && reaches(i, (lo.y, hi.y))) {
+                if !floors.clone().any(|i| !blocked[i].load(Ordering::Relaxed) && reaches(i, (lo.y, hi.y))) {
                     continue;
                 }
                 // A triangle over several cells, within each cell's column (a roof sloping over
@@ -107,18 +111,23 @@ impl Floors {
                         None => continue,
                     },
                 };
-                for i in floors {
-                    blocked[i] |= reaches(i, ys);
+                for i in floors.filter(|&i| reaches(i, ys)) {
+                    blocked[i].store(true, Ordering::Relaxed);
                 }
             }
             if lo.y > root.min.y + SLAB_HIGH {
                 grid.for_each_centre_in(p, |c, y| {
-                    for i in start[c] as usize..start[c + 1] as usize {
-                        roofed[i] |= y > height[i] + SLAB_HIGH;
+                    let floors = start[c] as usize..start[c + 1] as usize;
+                    for (flag, &h) in roofed[floors.clone()].iter().zip(&height[floors]) {
+                        if y > h + SLAB_HIGH {
+                            flag.store(true, Ordering::Relaxed);
+                        }
                     }
                 });
             }
         })?;
+        f.blocked = blocked.into_iter().map(AtomicBool::into_inner).collect();
+        f.roofed = roofed.into_iter().map(AtomicBool::into_inner).collect();
         Ok(f)
     }
 
@@ -274,16 +283,19 @@ fn heights_in(p: [Vec3; 3], lo: Vec2, hi: Vec2) -> Option<(f32, f32)> {
 }
 
 /// Calls `f` with the corners of every opaque triangle of every leaf at full detail.
-fn for_each_opaque_triangle(scene: &SceneFile, mut f: impl FnMut([Vec3; 3])) -> Result<(), SceneError> {
-    for id in 0..scene.bvh_count() {
-        let n = scene.node(id);
-        if n.kind() != NodeKind::Leaf {
-            continue;
-        }
-        let g = scene.geometry(n.first_lod)?;
-        for t in 0..g.opaque_indices() / 3 {
-            f([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t * 3 + k) as usize])));
-        }
-    }
-    Ok(())
+/// Calls `f` on every full-detail opaque triangle of `scene`, the leaves spread over threads
+/// (a billion triangles are read twice to find floors): each thread's calls share one `T`,
+/// and the `T`s come back in no particular order.
+fn leaves_in_parallel<T: Default + Send>(scene: &SceneFile, f: impl Fn([Vec3; 3], &mut T) + Sync) -> Result<Vec<T>, SceneError> {
+    (0..scene.bvh_count())
+        .into_par_iter()
+        .filter(|&id| scene.node(id).kind() == NodeKind::Leaf)
+        .try_fold(T::default, |mut acc, id| {
+            let g = scene.geometry(scene.node(id).first_lod)?;
+            for t in 0..g.opaque_indices() / 3 {
+                f([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t * 3 + k) as usize])), &mut acc);
+            }
+            Ok(acc)
+        })
+        .collect()
 }
