@@ -194,7 +194,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
         row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
         row.rss_kb = osw_render::stats::resident_bytes() >> 10;
         row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
-        (row.cpu_ms, cpu) = (osw_render::stats::cpu_ms() - cpu, osw_render::stats::cpu_ms());
+        let now = osw_render::stats::cpu_ms();
+        (row.cpu_ms, cpu) = (now - cpu, now);
         last = Instant::now();
         if let Some(u) = ui.as_mut() {
             u.show(&mut r, rgba, &frames.visible, &camera, cam.tau_px, &row)?;

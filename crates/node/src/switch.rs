@@ -121,7 +121,8 @@ impl Switch {
             if let Some(mut f) = f {
                 // All of this process's CPU time since the last frame: waits, sends and
                 // lavapipe's threads included.
-                (f.cpu_ms, cpu) = (osw_render::stats::cpu_ms() - cpu, osw_render::stats::cpu_ms());
+                let now = osw_render::stats::cpu_ms();
+                (f.cpu_ms, cpu) = (now - cpu, now);
                 i = f.frame + 1;
                 log.push(f);
             }

@@ -282,10 +282,9 @@ fn heights_in(p: [Vec3; 3], lo: Vec2, hi: Vec2) -> Option<(f32, f32)> {
     Some(poly.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| (l.min(v.y), h.max(v.y))))
 }
 
-/// Calls `f` with the corners of every opaque triangle of every leaf at full detail.
-/// Calls `f` on every full-detail opaque triangle of `scene`, the leaves spread over threads
-/// (a billion triangles are read twice to find floors): each thread's calls share one `T`,
-/// and the `T`s come back in no particular order.
+/// Calls `f` with the corners of every opaque triangle of every leaf at full detail, the
+/// leaves spread over threads (a billion triangles are read twice to find floors): the calls
+/// on one run of leaves share one `T`, and the `T`s come back in the leaves' order.
 fn leaves_in_parallel<T: Default + Send>(scene: &SceneFile, f: impl Fn([Vec3; 3], &mut T) + Sync) -> Result<Vec<T>, SceneError> {
     (0..scene.bvh_count())
         .into_par_iter()
