@@ -14,7 +14,7 @@ use crate::frustum::Containment;
 use crate::hc::HcStats;
 use crate::tester::{Occluders, Visibility};
 use crate::view::View;
-use osw_scene::error_metric::select_lod;
+use osw_scene::error_metric::select;
 use osw_scene::{NodeId, NodeRecord};
 
 /// Largest batch of queries in flight before the traversal waits for them.
@@ -78,7 +78,7 @@ impl ChcState {
             }
             let i = id as usize;
             let was_visible = self.visible[i] && self.last_visited[i] == self.frame - 1;
-            let terminal = select_lod(nodes, id, view.eye, view.focal_px, tau).is_some();
+            let terminal = !select(nodes, id, &view.lod_at(tau)).refine;
             let opened = was_visible && !terminal;
             self.visible[i] = false;
             self.last_visited[i] = self.frame;
@@ -112,7 +112,8 @@ impl ChcState {
         }
     }
 
-    /// Draws a node that meets tau (the paper's leaves), else queues its children.
+    /// Draws a node that meets tau (the paper's leaves), else queues its children (both for a
+    /// cluster hierarchy's node).
     #[allow(clippy::too_many_arguments)]
     fn traverse<E>(
         &self,
@@ -124,12 +125,13 @@ impl ChcState {
         queue: &mut DistanceQueue,
         pvs: &mut Vec<NodeId>,
     ) -> Result<(), E> {
-        match select_lod(nodes, id, view.eye, view.focal_px, tau) {
-            Some(lod) => {
-                occ.render(&[lod])?;
-                pvs.push(lod);
-            }
-            None => nodes[id as usize].children().for_each(|c| queue.push(nodes, view.eye, c)),
+        let s = select(nodes, id, &view.lod_at(tau));
+        if let Some(lod) = s.draw {
+            occ.render(&[lod])?;
+            pvs.push(lod);
+        }
+        if s.refine {
+            nodes[id as usize].children().for_each(|c| queue.push(nodes, view.eye, c));
         }
         Ok(())
     }

@@ -85,7 +85,7 @@ impl std::fmt::Display for ClusterTests {
 /// Counts of one pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ClusterStats {
-    /// Clusters of the nodes drawn.
+    /// Clusters of the nodes drawn that the cut takes.
     pub clusters: u64,
     pub frustum_culled: u64,
     pub cone_culled: u64,
@@ -138,9 +138,9 @@ impl ClusterHistory {
     }
 }
 
-/// Appends to `out` the indices (offset by `base`) of the clusters of one node that may cover a
-/// pixel and that `select` (given a cluster's index in the block) takes, less the triangles the
-/// triangle tests find covering none.
+/// Appends to `out` the indices (offset by `base`) of the clusters of one node that the cut of
+/// `view.lod` takes, that may cover a pixel and that `select` (given a cluster's index in the
+/// block) takes, less the triangles the triangle tests find covering none.
 pub fn gather<I: Copy + Into<u32>>(
     view: &View,
     tests: ClusterTests,
@@ -152,8 +152,12 @@ pub fn gather<I: Copy + Into<u32>>(
 ) {
     let (positions, indices, clusters) = geometry;
     let triangles = TriangleView::new(view);
-    stats.clusters += clusters.len() as u64;
     for (k, c) in clusters.iter().enumerate() {
+        // A cluster hierarchy's node holds clusters of several levels; the cut takes some.
+        if !view.lod.takes(&c.cut) {
+            continue;
+        }
+        stats.clusters += 1;
         let center = DVec3::from(c.center.map(f64::from));
         // The sphere grown by its centre's f32 rounding, and the eye's (the GPU makes vertices
         // camera-relative in f32; see View::test_box).
@@ -309,8 +313,14 @@ mod tests {
 
     #[test]
     fn spheres_behind_the_eye_are_frustum_culled() {
-        let c =
-            |x: f32| ClusterRecord { center: [x, 0.0, 0.0], radius: 1.0, cone_cutoff: 2.0, index_count: 3, ..bytemuck::Zeroable::zeroed() };
+        let c = |x: f32| ClusterRecord {
+            center: [x, 0.0, 0.0],
+            radius: 1.0,
+            cone_cutoff: 2.0,
+            index_count: 3,
+            cut: osw_scene::format::Cut::ALWAYS,
+            ..bytemuck::Zeroable::zeroed()
+        };
         let clusters = [c(-10.0), c(10.0)];
         let clusters = [ClusterRecord { first_index: 3, ..clusters[1] }, clusters[0]];
         let view = View::new(&Camera::look_at(DVec3::ZERO, DVec3::X, 60.0), DVec3::ZERO, 64, 64, 0.01);

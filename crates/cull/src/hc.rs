@@ -25,7 +25,7 @@
 use crate::frustum::Containment;
 use crate::tester::VisibilityTester;
 use crate::view::View;
-use osw_scene::error_metric::select_lod;
+use osw_scene::error_metric::{Selection, select};
 use osw_scene::format::NodeKind;
 use osw_scene::{NodeId, NodeRecord};
 use std::collections::HashSet;
@@ -194,7 +194,7 @@ fn traverse<E>(
                 }
                 // Above V(i-1) and still to be refined; one whose LOD now meets tau is tested,
                 // as it would be from the root, before its LOD joins the PVS.
-                _ if above.contains(&id) && select_lod(nodes, id, view.eye, view.focal_px, tau).is_none() => {
+                _ if above.contains(&id) && select(nodes, id, &view.lod_at(tau)) == (Selection { draw: None, refine: true }) => {
                     stats.untested += 1;
                     open.extend(nodes[id as usize].children());
                 }
@@ -259,7 +259,7 @@ pub(crate) fn test_round<E>(
 }
 
 /// A visible BVH node: its LOD into the PVS, its HLOD when few of its `pixels` show, or its
-/// children into `open`.
+/// children into `open` (with its cut node, in a cluster hierarchy).
 #[allow(clippy::too_many_arguments)]
 fn refine(
     nodes: &[NodeRecord],
@@ -272,14 +272,17 @@ fn refine(
     open: &mut Vec<NodeId>,
 ) {
     let n = &nodes[id as usize];
-    if let Some(lod) = select_lod(nodes, id, view.eye, view.focal_px, tau) {
-        pvs.push(lod);
-    } else if let (Some(px), NodeKind::Group, true) = (pixels, n.kind(), n.lod_count > 0)
+    let coarsest = n.lods().last().filter(|&l| !nodes[l as usize].is_cut());
+    let s = select(nodes, id, &view.lod_at(tau));
+    if let (true, Some(px), Some(hlod)) = (s.refine, pixels, coarsest)
         && (px as f64) < tau
     {
         stats.pixel_stops += 1;
-        pvs.push(n.first_lod + n.lod_count - 1);
-    } else {
+        pvs.push(hlod);
+        return;
+    }
+    pvs.extend(s.draw);
+    if s.refine {
         open.extend(n.children());
     }
 }

@@ -24,7 +24,7 @@ use crate::hc::HcStats;
 use crate::hzb::Footprint;
 use crate::tester::Occluders;
 use crate::view::View;
-use osw_scene::error_metric::select_lod;
+use osw_scene::error_metric::select;
 use osw_scene::{Aabb, NodeId, NodeRecord};
 
 /// Paper 003's knobs. `OvcOptions::default()` is conservative with no budget: the
@@ -112,21 +112,23 @@ pub fn ovc<E>(
             stats.occlusion_culled += 1;
             continue;
         }
-        match select_lod(nodes, id, view.eye, view.focal_px, tau) {
-            // Eq. 1 judges objects, what would be drawn now; a node that is refined further is
-            // judged by its children.
-            Some(_)
-                if opts.adaptive > 0.0
-                    && pixels.is_some_and(|p| adapcull(view, &b, p as f64 * opts.sampling.max(1) as f64) < opts.adaptive) =>
-            {
-                stats.adaptive_culled += 1;
-                stats.occlusion_culled += 1;
-            }
-            Some(lod) => {
-                occ.render(&[lod])?;
-                pvs.push(lod);
-            }
-            None => nodes[id as usize].children().for_each(|c| list.push(nodes, view.eye, c)),
+        let s = select(nodes, id, &view.lod_at(tau));
+        // Eq. 1 judges objects, what would be drawn now; a node that is refined further is
+        // judged by its children.
+        if !s.refine
+            && opts.adaptive > 0.0
+            && pixels.is_some_and(|p| adapcull(view, &b, p as f64 * opts.sampling.max(1) as f64) < opts.adaptive)
+        {
+            stats.adaptive_culled += 1;
+            stats.occlusion_culled += 1;
+            continue;
+        }
+        if let Some(lod) = s.draw {
+            occ.render(&[lod])?;
+            pvs.push(lod);
+        }
+        if s.refine {
+            nodes[id as usize].children().for_each(|c| list.push(nodes, view.eye, c));
         }
     }
     Ok(stats)

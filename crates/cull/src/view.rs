@@ -6,6 +6,7 @@
 
 use crate::frustum::Frustum;
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3};
+use osw_scene::error_metric::LodView;
 use osw_scene::{Aabb, Camera};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -21,6 +22,9 @@ pub struct View {
     /// Pixels per unit of size/distance: converts object-space error to pixels.
     pub focal_px: f64,
     pub frustum: Frustum,
+    /// What a cluster hierarchy's cut is made for when drawing: this camera's eye at tau 0
+    /// unless [`View::at_tau`] says otherwise (popping draws one camera's cut from another).
+    pub lod: LodView,
 }
 
 impl View {
@@ -39,7 +43,18 @@ impl View {
             near,
             focal_px: camera.focal_px(height),
             frustum: Frustum::new(eye, camera.orientation, fovy_rad, aspect, near, camera.focal_px(height)),
+            lod: LodView { eye, focal_px: camera.focal_px(height), tau: 0.0 },
         }
+    }
+
+    /// The same view drawing the cut at `tau`.
+    pub fn at_tau(self, tau: f64) -> View {
+        View { lod: LodView { tau, ..self.lod }, ..self }
+    }
+
+    /// The LOD parameters of this camera at `tau`: what traversals select with.
+    pub fn lod_at(&self, tau: f64) -> LodView {
+        LodView { eye: self.eye, focal_px: self.focal_px, tau }
     }
 
     /// Camera-relative view-projection: rotation-only view times a reversed-Z projection with

@@ -173,7 +173,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let t = Instant::now();
         r.begin_frame();
         let camera = osw_render::packet::camera(&cam);
-        let view = r.view(&camera);
+        let view = r.view(&camera, cam.tau_px);
         // RVG as prev's (hidden clusters culled where HC culled).
         let drawn = osw_render::pass::rvg(&mut r, &scene, &view, &frames.visible, row.cull_skipped == 0, &mut clusters)?;
         (row.rvg_ms, row.rvg_gpu_ms) = (t.elapsed().as_secs_f64() * 1e3, drawn.gpu_ms());

@@ -187,7 +187,9 @@ impl Ui {
         }
         let (viewer, redraw) = (self.viewer(camera), self.redraws(camera));
         if self.state_colours {
-            let (view, culling) = (r.view(&viewer), r.view(camera));
+            // The culling camera's cut, seen from the viewer.
+            let culling = r.view(camera, tau);
+            let view = View { lod: culling.lod, ..r.view(&viewer, tau) };
             let scene = &self.scene;
             let mut front = Vec::new();
             osw_cull::frustum_cull(scene.nodes(), &view, tau, &mut front);
@@ -196,7 +198,7 @@ impl Ui {
             r.draw(scene, &view, &s.occlusion_culled, Pass::Tinted(OCCLUDED), false)?;
             r.draw(scene, &view, &s.frustum_culled, Pass::Tinted(OUTSIDE), false)?;
         } else if viewer != *camera {
-            let view: View = r.view(&viewer);
+            let view = View { lod: r.view(camera, tau).lod, ..r.view(&viewer, tau) };
             r.draw(&self.scene, &view, visible, Pass::Color, true)?;
         }
         // The frame as RVG drew it, read back once by the caller, unless it was drawn again.

@@ -34,7 +34,8 @@ pub fn run(data: &[u8]) {
     let mut bytes = data.to_vec();
     rehash(&mut bytes);
     let Ok(h) = osw_scene::file::validate(Path::new("fuzz.osw"), &bytes) else { return };
-    let nodes: Vec<NodeRecord> = bytemuck::pod_collect_to_vec(&bytes[h.nodes_offset as usize..][..h.node_count as usize * 64]);
+    let nodes: Vec<NodeRecord> =
+        bytemuck::pod_collect_to_vec(&bytes[h.nodes_offset as usize..][..h.node_count as usize * osw_scene::format::NODE_BYTES as usize]);
     let cam = Camera::look_along([0.0, 0.0, 5.0].into(), [0.0, 0.0, -1.0].into(), 60.0);
     let view = View::new(&cam, glam::DVec3::from_array(h.origin), 64, 64, 0.01);
     for tau in [0.0, 1e6] {

@@ -272,9 +272,10 @@ impl Renderer {
         self.options.time_gpu && self.timestamps.is_some()
     }
 
-    /// The view of `camera` with this scene's near plane (see [`osw_cull::view::near_of`]).
-    pub fn view(&self, camera: &osw_scene::Camera) -> View {
-        View::new(camera, self.origin, self.target.width, self.target.height, self.near)
+    /// The view of `camera` with this scene's near plane (see [`osw_cull::view::near_of`]),
+    /// drawing the cut of a cluster hierarchy at `tau`.
+    pub fn view(&self, camera: &osw_scene::Camera, tau: f64) -> View {
+        View::new(camera, self.origin, self.target.width, self.target.height, self.near).at_tau(tau)
     }
 
     /// Starts a frame: geometry used from here on is kept resident through the frame.

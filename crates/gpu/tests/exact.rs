@@ -26,7 +26,7 @@ fn drawing_only_the_visible_triangles_gives_the_whole_image() {
     leaves.sort_unstable();
     let c = root.center().as_dvec3() + scene.origin();
     for (k, eye) in [DVec3::new(0.0, 5.0, -60.0), DVec3::new(30.0, 25.0, 10.0), DVec3::new(-8.0, 2.0, 3.0)].into_iter().enumerate() {
-        let view = r.view(&Camera::look_at(c + eye, c, 60.0));
+        let view = r.view(&Camera::look_at(c + eye, c, 60.0), 0.0);
         r.begin_frame();
         let e = r.exact(&scene, &view, 0.0, Reference::Independent).unwrap();
         let floor = r.read_color().unwrap();

@@ -17,7 +17,7 @@ fn the_phases_of_a_sampled_box_test_add_up_to_the_whole_count() {
     let mut r = Renderer::new(gpu, &scene, 203, 157, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
     let root = scene.node(0).aabb();
     let eye = root.center().as_dvec3() + DVec3::new(0.0, 1.7 - root.center().y as f64, -0.3 * root.extent().z as f64);
-    let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0));
+    let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0), 0.0);
     // Some occluders, so that partly hidden boxes are counted too.
     let leaves: Vec<u32> = (0..scene.bvh_count()).filter(|&i| scene.node(i).child_count == 0).collect();
     let occluders: Vec<u32> = leaves.iter().step_by(3).map(|&i| scene.node(i).first_lod).collect();

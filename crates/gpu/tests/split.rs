@@ -24,7 +24,7 @@ fn a_pass_larger_than_the_arena_is_drawn_in_parts_with_the_same_pixels() {
         let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
         let mut r = Renderer::new(gpu, &scene, 160, 120, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
         r.residency.max_arena_bytes = cap;
-        let view = r.view(&camera);
+        let view = r.view(&camera, 0.0);
         r.begin_frame();
         let drawn = r.draw(&scene, &view, &lods, Pass::Color, true).unwrap();
         (r.read_color().unwrap(), drawn, r.residency.stats)

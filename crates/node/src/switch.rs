@@ -143,7 +143,7 @@ impl Switch {
         };
         let r = &mut self.renderer;
         r.begin_frame();
-        let view = r.view(&packet::camera(&cam));
+        let view = r.view(&packet::camera(&cam), cam.tau_px);
         let mut f = NodeFrame { frame: i, duty, cull_skipped: u32::from(!cull), ..NodeFrame::default() };
         if duty == Duty::Solo && cull {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
@@ -228,7 +228,7 @@ impl Switch {
         let t = Instant::now();
         let max_id = self.scene.header().node_count;
         self.renderer.begin_frame();
-        let view = self.renderer.view(&packet::camera(&cam));
+        let view = self.renderer.view(&packet::camera(&cam), cam.tau_px);
         // This node is HC of the next frame: whether it culls is decided now, from the last
         // frame it culled; when it does not, OR draws nothing, and only follows V(i).
         let cull = self.payoff.as_mut().is_none_or(Payoff::cull);

@@ -1,6 +1,7 @@
 //! `osw build`: input (glTF, GLB, OBJ, PLY or a generator) → scene file + `<scene>.build.json`.
 
 use anyhow::{Context, bail};
+use osw_scene::build::Lod;
 use osw_scene::generators::GenKind;
 use osw_scene::source::{InMemory, Shifted, Source};
 use osw_scene::{BuildOptions, build};
@@ -44,6 +45,11 @@ pub struct Args {
     /// only the order of its blocks in the file changes.
     #[arg(long, default_value_t = osw_scene::limits::BUCKET_TRIANGLES, value_name = "N")]
     bucket_triangles: u64,
+    /// How detail is reduced: `chains` (static LOD levels per chunk, chosen whole, borders
+    /// locked) or `clusters` (a cluster hierarchy per object whose detail varies across a
+    /// surface, Yoon 2003's view-dependent rendering as meshoptimizer's clusterlod builds it).
+    #[arg(long, default_value_t = Lod::Chains, value_name = "chains|clusters")]
+    lod: Lod,
     /// Output scene file; the report goes beside it as <scene>.build.json. A temporary
     /// <scene>.osw.spill of about the input's size lies beside it while building.
     #[arg(short, long)]
@@ -129,6 +135,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         loose_split: a.loose_split,
         model_colors: a.colors == Colors::Model,
         bucket_triangles: a.bucket_triangles,
+        lod: a.lod,
     };
     let report = build(source.as_mut(), &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
@@ -151,6 +158,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.buckets,
         report.bucket_triangles
     );
+    if report.lod == "clusters" {
+        out!(
+            "cluster hierarchy: {} simplified groups, up to {} levels, {} cut nodes",
+            report.simplified_groups,
+            report.cluster_levels_max,
+            report.cut_nodes
+        );
+    }
     out!("colours: {} of {} objects have none of their own (drawn in hashed colours)", report.objects_without_color, report.objects);
     if report.translucent_triangles > 0 {
         out!(

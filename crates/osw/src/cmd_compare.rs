@@ -116,7 +116,7 @@ fn popping_of(dir: &Path, s: &Summary, frames: usize) -> anyhow::Result<Vec<Opti
     let (mut out, mut scratch) = (vec![None], Vec::new());
     for i in 1..frames {
         r.begin_frame();
-        let (before, now) = (r.view(&cams[i - 1]), r.view(&cams[i]));
+        let (before, now) = (r.view(&cams[i - 1], s.tau), r.view(&cams[i], s.tau));
         out.push(Some(popping(&mut r, &scene, (&before, &now), &pvs[i], s.tau, &mut scratch)?));
         bar.inc(1);
     }

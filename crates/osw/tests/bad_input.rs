@@ -191,8 +191,8 @@ fn corrupted_or_truncated_scene_files_are_refused_by_name() {
     let mut v = bytes.clone();
     v[8] = 99; // version
     info(&v, "version");
-    v[8] = 4; // a file of version 4 (translucent triangles not apart): refused with how to rebuild it
-    info(&v, "scene format version 4, this build reads version 5; rebuild the scene with `osw build`");
+    v[8] = 5; // a file of version 5 (no cluster hierarchy bounds): refused with how to rebuild it
+    info(&v, "scene format version 5, this build reads version 6; rebuild the scene with `osw build`");
     let h = *osw_scene::SceneFile::open(&good).unwrap().header();
     let mut v = bytes.clone();
     v[h.nodes_offset as usize + 100] ^= 0x40; // inside the node table

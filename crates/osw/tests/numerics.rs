@@ -101,6 +101,9 @@ fn write_chain_scene(path: &Path, tris: &[[DVec3; 3]]) {
         block: NONE,
         object: NONE,
         triangles: 0,
+        flags: 0,
+        cut_hi: osw_scene::format::ErrorBound { center: [0.0; 3], radius: 0.0, error: 0.0 },
+        cut_lo_error: 0.0,
     };
     let mut nodes = vec![record(NodeKind::Group, bounds(0..1), NONE); (bvh_count + n) as usize];
     for k in 0..n - 1 {

@@ -57,7 +57,7 @@ fn hash_is_stable_for_a_seed_and_differs_for_another() {
     assert_eq!(a, hash(7, "b"), "same seed, different hash");
     assert_ne!(a, hash(8, "c"), "different seed, same hash");
     // The whole file is identical too, not just the tables.
-    let f = |n: &str| std::fs::read(dir.path().join(n).join("city-200000-7.osw")).unwrap();
+    let f = |n: &str| std::fs::read(dir.path().join(n).join("city-200000-7-chains.osw")).unwrap();
     assert_eq!(f("a"), f("b"));
 }
 

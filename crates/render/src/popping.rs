@@ -19,8 +19,8 @@ use osw_scene::{NodeId, SceneFile};
 /// A pixel pops when a channel changes by more than this many levels of 255.
 pub const POPPING_ABOVE: u8 = 2;
 
-/// The fraction of pixels that pop in the frame of `view` whose visible set is `visible`
-/// (LOD ids at `tau`), against the selection `previous` (the view of the frame before)
+/// The fraction of pixels that pop in the frame of `view` (drawing its cut at `tau`) whose
+/// visible set is `visible` (LOD ids at `tau`), against the selection `previous` (the view of the frame before)
 /// makes of the same nodes. `scratch` is kept across frames.
 pub fn popping(
     r: &mut Renderer,
@@ -33,7 +33,9 @@ pub fn popping(
     r.draw(scene, view, visible, Pass::Color, true)?;
     let own = r.read_color()?;
     update_front(scene.nodes(), visible, previous, tau, scratch);
-    r.draw(scene, view, scratch, Pass::Color, true)?;
+    // A cluster hierarchy's cut for the earlier camera, drawn with this one.
+    let earlier_cut = View { lod: previous.lod_at(tau), ..view.clone() };
+    r.draw(scene, &earlier_cut, scratch, Pass::Color, true)?;
     let earlier = r.read_color()?;
     Ok(changed_pixels(&own, &earlier, POPPING_ABOVE) as f64 / (own.len() / 4).max(1) as f64)
 }

@@ -58,7 +58,7 @@ pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
     let mut pvs = String::new();
     for (i, cam) in cams.iter().enumerate() {
-        let (view, cpu) = (r.view(cam), crate::stats::cpu_ms());
+        let (view, cpu) = (r.view(cam, tau), crate::stats::cpu_ms());
         let mut s = state.frame(r, scene, &view)?;
         (s.frame, s.cpu_ms) = (i as u64, crate::stats::cpu_ms() - cpu);
         frames.push(s);
@@ -116,7 +116,7 @@ pub fn exact_path(
     let mut leaves = String::new();
     for (i, cam) in cams.iter().enumerate() {
         r.begin_frame();
-        let view = r.view(cam);
+        let view = r.view(cam, tau);
         let e = r.exact(scene, &view, tau, reference)?;
         rows.push(ExactFrame {
             frame: i as u64,

@@ -21,13 +21,13 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let (c, e) = (root.center().as_dvec3(), root.extent().as_dvec3());
     let eye = c + DVec3::new(0.9 * e.x, 0.1 * e.y, 0.0);
     // V(i-1): what is visible from beside the plant, looking away from it.
-    let before = r.view(&Camera::look_at(eye, eye + DVec3::X, 60.0));
+    let before = r.view(&Camera::look_at(eye, eye + DVec3::X, 60.0), 0.0);
     r.begin_frame();
     let mut previous = Vec::new();
     pass::hc(&mut r, &scene, &before, 0.0, HcOptions::default(), &[], &mut Vec::new(), &mut previous).unwrap();
     assert!(!previous.is_empty(), "nothing visible before the turn: OR would draw nothing");
     // Frame i turns to the plant: OR draws V(i-1) for it, then HC.
-    let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0));
+    let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0), 0.0);
     let mut run = |min: usize| {
         r.begin_frame();
         pass::or(&mut r, &scene, &after, &previous, 0.0, true, &mut Vec::new()).unwrap();

@@ -36,6 +36,36 @@ pub struct BuildOptions {
     pub model_colors: bool,
     /// Most input triangles built in memory at once (see [`crate::limits::BUCKET_TRIANGLES`]).
     pub bucket_triangles: u64,
+    /// Static LOD chains per chunk, or a cluster hierarchy per object.
+    pub lod: Lod,
+}
+
+/// How a scene's detail is reduced.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lod {
+    /// A chain of levels per chunk, borders locked, chosen whole (occlusion switch sec. 4.1).
+    #[default]
+    Chains,
+    /// A cluster hierarchy per object whose detail varies across a surface ([`crate::clod`]).
+    Clusters,
+}
+
+impl std::str::FromStr for Lod {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Lod, String> {
+        match s {
+            "chains" => Ok(Lod::Chains),
+            "clusters" => Ok(Lod::Clusters),
+            _ => Err(format!("{s:?}: expected chains or clusters")),
+        }
+    }
+}
+
+impl std::fmt::Display for Lod {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(if *self == Lod::Chains { "chains" } else { "clusters" })
+    }
 }
 
 impl Default for BuildOptions {
@@ -45,6 +75,7 @@ impl Default for BuildOptions {
             loose_split: crate::limits::LOOSE_SPLIT,
             model_colors: true,
             bucket_triangles: crate::limits::BUCKET_TRIANGLES,
+            lod: Lod::Chains,
         }
     }
 }
@@ -86,6 +117,14 @@ pub struct BuildReport {
     pub groups: u64,
     pub lod_nodes: u64,
     pub lod_levels_max: u64,
+    /// `chains` or `clusters`.
+    pub lod: String,
+    /// Levels of simplification of the deepest cluster hierarchy, and the simplified groups
+    /// (0 with chains).
+    pub cluster_levels_max: u64,
+    pub simplified_groups: u64,
+    /// Cut nodes: BVH nodes' parts of the cluster hierarchies.
+    pub cut_nodes: u64,
     pub hlod_nodes: u64,
     /// Triangles stored over all LOD and HLOD blocks.
     pub stored_triangles: u64,
@@ -168,7 +207,7 @@ pub fn build(
     started: Instant,
     progress: &dyn Progress,
 ) -> Result<BuildReport, BuildError> {
-    let mut report = BuildReport { input: input.to_owned(), notes, ..Default::default() };
+    let mut report = BuildReport { input: input.to_owned(), notes, lod: opts.lod.to_string(), ..Default::default() };
     let mut times = Times::default();
     times.0.insert("input".into(), started.elapsed().as_secs_f64());
     let s = crate::stream::stream(source, opts, out, &mut report, &mut times, progress)?;
@@ -191,12 +230,19 @@ pub fn build(
     report.buckets = buckets.len() as u64;
     report.bucket_triangles = buckets.iter().map(|b| b.iter().map(|&r| subtree_triangles[r as usize]).sum::<u64>()).max().unwrap_or(0);
 
+    report.simplified_groups = s.coarse.len() as u64;
+    let owners = match opts.lod {
+        // Chains lock every chunk border: an HLOD over part of an object meets the rest of it.
+        Lod::Chains => crate::owner::Owners { owned: Vec::new(), open: vec![false; tree.len()] },
+        Lod::Clusters => times.run("bvh", || crate::owner::owners(&tree, &s.chunks, &s.coarse, s.closed_objects.len())),
+    };
+
     let mut writer = SceneWriter::create(out).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
-    let mut built = Built::new(&tree, &s.chunks, &s.closed_objects, min_error);
+    let mut built = Built::new(&tree, &s.chunks, &s.closed_objects, min_error, opts.lod, &owners);
     progress.stage("build", subtree_triangles[0]);
     // While a bucket is built on both cores, a thread reads the next one's chunks from the spill
     // (which no longer fits the page cache at 1B triangles, so reads wait for the disk).
-    let read = |k: usize| crate::subtree::read(&tree, &s.chunks, &s.spill, &buckets[k]);
+    let read = |k: usize| crate::subtree::read(&tree, &s.chunks, (&s.coarse, &owners.owned), &s.spill, &buckets[k]);
     std::thread::scope(|scope| -> Result<(), BuildError> {
         let mut next = Some(scope.spawn(move || read(0)));
         for k in 0..buckets.len() {
@@ -214,7 +260,9 @@ pub fn build(
     let roots: std::collections::HashSet<u32> = buckets.iter().flatten().copied().collect();
     if !roots.contains(&0) {
         for layer in crate::subtree::layers(&tree, &[0], |id| roots.contains(&id)).iter().rev() {
-            built.groups(layer, &mut writer, &mut times)?;
+            let owned =
+                crate::subtree::read_owned(layer, (&s.coarse, &owners.owned), &s.spill).map_err(|e| BuildError::temp(s.spill.path(), e))?;
+            built.groups(layer, owned, &mut writer, &mut times)?;
         }
     }
     drop(s.spill);
@@ -289,7 +337,7 @@ pub fn node_table(objects: Vec<Object>, opts: &BuildOptions) -> Result<Vec<NodeR
     nodes.map_err(|e| BuildError::Write { path: path.display().to_string(), error: std::io::Error::other(e.to_string()) })
 }
 
-pub(crate) fn report_left_out(report: &mut BuildReport, lod: &LodStats, not_coarser: u64, vanished: u64) {
+pub(crate) fn report_left_out(report: &mut BuildReport, lod: &LodStats, [not_coarser, vanished, open]: [u64; 3]) {
     let l = crate::limits::LOD_MIN_TRIANGLES;
     let groups = report.groups;
     if lod.too_small > 0 {
@@ -307,6 +355,9 @@ pub(crate) fn report_left_out(report: &mut BuildReport, lod: &LodStats, not_coar
     if not_coarser > 0 {
         let keep = (crate::limits::HLOD_MAX_FRACTION * 100.0).round();
         report.left_out.push(format!("HLODs of {not_coarser} of {groups} interior nodes: simplification kept more than {keep}% of the children's triangles, so drawing the children costs little more"));
+    }
+    if open > 0 {
+        report.left_out.push(format!("HLODs of {open} of {groups} interior nodes: an object under each reaches outside it, and its cluster hierarchy is the coarser representation there"));
     }
     if vanished > 0 {
         report.left_out.push(format!("HLODs of {vanished} of {groups} interior nodes: the children's coarsest levels are too small to merge into anything coarser; the parent's HLOD covers them"));

@@ -26,7 +26,7 @@
 //! the billion-triangle build must run at 2M triangles a second.
 
 use crate::aabb::Aabb;
-use crate::format::ClusterRecord;
+use crate::format::{ClusterRecord, Cut};
 use crate::mesh::{Mesh, is_translucent};
 use glam::{DVec3, Vec3};
 use rustc_hash::FxHashMap;
@@ -50,72 +50,84 @@ pub const NO_CONE: f32 = 2.0;
 /// ones follow. Every triangle is kept exactly once, with its winding. `object`: the box of
 /// the mesh's object when that object as a whole is closed and wound outwards.
 pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRecord>, u32) {
+    clusterize_cut(mesh, object, &[Cut::ALWAYS], &[])
+}
+
+/// [`clusterize`] for a part of a cluster hierarchy: triangle `t` is drawn where the cut takes
+/// `cuts[cut_of[t]]` (`cut_of` empty: every triangle `cuts[0]`), and a cluster holds
+/// triangles of one cut only.
+pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &[u32]) -> (Vec<u32>, Vec<ClusterRecord>, u32) {
     let parts = Parts::of(mesh);
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte positions");
     let space = mesh.bounds();
+    // Per triangle: translucent last, then by cut, then by facing bin, then along the Morton
+    // curve of its centroid. A cluster ends at a change of the first three, at MAX_TRIANGLES
+    // triangles or at MAX_VERTICES vertices (which keeps it compact where the curve jumps).
+    let mut order: Vec<(u64, u32)> = mesh
+        .indices
+        .chunks_exact(3)
+        .enumerate()
+        .map(|(k, t)| {
+            let translucent = is_translucent(&mesh.colors, t) as u64;
+            let cut = cut_of.get(k).copied().unwrap_or(0) as u64;
+            let centroid = t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0;
+            (translucent << 63 | cut << 33 | (facing(mesh, t) as u64) << 30 | morton(&space, centroid) as u64, k as u32)
+        })
+        .collect();
+    order.sort_unstable();
+    let run = |key: u64| key >> 30;
     let mut indices = Vec::with_capacity(mesh.indices.len());
     let mut clusters = Vec::new();
-    let mut order: Vec<(u32, u32)> = Vec::new();
     // Per vertex, the last cluster that used it: counts a cluster's distinct vertices.
     let mut stamp = vec![u32::MAX; mesh.positions.len()];
     let mut opaque_clusters = 0;
-    for translucent in [false, true] {
-        // Back faces of a translucent surface show through it: its clusters keep no cone.
-        let closed = if translucent { None } else { Some((&parts, object)) };
-        for bin in facing_bins(mesh, translucent) {
-            // Along the Morton curve of the triangles' centroids, a cluster ends at
-            // MAX_TRIANGLES triangles or MAX_VERTICES vertices (which keeps it compact where the
-            // curve jumps).
-            order.clear();
-            order.extend(
-                bin.chunks_exact(3).enumerate().map(|(k, t)| {
-                    (morton(&space, t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0), k as u32)
-                }),
-            );
-            order.sort_unstable();
-            let mut first_index = indices.len() as u32;
-            let mut vertices = 0;
-            for (n, &(_, k)) in order.iter().enumerate() {
-                let t = &bin[k as usize * 3..k as usize * 3 + 3];
-                let id = clusters.len() as u32;
-                let new = t.iter().filter(|&&v| stamp[v as usize] != id).count();
-                let triangles = (indices.len() - first_index as usize) / 3;
-                if triangles == MAX_TRIANGLES || vertices + new > MAX_VERTICES {
-                    clusters.push(cluster(mesh, &adapter, closed, &indices, first_index));
-                    first_index = indices.len() as u32;
-                    vertices = 0;
-                }
-                let id = clusters.len() as u32;
-                for &v in t {
-                    vertices += usize::from(stamp[v as usize] != id);
-                    stamp[v as usize] = id;
-                }
-                indices.extend_from_slice(t);
-                if n + 1 == order.len() {
-                    clusters.push(cluster(mesh, &adapter, closed, &indices, first_index));
-                }
-            }
+    let (mut first_index, mut vertices) = (0u32, 0);
+    for (n, &(key, k)) in order.iter().enumerate() {
+        let t = &mesh.indices[k as usize * 3..k as usize * 3 + 3];
+        let id = clusters.len() as u32;
+        let new = t.iter().filter(|&&v| stamp[v as usize] != id).count();
+        let triangles = (indices.len() - first_index as usize) / 3;
+        if triangles == MAX_TRIANGLES || vertices + new > MAX_VERTICES || (n > 0 && run(order[n - 1].0) != run(key)) {
+            clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index, cuts, order[n - 1].0));
+            first_index = indices.len() as u32;
+            vertices = 0;
         }
-        if !translucent {
-            opaque_clusters = clusters.len() as u32;
+        if key >> 63 == 0 {
+            opaque_clusters = clusters.len() as u32 + 1;
+        }
+        let id = clusters.len() as u32;
+        for &v in t {
+            vertices += usize::from(stamp[v as usize] != id);
+            stamp[v as usize] = id;
+        }
+        indices.extend_from_slice(t);
+        if n + 1 == order.len() {
+            clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index, cuts, key));
         }
     }
     debug_assert_eq!(indices.len(), mesh.indices.len());
     (indices, clusters, opaque_clusters)
 }
 
-/// The cluster of `indices[first_index..]`: its bounds, and its cone (meshopt's) with the box of
-/// its closed parts or object when `closed` (the mesh's parts, and the object's box) has one.
+/// The cluster of `indices[first_index..]`, whose triangles' sort key is `key`: its bounds,
+/// its cut, and its cone (meshopt's) with the box of its closed parts or `object` when the
+/// triangles are opaque (back faces of a translucent surface show through it).
+#[allow(clippy::too_many_arguments)]
 fn cluster(
     mesh: &Mesh,
     adapter: &meshopt::VertexDataAdapter,
-    closed: Option<(&Parts, Option<Aabb>)>,
+    parts: &Parts,
+    object: Option<Aabb>,
     indices: &[u32],
     first_index: u32,
+    cuts: &[Cut],
+    key: u64,
 ) -> ClusterRecord {
     let cluster = &indices[first_index as usize..];
     let b = meshopt::compute_cluster_bounds(cluster, adapter);
-    let closed = closed.and_then(|(parts, object)| parts.closed_box(cluster).or(object));
+    let cut = cuts[(key >> 33 & 0x3fff_ffff) as usize];
+    // A simplified triangle may have lost its object's closure; an original one has not.
+    let closed = if key >> 63 == 0 { parts.closed_box(cluster).or(object.filter(|_| cut.lo.error == 0.0)) } else { None };
     let bbox = Aabb::from_points(cluster.iter().map(|&v| &mesh.positions[v as usize]));
     ClusterRecord {
         center: b.center,
@@ -129,6 +141,7 @@ fn cluster(
         bbox_max: bbox.max.into(),
         closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
         closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
+        cut,
     }
 }
 
@@ -145,26 +158,21 @@ fn morton(space: &Aabb, p: Vec3) -> u32 {
     spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
 }
 
-/// The opaque or the translucent triangles of `mesh` in seven bins: by the axis and sign their
-/// normal points along most (+x, -x, +y, -y, +z, -z), and those without a normal. Within one
-/// bin a meshlet's normals stay within about 55 degrees of the axis.
-fn facing_bins(mesh: &Mesh, translucent: bool) -> [Vec<u32>; 7] {
-    let mut bins: [Vec<u32>; 7] = Default::default();
-    for t in mesh.indices.chunks_exact(3).filter(|t| is_translucent(&mesh.colors, t) == translucent) {
-        let n = normal(mesh, t);
-        let a = n.abs();
-        let bin = if n == DVec3::ZERO {
-            6
-        } else if a.x >= a.y && a.x >= a.z {
-            usize::from(n.x < 0.0)
-        } else if a.y >= a.z {
-            2 + usize::from(n.y < 0.0)
-        } else {
-            4 + usize::from(n.z < 0.0)
-        };
-        bins[bin].extend_from_slice(t);
+/// The bin of a triangle by the axis and sign its normal points along most (+x, -x, +y, -y,
+/// +z, -z: 0 to 5), 6 without a normal. Within one bin a meshlet's normals stay within about
+/// 55 degrees of the axis.
+fn facing(mesh: &Mesh, t: &[u32]) -> u32 {
+    let n = normal(mesh, t);
+    let a = n.abs();
+    if n == DVec3::ZERO {
+        6
+    } else if a.x >= a.y && a.x >= a.z {
+        u32::from(n.x < 0.0)
+    } else if a.y >= a.z {
+        2 + u32::from(n.y < 0.0)
+    } else {
+        4 + u32::from(n.z < 0.0)
     }
-    bins
 }
 
 fn point(mesh: &Mesh, i: u32) -> DVec3 {

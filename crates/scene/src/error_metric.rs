@@ -8,7 +8,7 @@
 //! conservative. Computed in f64 from an eye in scene-local f64 coordinates.
 
 use crate::aabb::Aabb;
-use crate::format::{NodeId, NodeRecord};
+use crate::format::{Cut, ErrorBound, NodeId, NodeKind, NodeRecord};
 use glam::DVec3;
 
 /// Distance from `eye` to the closed box `b`, 0 inside.
@@ -33,12 +33,79 @@ pub fn projected_error_px(error: f32, b: &Aabb, eye: DVec3, focal_px: f64) -> f6
     error as f64 * focal_px / d
 }
 
-/// The coarsest LOD of BVH node `node` whose projected error is at most `tau` pixels, or
-/// `None` when none is fine enough (a group must be refined). `nodes` is the node table.
+impl ErrorBound {
+    /// The most pixels `error` covers anywhere in the sphere: measured from its nearest point
+    /// (Yoon 2003 sec. 6.3.1), +inf with the eye inside. Larger for a sphere that encloses
+    /// this one with an error at least as large, from every eye: what keeps a cut consistent.
+    pub fn px(&self, eye: DVec3, focal_px: f64) -> f64 {
+        if self.error <= 0.0 {
+            return 0.0;
+        }
+        let d = (DVec3::from(self.center.map(f64::from)) - eye).length() - self.radius as f64;
+        if d <= 0.0 { f64::INFINITY } else { self.error as f64 * focal_px / d }
+    }
+
+    /// The fewest pixels `error` covers anywhere in the sphere (from its farthest point).
+    pub fn px_at_least(&self, eye: DVec3, focal_px: f64) -> f64 {
+        if self.error <= 0.0 {
+            return 0.0;
+        }
+        self.error as f64 * focal_px / ((DVec3::from(self.center.map(f64::from)) - eye).length() + self.radius as f64)
+    }
+}
+
+/// The LOD parameters a cut is made for: the eye (scene-local), pixels per unit at unit
+/// distance, and tau.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LodView {
+    pub eye: DVec3,
+    pub focal_px: f64,
+    pub tau: f64,
+}
+
+impl LodView {
+    /// Whether the cut draws a cluster with bounds `c`: its own group's coarser version is too
+    /// coarse and the group it came from is fine enough (the cut of zeux's clusterlod; Yoon 2003
+    /// refines a front of vertices instead).
+    pub fn takes(&self, c: &Cut) -> bool {
+        c.lo.px(self.eye, self.focal_px) <= self.tau && c.hi.px(self.eye, self.focal_px) > self.tau
+    }
+
+    /// Whether the cut may take some cluster of the cut node `n` (never false when it does).
+    pub fn may_take(&self, n: &NodeRecord) -> bool {
+        let lo = ErrorBound { error: n.cut_lo_error, ..n.cut_hi };
+        lo.px_at_least(self.eye, self.focal_px) <= self.tau && n.cut_hi.px(self.eye, self.focal_px) > self.tau
+    }
+}
+
+/// What a traversal does at a BVH node it reached: draw a LOD node of it, refine into its
+/// children, or both (a cluster hierarchy's coarse groups at a node and finer ones below it
+/// cover different parts of a surface).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Selection {
+    pub draw: Option<NodeId>,
+    pub refine: bool,
+}
+
+/// The coarsest static LOD or HLOD of BVH node `node` whose projected error is at most `tau`
+/// pixels (occlusion switch sec. 4.1), or `None` when none is fine enough.
 pub fn select_lod(nodes: &[NodeRecord], node: NodeId, eye: DVec3, focal_px: f64, tau: f64) -> Option<NodeId> {
     let n = &nodes[node as usize];
     let b = n.aabb();
-    n.lods().rev().find(|&l| projected_error_px(nodes[l as usize].error, &b, eye, focal_px) <= tau)
+    n.lods().rev().find(|&l| !nodes[l as usize].is_cut() && projected_error_px(nodes[l as usize].error, &b, eye, focal_px) <= tau)
+}
+
+/// What to do at BVH node `node`: a static LOD or HLOD that meets tau stands for the whole
+/// subtree; else the node's cut node when the cut may take some of its clusters, and its
+/// children unless everything below is coarse enough already.
+pub fn select(nodes: &[NodeRecord], node: NodeId, v: &LodView) -> Selection {
+    if let Some(l) = select_lod(nodes, node, v.eye, v.focal_px, v.tau) {
+        return Selection { draw: Some(l), refine: false };
+    }
+    let n = &nodes[node as usize];
+    let draw = n.lods().find(|&l| nodes[l as usize].is_cut() && v.may_take(&nodes[l as usize]));
+    let refine = n.kind() == NodeKind::Group && (!n.is_bounded() || n.cut_hi.px(v.eye, v.focal_px) > v.tau);
+    Selection { draw, refine }
 }
 
 #[cfg(test)]

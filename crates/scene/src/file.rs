@@ -5,7 +5,7 @@
 //! reads a page of geometry. A geometry block is checked (hash, index range) the first time it
 //! is read, so a corrupted block gives an error naming the block instead of a wrong picture.
 
-use crate::format::{BLOCK_BYTES, BlockRecord, ClusterRecord, Header, MAGIC, NONE, NodeId, NodeKind, NodeRecord, VERSION};
+use crate::format::{BLOCK_BYTES, BlockRecord, ClusterRecord, Header, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord, VERSION};
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
 use crate::writer::{content_hash, header_hash};
 use std::path::{Path, PathBuf};
@@ -204,7 +204,7 @@ fn ranges_ok(bytes: &[u8], rec: &BlockRecord) -> bool {
 
 fn nodes_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [NodeRecord] {
     let s = h.nodes_offset as usize;
-    bytemuck::cast_slice(&bytes[s..s + h.node_count as usize * 64])
+    bytemuck::cast_slice(&bytes[s..s + h.node_count as usize * NODE_BYTES as usize])
 }
 
 fn blocks_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [BlockRecord] {
@@ -232,13 +232,12 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     if h.file_bytes != bytes.len() as u64 {
         return Err(SceneError::Truncated { path: path.to_owned(), expected: h.file_bytes, found: bytes.len() as u64 });
     }
-    let nodes_end = h.nodes_offset.checked_add(h.node_count as u64 * 64);
     let blocks_end = h.blocks_offset.checked_add(h.block_count as u64 * BLOCK_BYTES);
     let layout_ok = h.header_bytes as usize == hsize
         && h.blob_offset == hsize as u64
         && h.blob_bytes.is_multiple_of(BLOCK_ALIGN)
         && h.blob_offset.checked_add(h.blob_bytes) == Some(h.nodes_offset)
-        && nodes_end == Some(h.blocks_offset)
+        && crate::format::blocks_offset(h.nodes_offset, h.node_count) == Some(h.blocks_offset)
         && blocks_end == Some(h.file_bytes);
     if !layout_ok {
         return Err(corrupt("section offsets do not match the counts".into()));

@@ -1,4 +1,4 @@
-//! The scene file format, version 5: one file that the three processes of the cluster map into
+//! The scene file format, version 6: one file that the three processes of the cluster map into
 //! memory and read in place (occlusion switch, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
@@ -8,8 +8,8 @@
 //!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
 //!                       block has colours, [u16 or u32; index_count] in cluster order,
 //!                       padding to 4 bytes, then [ClusterRecord; cluster_count]
-//! header.nodes_offset   [NodeRecord; node_count]       64 bytes each, right after the blob
-//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each, to the end of the file
+//! header.nodes_offset   [NodeRecord; node_count]       92 bytes each, right after the blob
+//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each, 8-aligned, to the end
 //! ```
 //! The tables follow the blob because the build streams: blocks are written as each part of the
 //! model is built, and the tables are complete only at the end (see [`crate::build`]). Blocks
@@ -35,8 +35,9 @@ pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// 2: geometry blocks may carry the model's colours (version 1 had none). 3: each block's
 /// triangles are grouped into clusters with bounds and normal cones (see [`ClusterRecord`]).
 /// 4: the tables follow the blob (an out-of-core build writes them last). 5: a block's
-/// translucent triangles are its last clusters ([`BlockRecord::opaque_clusters`]).
-pub const VERSION: u32 = 5;
+/// translucent triangles are its last clusters ([`BlockRecord::opaque_clusters`]). 6: the
+/// cluster hierarchy: nodes and clusters carry [`Cut`] bounds (see [`crate::clod`]).
+pub const VERSION: u32 = 6;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -92,7 +93,44 @@ impl NodeKind {
     }
 }
 
-/// One node: 64 bytes.
+/// A conservative error and where it lies: `error` (world units) on geometry inside the sphere
+/// at `center` with `radius` (Yoon 2003 sec. 6.3.1 projects an error from the nearest point
+/// of its bound; see [`crate::error_metric`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct ErrorBound {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub error: f32,
+}
+
+/// Where a triangle of a cluster hierarchy is drawn (see [`crate::clod`]): while the error of
+/// the group it was made from (`lo`) meets tau and the error of the coarser triangles made
+/// from its own group (`hi`) does not. A triangle of the original mesh has `lo.error` 0; one of
+/// a group never simplified further has `hi.error` infinite.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct Cut {
+    pub hi: ErrorBound,
+    pub lo: ErrorBound,
+}
+
+impl Cut {
+    /// Drawn at every tau: the clusters of static LODs and HLODs.
+    pub const ALWAYS: Cut = Cut {
+        hi: ErrorBound { center: [0.0; 3], radius: 0.0, error: f32::INFINITY },
+        lo: ErrorBound { center: [0.0; 3], radius: 0.0, error: 0.0 },
+    };
+}
+
+/// [`NodeRecord::flags`]: a LOD node whose block is a BVH node's part of the cluster hierarchy,
+/// drawn cluster by cluster where the cut takes them ([`NodeRecord::cut_hi`] bounds them).
+pub const FLAG_CUT: u32 = 1;
+/// [`NodeRecord::flags`]: a BVH node whose subtree holds only cluster hierarchies (no static
+/// chain), so that [`NodeRecord::cut_hi`] bounds every cut cluster below it.
+pub const FLAG_BOUNDED: u32 = 2;
+
+/// One node: 92 bytes.
 ///
 /// For a BVH node, `error` is the object-space error of its finest representation (0 for a leaf,
 /// whose level 0 is the original; the HLOD's error for a group with an HLOD; for a group
@@ -120,6 +158,14 @@ pub struct NodeRecord {
     pub object: u32,
     /// Triangles: of the block for a LOD node, of the full-detail subtree for a BVH node.
     pub triangles: u32,
+    /// [`FLAG_CUT`], [`FLAG_BOUNDED`].
+    pub flags: u32,
+    /// A cut node: encloses its clusters' `hi` bounds, with the largest error (each cluster's
+    /// `hi` sphere encloses its `lo` sphere, so this one encloses those too). A BVH node with
+    /// [`FLAG_BOUNDED`]: encloses the `cut_hi` of the cut nodes strictly below it. Zero otherwise.
+    pub cut_hi: ErrorBound,
+    /// A cut node: the smallest error of its clusters' `lo` bounds. Zero otherwise.
+    pub cut_lo_error: f32,
 }
 
 impl NodeRecord {
@@ -138,6 +184,14 @@ impl NodeRecord {
 
     pub fn aabb(&self) -> crate::Aabb {
         crate::Aabb::new(self.bbox_min.into(), self.bbox_max.into())
+    }
+
+    pub fn is_cut(&self) -> bool {
+        self.flags & FLAG_CUT != 0
+    }
+
+    pub fn is_bounded(&self) -> bool {
+        self.flags & FLAG_BOUNDED != 0
     }
 }
 
@@ -182,7 +236,7 @@ impl BlockRecord {
 }
 
 /// A run of at most [`crate::cluster::MAX_TRIANGLES`] triangles of one block, close together
-/// and facing alike, that a pass culls as a unit: 100 bytes.
+/// and facing alike, that a pass culls as a unit: 140 bytes.
 ///
 /// The cone is meshopt's: every triangle of the cluster faces away from an eye at `e` when
 /// `dot(normalize(apex - e), axis) >= cutoff`, or (looser near the cluster, but without the
@@ -208,6 +262,8 @@ pub struct ClusterRecord {
     pub bbox_max: [f32; 3],
     pub closed_min: [f32; 3],
     pub closed_max: [f32; 3],
+    /// Where the cut draws it ([`Cut::ALWAYS`] outside a cluster hierarchy).
+    pub cut: Cut,
 }
 
 impl ClusterRecord {
@@ -216,7 +272,14 @@ impl ClusterRecord {
     }
 }
 
+pub const NODE_BYTES: u64 = std::mem::size_of::<NodeRecord>() as u64;
 pub const BLOCK_BYTES: u64 = std::mem::size_of::<BlockRecord>() as u64;
+
+/// Where the block table starts after `node_count` nodes at `nodes_offset`: padded to 8 bytes,
+/// the alignment of its u64 fields.
+pub fn blocks_offset(nodes_offset: u64, node_count: u32) -> Option<u64> {
+    Some(nodes_offset.checked_add(node_count as u64 * NODE_BYTES)?.next_multiple_of(8))
+}
 pub const CLUSTER_BYTES: u64 = std::mem::size_of::<ClusterRecord>() as u64;
 
 #[cfg(test)]
@@ -226,8 +289,8 @@ mod tests {
     #[test]
     fn record_sizes_are_stable() {
         assert_eq!(std::mem::size_of::<Header>(), 256);
-        assert_eq!(std::mem::size_of::<NodeRecord>(), 64);
+        assert_eq!(std::mem::size_of::<NodeRecord>(), 92);
         assert_eq!(std::mem::size_of::<BlockRecord>(), 40);
-        assert_eq!(std::mem::size_of::<ClusterRecord>(), 100);
+        assert_eq!(std::mem::size_of::<ClusterRecord>(), 140);
     }
 }

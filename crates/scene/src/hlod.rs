@@ -16,6 +16,8 @@ pub enum NoHlod {
     NotCoarser,
     /// The simplifier removed everything: parts too small to merge at any coarser size.
     Vanished,
+    /// An object under the node reaches outside it (see [`crate::owner`]).
+    Open,
 }
 
 /// The HLOD of a node whose children's coarsest representations are `parts`, or why there is

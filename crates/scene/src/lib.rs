@@ -8,7 +8,8 @@
 //! - [`chunk`]: splits large objects into chunks of bounded triangle count, and halves chunks
 //!   whose box is loose.
 //! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
-//! - [`lod`] and [`hlod`]: static LOD chains per leaf, HLODs per interior node.
+//! - [`lod`] and [`hlod`]: static LOD chains per leaf, HLODs per interior node; or [`clod`]: a
+//!   cluster hierarchy per object, its simplified groups owned by BVH nodes ([`owner`]).
 //! - [`build`]: the pipeline above, out of core ([`source`] streams the input, [`stream`] chunks
 //!   it into the [`spill`] file, [`subtree`] builds the hierarchy's geometry a subtree at a time),
 //!   plus the report of what it left out.
@@ -22,6 +23,7 @@ pub mod build;
 pub mod bvh;
 pub mod camera;
 pub mod chunk;
+pub mod clod;
 pub mod cluster;
 pub mod error_metric;
 pub mod file;
@@ -33,6 +35,7 @@ pub mod limits;
 pub mod lod;
 pub mod mesh;
 pub mod nav;
+pub mod owner;
 pub mod path;
 pub mod path_gen;
 pub mod place;

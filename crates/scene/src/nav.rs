@@ -291,8 +291,11 @@ fn leaves_in_parallel<T: Default + Send>(scene: &SceneFile, f: impl Fn([Vec3; 3]
         .filter(|&id| scene.node(id).kind() == NodeKind::Leaf)
         .try_fold(T::default, |mut acc, id| {
             let g = scene.geometry(scene.node(id).first_lod)?;
-            for t in 0..g.opaque_indices() / 3 {
-                f([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t * 3 + k) as usize])), &mut acc);
+            // A cut node also holds simplified groups: only the original triangles count.
+            for c in g.clusters[..g.opaque].iter().filter(|c| c.cut.lo.error == 0.0) {
+                for t in (c.first_index..c.first_index + c.index_count).step_by(3) {
+                    f([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t as usize + k) as usize])), &mut acc);
+                }
             }
             Ok(acc)
         })

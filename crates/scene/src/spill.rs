@@ -4,6 +4,8 @@
 //! interrupted.
 
 use crate::append::Appender;
+use crate::clod::Piece;
+use crate::format::Cut;
 use crate::mesh::Mesh;
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
@@ -15,6 +17,8 @@ pub struct SpillRef {
     vertices: u32,
     indices: u32,
     colored: bool,
+    /// Cuts of the piece; each triangle's cut is stored when there is more than one.
+    cuts: u32,
 }
 
 impl SpillRef {
@@ -24,8 +28,13 @@ impl SpillRef {
         if self.vertices <= 1 << 16 { 2 } else { 4 }
     }
 
-    fn bytes(&self) -> usize {
+    fn mesh_bytes(&self) -> usize {
         self.vertices as usize * (12 + if self.colored { 4 } else { 0 }) + self.indices as usize * self.index_bytes()
+    }
+
+    fn bytes(&self) -> usize {
+        let cut_of = if self.cuts > 1 { self.indices as usize / 3 * 4 } else { 0 };
+        self.mesh_bytes().next_multiple_of(4) + self.cuts as usize * std::mem::size_of::<Cut>() + cut_of
     }
 }
 
@@ -52,12 +61,14 @@ impl Spill {
         self.at
     }
 
-    pub fn append(&mut self, m: &Mesh) -> std::io::Result<SpillRef> {
+    pub fn append(&mut self, p: &Piece) -> std::io::Result<SpillRef> {
+        let m = &p.mesh;
         let r = SpillRef {
             offset: self.at,
             vertices: m.positions.len() as u32,
             indices: m.indices.len() as u32,
             colored: !m.colors.is_empty(),
+            cuts: p.cuts.len() as u32,
         };
         let mut bytes = Vec::with_capacity(r.bytes());
         bytes.extend_from_slice(bytemuck::cast_slice(&m.positions));
@@ -67,6 +78,12 @@ impl Spill {
         } else {
             bytes.extend_from_slice(bytemuck::cast_slice(&m.indices));
         }
+        bytes.resize(bytes.len().next_multiple_of(4), 0);
+        bytes.extend_from_slice(bytemuck::cast_slice(&p.cuts));
+        if p.cuts.len() > 1 {
+            bytes.extend_from_slice(bytemuck::cast_slice(&p.cut_of));
+        }
+        debug_assert_eq!(bytes.len(), r.bytes());
         self.file.as_mut().expect("open until sealed").append(bytes)?;
         self.at += r.bytes() as u64;
         Ok(r)
@@ -103,12 +120,22 @@ impl Sealed {
         self.bytes
     }
 
-    pub fn read(&self, r: &SpillRef) -> std::io::Result<Mesh> {
+    pub fn read(&self, r: &SpillRef) -> std::io::Result<Piece> {
         let mut buf = vec![0u8; r.bytes()];
         self.file.read_exact_at(&mut buf, r.offset)?;
+        let (mesh, rest) = buf.split_at(r.mesh_bytes().next_multiple_of(4));
+        let (cuts, cut_of) = rest.split_at(r.cuts as usize * std::mem::size_of::<Cut>());
+        Ok(Piece {
+            mesh: Self::mesh(r, &mesh[..r.mesh_bytes()]),
+            cuts: bytemuck::pod_collect_to_vec(cuts),
+            cut_of: if r.cuts > 1 { bytemuck::pod_collect_to_vec(cut_of) } else { Vec::new() },
+        })
+    }
+
+    fn mesh(r: &SpillRef, buf: &[u8]) -> Mesh {
         let (pos, rest) = buf.split_at(r.vertices as usize * 12);
         let (colors, idx) = rest.split_at(if r.colored { r.vertices as usize * 4 } else { 0 });
-        Ok(Mesh {
+        Mesh {
             positions: bytemuck::pod_collect_to_vec(pos),
             colors: bytemuck::pod_collect_to_vec(colors),
             indices: if r.index_bytes() == 2 {
@@ -116,7 +143,7 @@ impl Sealed {
             } else {
                 bytemuck::pod_collect_to_vec(idx)
             },
-        })
+        }
     }
 }
 
@@ -136,6 +163,9 @@ mod tests {
         let mut s = Spill::create(&d.path().join("s.osw")).unwrap();
         let a = Mesh { positions: vec![[0.0; 3], [1.0, 2.0, 3.0], [4.0, 5.0, 6.5]], indices: vec![0, 1, 2], colors: Vec::new() };
         let b = Mesh { colors: vec![[1, 2, 3, 255]; 3], indices: vec![2, 1, 0, 0, 1, 2], ..a.clone() };
+        let (a, mut b) = (Piece::always(a), Piece::always(b));
+        b.cuts.push(Cut { hi: crate::format::ErrorBound { center: [1.0, 2.0, 3.0], radius: 4.0, error: 0.5 }, ..Cut::ALWAYS });
+        b.cut_of = vec![0, 1];
         let (ra, rb) = (s.append(&a).unwrap(), s.append(&b).unwrap());
         let path = s.path().to_owned();
         let sealed = s.seal().unwrap();

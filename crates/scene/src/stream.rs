@@ -1,16 +1,19 @@
-//! Stage 1 of the build: the source's batches → placement around one origin → clean-up → chunks,
-//! appended to the spill file. Of each chunk only its box and where it lies stay in memory.
+//! Stage 1 of the build: the source's batches → placement around one origin → clean-up → chunks
+//! (and, for cluster hierarchies, the simplified groups: [`crate::clod`]), appended to the
+//! spill file. Of each only its box and where it lies stay in memory.
 
 use crate::aabb::Aabb;
-use crate::build::{BuildError, BuildOptions, BuildReport, Progress, Times};
+use crate::build::{BuildError, BuildOptions, BuildReport, Lod, Progress, Times};
 use crate::chunk::SplitOptions;
+use crate::clod::Piece;
 use crate::mesh::{CleanStats, Object};
 use crate::source::Source;
 use crate::spill::{Sealed, Spill, SpillRef};
 use rayon::prelude::*;
 use std::path::Path;
 
-/// A chunk: the unit of the BVH (one per leaf), its object and where its mesh waits.
+/// A chunk, the unit of the BVH (one per leaf), or a simplified group of a cluster hierarchy:
+/// its object and where its piece waits.
 #[derive(Clone, Copy, Debug)]
 pub struct Chunk {
     pub bounds: Aabb,
@@ -22,6 +25,8 @@ pub struct Chunk {
 /// What the stream left for the rest of the build.
 pub struct Streamed {
     pub chunks: Vec<Chunk>,
+    /// The simplified groups of the objects' cluster hierarchies (none for LOD chains).
+    pub coarse: Vec<Chunk>,
     pub spill: Sealed,
     /// Per object: its box when it is closed and wound outwards (see [`crate::cluster`]).
     pub closed_objects: Vec<Option<Aabb>>,
@@ -39,7 +44,7 @@ pub fn stream(
     let origin = source.world_bounds().origin();
     let mut spill = Spill::create(out).map_err(|e| BuildError::temp(out, e))?;
     let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
-    let (mut chunks, mut closed_objects) = (Vec::new(), Vec::new());
+    let (mut chunks, mut coarse, mut closed_objects) = (Vec::new(), Vec::new(), Vec::new());
     let (mut seen, mut clean_stats, mut empty, mut colors_dropped) = (0, CleanStats::default(), Vec::new(), 0);
     progress.stage("input", source.triangles_hint());
     loop {
@@ -63,7 +68,16 @@ pub fn stream(
                 .into_par_iter()
                 .map(|(o, stats)| {
                     let closed = crate::cluster::Parts::of(&o.mesh).all_closed().then(|| o.mesh.bounds());
-                    let chunks = (!o.mesh.is_empty()).then(|| crate::chunk::split(&o.mesh, split));
+                    let chunks = (!o.mesh.is_empty()).then(|| match opts.lod {
+                        Lod::Chains => {
+                            let c = crate::chunk::split(&o.mesh, split);
+                            (c.meshes.into_iter().map(Piece::always).collect(), Vec::new(), c.loose_splits, 0)
+                        }
+                        Lod::Clusters => {
+                            let h = crate::clod::build(&o.mesh, split.max_triangles);
+                            (h.chunks, h.coarse, 0, h.levels)
+                        }
+                    });
                     (o.name, o.mesh.colors.is_empty(), o.mesh.translucent_triangles() as u64, stats, closed, chunks)
                 })
                 .collect()
@@ -71,7 +85,7 @@ pub fn stream(
         times.run("spill", || -> Result<(), BuildError> {
             for (name, uncolored, translucent, stats, closed, split) in split {
                 clean_stats.add(stats);
-                let Some(split) = split else {
+                let Some((pieces, simplified, loose_splits, levels)) = split else {
                     empty.push(name);
                     continue;
                 };
@@ -80,10 +94,13 @@ pub fn stream(
                 report.objects_without_color += u64::from(uncolored);
                 report.translucent_triangles += translucent;
                 report.translucent_objects += u64::from(translucent > 0);
-                report.loose_splits += split.loose_splits as u64;
-                for m in &split.meshes {
-                    let spill = spill.append(m).map_err(|e| BuildError::temp(spill.path(), e))?;
-                    chunks.push(Chunk { bounds: m.bounds(), object, triangles: m.triangle_count() as u32, spill });
+                report.loose_splits += loose_splits as u64;
+                report.cluster_levels_max = report.cluster_levels_max.max(levels as u64);
+                for (to, pieces) in [(&mut chunks, &pieces), (&mut coarse, &simplified)] {
+                    for p in pieces {
+                        let at = spill.append(p).map_err(|e| BuildError::temp(spill.path(), e))?;
+                        to.push(Chunk { bounds: p.mesh.bounds(), object, triangles: p.mesh.triangle_count() as u32, spill: at });
+                    }
                 }
             }
             Ok(())
@@ -111,7 +128,7 @@ pub fn stream(
     }
     report.temp_bytes = spill.bytes();
     let spill = spill.seal().map_err(|e| BuildError::temp(out, e))?;
-    Ok(Streamed { chunks, spill, closed_objects, origin })
+    Ok(Streamed { chunks, coarse, spill, closed_objects, origin })
 }
 
 /// Cleans a batch whose first object is the input's `first`-th (errors name it by that index).

@@ -7,16 +7,23 @@
 //! coarsest representations, which are all this keeps of a node until its parent is built: a
 //! subtree of any size is built in the memory of one subtree, and the groups above the
 //! subtrees from their roots' representations.
+//!
+//! With cluster hierarchies ([`crate::clod`]) a node's geometry is its cut node instead: its
+//! chunk (a leaf) and the simplified groups it owns ([`crate::owner`]), one block whose clusters
+//! a cut takes one by one. Its coarsest representation is what its groups never simplify
+//! further, and a group gets an HLOD only where no object under it reaches outside it.
 
-use crate::build::{BuildError, BuildReport, Progress, Times};
+use crate::build::{BuildError, BuildReport, Lod, Progress, Times};
 use crate::bvh::BvhNode;
-use crate::format::{BlockRecord, NONE, NodeKind, NodeRecord};
+use crate::clod::Piece;
+use crate::format::{BlockRecord, ErrorBound, FLAG_BOUNDED, FLAG_CUT, NONE, NodeKind, NodeRecord};
 use crate::hlod::NoHlod;
 use crate::lod::{Level, LodStats};
 use crate::mesh::Mesh;
+use crate::owner::Owners;
 use crate::spill::Sealed;
 use crate::stream::Chunk;
-use crate::writer::{Encoded, SceneWriter, encode};
+use crate::writer::{Encoded, SceneWriter, encode, encode_cut};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::ops::Range;
@@ -27,7 +34,10 @@ pub struct Built<'a> {
     chunks: &'a [Chunk],
     closed_objects: &'a [Option<crate::Aabb>],
     min_error: f32,
-    /// Per BVH node, its levels in `levels` (finest first; a group has at most its HLOD).
+    lod: Lod,
+    owners: &'a Owners,
+    /// Per BVH node, its levels in `levels`: its cut node if any, then its static levels
+    /// finest first (a group has at most its HLOD).
     lods: Vec<Range<u32>>,
     /// Every LOD and HLOD node built, and its block (offset in the blob, not yet its id).
     levels: Vec<(NodeRecord, BlockRecord)>,
@@ -36,28 +46,53 @@ pub struct Built<'a> {
     lod_stats: LodStats,
     not_coarser: u64,
     vanished: u64,
+    /// Groups left without an HLOD because an object under them reaches outside.
+    open: u64,
 }
 
-/// Subtrees to build together: their nodes layer by layer, their leaves and the leaves' chunks.
+/// Subtrees to build together: their nodes layer by layer, their leaves and the leaves'
+/// chunks, and the simplified groups their nodes own.
 pub struct Bucket {
     layers: Vec<Vec<u32>>,
     leaves: Vec<u32>,
-    meshes: Vec<Mesh>,
+    meshes: Vec<Piece>,
+    owned: FxHashMap<u32, Owned>,
+}
+
+/// The simplified groups a node owns, in one piece, and their object (NONE when several).
+pub type Owned = (Piece, u32);
+
+/// The simplified groups (`coarse` read back from `spill`, owners' lists `owned`) that `nodes`
+/// own, one piece per node that owns any.
+pub fn read_owned(nodes: &[u32], (coarse, owned): (&[Chunk], &[Vec<u32>]), spill: &Sealed) -> std::io::Result<FxHashMap<u32, Owned>> {
+    let mut out = FxHashMap::default();
+    for &id in nodes {
+        for &k in owned.get(id as usize).into_iter().flatten() {
+            let c = &coarse[k as usize];
+            let (piece, object) = out.entry(id).or_insert_with(|| (Piece::default(), c.object));
+            piece.append(&spill.read(&c.spill)?);
+            if *object != c.object {
+                *object = NONE;
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Reads the chunks of the subtrees under `roots` from the spill, in the order they lie in it
 /// (the next bucket is read this way while the current one is built, see [`crate::build`]).
-pub fn read(tree: &[BvhNode], chunks: &[Chunk], spill: &Sealed, roots: &[u32]) -> std::io::Result<Bucket> {
+pub fn read(tree: &[BvhNode], chunks: &[Chunk], coarse: (&[Chunk], &[Vec<u32>]), spill: &Sealed, roots: &[u32]) -> std::io::Result<Bucket> {
     let layers = layers(tree, roots, |_| false);
     let leaves: Vec<u32> = layers.iter().flatten().copied().filter(|&id| tree[id as usize].item.is_some()).collect();
     let chunk = |k: usize| &chunks[tree[leaves[k] as usize].item.expect("a leaf") as usize];
     let mut order: Vec<usize> = (0..leaves.len()).collect();
     order.sort_unstable_by_key(|&k| chunk(k).spill.offset);
-    let mut meshes = vec![Mesh::default(); leaves.len()];
+    let mut meshes = vec![Piece::default(); leaves.len()];
     for k in order {
         meshes[k] = spill.read(&chunk(k).spill)?;
     }
-    Ok(Bucket { layers, leaves, meshes })
+    let owned = read_owned(&layers.concat(), coarse, spill)?;
+    Ok(Bucket { layers, leaves, meshes, owned })
 }
 
 /// Breadth-first layers of the subtrees under `roots`, not entering `stop` nodes (which are
@@ -75,27 +110,79 @@ pub fn layers(tree: &[BvhNode], roots: &[u32], stop: impl Fn(u32) -> bool) -> Ve
 }
 
 impl<'a> Built<'a> {
-    pub fn new(tree: &'a [BvhNode], chunks: &'a [Chunk], closed_objects: &'a [Option<crate::Aabb>], min_error: f32) -> Built<'a> {
+    pub fn new(
+        tree: &'a [BvhNode],
+        chunks: &'a [Chunk],
+        closed_objects: &'a [Option<crate::Aabb>],
+        min_error: f32,
+        lod: Lod,
+        owners: &'a Owners,
+    ) -> Built<'a> {
         Built {
             tree,
             chunks,
             closed_objects,
             min_error,
+            lod,
+            owners,
             lods: vec![0..0; tree.len()],
             levels: Vec::new(),
             coarse: FxHashMap::default(),
             lod_stats: LodStats::default(),
             not_coarser: 0,
             vanished: 0,
+            open: 0,
         }
     }
 
     /// Builds whole subtrees: their leaves, then their groups deepest first.
-    pub fn subtrees(&mut self, bucket: Bucket, w: &mut SceneWriter, times: &mut Times, progress: &dyn Progress) -> Result<(), BuildError> {
-        self.leaves(&bucket.leaves, bucket.meshes, w, times, progress)?;
+    pub fn subtrees(
+        &mut self,
+        mut bucket: Bucket,
+        w: &mut SceneWriter,
+        times: &mut Times,
+        progress: &dyn Progress,
+    ) -> Result<(), BuildError> {
+        match self.lod {
+            Lod::Chains => self.leaves(&bucket.leaves, bucket.meshes.into_iter().map(|p| p.mesh).collect(), w, times, progress)?,
+            Lod::Clusters => {
+                let pieces = bucket.leaves.iter().zip(bucket.meshes).map(|(id, mut p)| {
+                    if let Some((o, _)) = bucket.owned.remove(id) {
+                        p.append(&o);
+                    }
+                    p
+                });
+                let pieces: Vec<Piece> = pieces.collect();
+                self.cut_leaves(&bucket.leaves, pieces, w, times, progress)?;
+            }
+        }
         for layer in bucket.layers.iter().rev() {
             let groups: Vec<u32> = layer.iter().copied().filter(|&id| self.tree[id as usize].item.is_none()).collect();
-            self.groups(&groups, w, times)?;
+            let owned = groups.iter().filter_map(|id| bucket.owned.remove_entry(id)).collect();
+            self.groups(&groups, owned, w, times)?;
+        }
+        Ok(())
+    }
+
+    /// Cut nodes of `leaves`, whose chunks with the simplified groups they own are `pieces`.
+    fn cut_leaves(
+        &mut self,
+        leaves: &[u32],
+        pieces: Vec<Piece>,
+        w: &mut SceneWriter,
+        times: &mut Times,
+        progress: &dyn Progress,
+    ) -> Result<(), BuildError> {
+        let chunk = |id: u32| &self.chunks[self.tree[id as usize].item.expect("a leaf") as usize];
+        let encoded: Vec<Encoded> = times.run("encode", || {
+            pieces.par_iter().zip(leaves).map(|(p, &id)| encode_cut(p, self.closed_objects[chunk(id).object as usize])).collect()
+        });
+        for ((&id, p), e) in leaves.iter().zip(pieces).zip(encoded) {
+            let object = chunk(id).object;
+            let record = cut_record(id, &p, object);
+            self.write(id, vec![(record, e)], w, times)?;
+            progress.advance(chunk(id).triangles as u64);
+            self.coarse.insert(id, coarsest(&p));
         }
         Ok(())
     }
@@ -128,71 +215,84 @@ impl<'a> Built<'a> {
         for ((&id, (mut levels, stats)), blocks) in leaves.iter().zip(chains).zip(encoded) {
             self.lod_stats.add(stats);
             let object = chunk(id).object;
-            self.push(id, &levels, object, blocks, w, times)?;
+            let records = levels.iter().map(|l| level_record(id, l, object)).zip(blocks).collect();
+            self.write(id, records, w, times)?;
             progress.advance(chunk(id).triangles as u64);
             self.coarse.insert(id, vec![levels.pop().expect("level 0")]);
         }
         Ok(())
     }
 
-    /// HLODs of `groups`, whose children are all built.
-    pub fn groups(&mut self, groups: &[u32], w: &mut SceneWriter, times: &mut Times) -> Result<(), BuildError> {
+    /// Cut nodes (from the simplified groups they own, `owned`) and HLODs of `groups`, whose
+    /// children are all built.
+    pub fn groups(
+        &mut self,
+        groups: &[u32],
+        mut owned: FxHashMap<u32, Owned>,
+        w: &mut SceneWriter,
+        times: &mut Times,
+    ) -> Result<(), BuildError> {
+        let own: Vec<Option<Owned>> = groups.iter().map(|g| owned.remove(g)).collect();
         let parts: Vec<Vec<Level>> = groups
             .iter()
-            .map(|&g| self.tree[g as usize].children.clone().flat_map(|c| self.coarse.remove(&c).expect("children built first")).collect())
+            .zip(&own)
+            .map(|(&g, p)| {
+                let mut parts: Vec<Level> =
+                    self.tree[g as usize].children.clone().flat_map(|c| self.coarse.remove(&c).expect("children built first")).collect();
+                parts.extend(p.as_ref().map(|(p, _)| coarsest(p)).into_iter().flatten());
+                parts
+            })
             .collect();
         let min_error = self.min_error;
-        let hlods: Vec<Result<Level, NoHlod>> =
-            times.run("hlod", || parts.par_iter().map(|p| crate::hlod::build(&p.iter().collect::<Vec<_>>(), min_error)).collect());
-        let encoded: Vec<Option<Encoded>> =
-            times.run("encode", || hlods.par_iter().map(|h| h.as_ref().ok().map(|h| encode(&h.mesh, None))).collect());
-        for ((&g, (hlod, parts)), e) in groups.iter().zip(hlods.into_iter().zip(parts)).zip(encoded) {
+        let open = &self.owners.open;
+        let hlods: Vec<Result<Level, NoHlod>> = times.run("hlod", || {
+            groups
+                .par_iter()
+                .zip(&parts)
+                .map(
+                    |(&g, p)| {
+                        if open[g as usize] { Err(NoHlod::Open) } else { crate::hlod::build(&p.iter().collect::<Vec<_>>(), min_error) }
+                    },
+                )
+                .collect()
+        });
+        let encoded: Vec<(Option<Encoded>, Option<Encoded>)> = times.run("encode", || {
+            hlods
+                .par_iter()
+                .zip(&own)
+                .map(|(h, p)| (p.as_ref().map(|(p, _)| encode_cut(p, None)), h.as_ref().ok().map(|h| encode(&h.mesh, None))))
+                .collect()
+        });
+        for (((&g, (hlod, parts)), p), (cut, e)) in groups.iter().zip(hlods.into_iter().zip(parts)).zip(own).zip(encoded) {
+            let mut records: Vec<(NodeRecord, Encoded)> = p.iter().map(|(p, object)| cut_record(g, p, *object)).zip(cut).collect();
             let coarse = match (hlod, e) {
                 (Ok(h), Some(e)) => {
-                    self.push(g, std::slice::from_ref(&h), NONE, vec![e], w, times)?;
+                    records.push((level_record(g, &h, NONE), e));
                     vec![h]
                 }
                 (Err(why), _) => {
-                    *(if why == NoHlod::NotCoarser { &mut self.not_coarser } else { &mut self.vanished }) += 1;
+                    match why {
+                        NoHlod::NotCoarser => self.not_coarser += 1,
+                        NoHlod::Vanished => self.vanished += 1,
+                        NoHlod::Open => self.open += 1,
+                    }
                     parts
                 }
                 (Ok(_), None) => unreachable!("every HLOD is encoded"),
             };
+            self.write(g, records, w, times)?;
             self.coarse.insert(g, coarse);
         }
         Ok(())
     }
 
-    /// Writes node `id`'s levels and their blocks.
-    fn push(
-        &mut self,
-        id: u32,
-        levels: &[Level],
-        object: u32,
-        blocks: Vec<Encoded>,
-        w: &mut SceneWriter,
-        times: &mut Times,
-    ) -> Result<(), BuildError> {
+    /// Writes node `id`'s LOD nodes and their blocks.
+    fn write(&mut self, id: u32, levels: Vec<(NodeRecord, Encoded)>, w: &mut SceneWriter, times: &mut Times) -> Result<(), BuildError> {
         let start = self.levels.len() as u32;
-        for (l, e) in levels.iter().zip(blocks) {
+        for (record, e) in levels {
             let block = times
                 .run("write", || w.block(e))
                 .map_err(|e| BuildError::Write { path: w.partial_path().display().to_string(), error: e })?;
-            let b = l.mesh.bounds();
-            let record = NodeRecord {
-                bbox_min: b.min.into(),
-                kind: NodeKind::Lod as u32,
-                bbox_max: b.max.into(),
-                error: l.error,
-                parent: id,
-                first_child: 0,
-                child_count: 0,
-                first_lod: 0,
-                lod_count: 0,
-                block: NONE,
-                object,
-                triangles: l.mesh.triangle_count() as u32,
-            };
             self.levels.push((record, block));
         }
         self.lods[id as usize] = start..self.levels.len() as u32;
@@ -209,13 +309,17 @@ impl<'a> Built<'a> {
         for (id, n) in tree.iter().enumerate() {
             let lods = self.lods[id].clone();
             let chunk = n.item.map(|c| &chunks[c as usize]);
-            report.lod_levels_max = report.lod_levels_max.max(if chunk.is_some() { lods.len() as u64 } else { 0 });
-            report.hlod_nodes += u64::from(chunk.is_none() && !lods.is_empty());
+            let levels = &self.levels[lods.start as usize..lods.end as usize];
+            let statics = levels.iter().filter(|(l, _)| !l.is_cut()).count() as u64;
+            report.cut_nodes += levels.len() as u64 - statics;
+            report.lod_levels_max = report.lod_levels_max.max(if chunk.is_some() { statics } else { 0 });
+            report.hlod_nodes += u64::from(chunk.is_none() && statics > 0);
             nodes.push(NodeRecord {
                 bbox_min: n.bounds.min.into(),
                 kind: if chunk.is_some() { NodeKind::Leaf } else { NodeKind::Group } as u32,
                 bbox_max: n.bounds.max.into(),
-                error: self.levels.get(lods.start as usize).filter(|_| !lods.is_empty()).map_or(0.0, |(l, _)| l.error),
+                // Its finest static representation's (a cut node's finest is the original).
+                error: levels.iter().find(|(l, _)| !l.is_cut()).map_or(0.0, |(l, _)| l.error),
                 parent: n.parent.unwrap_or(NONE),
                 first_child: if n.children.is_empty() { 0 } else { n.children.start },
                 child_count: n.children.len() as u32,
@@ -224,6 +328,9 @@ impl<'a> Built<'a> {
                 block: NONE,
                 object: chunk.map_or(NONE, |c| c.object),
                 triangles: chunk.map_or(0, |c| c.triangles),
+                flags: 0,
+                cut_hi: bytemuck::Zeroable::zeroed(),
+                cut_lo_error: 0.0,
             });
             next_lod += lods.len() as u32;
         }
@@ -234,15 +341,30 @@ impl<'a> Built<'a> {
                 blocks.push(*block);
             }
         }
-        // Bottom-up (children have larger ids): subtree triangles, and the error of a group
-        // without an HLOD (the largest of its children's, so errors never decrease going up).
+        // Bottom-up (children have larger ids): subtree triangles, the error of a group
+        // without an HLOD (the largest of its children's, so errors never decrease going up),
+        // and, where the subtree holds only cluster hierarchies, the bound of its cut nodes.
         for id in (0..tree.len()).rev() {
             let n = nodes[id];
-            if n.kind() == NodeKind::Group {
-                nodes[id].triangles = n.children().map(|c| nodes[c as usize].triangles).sum();
-                if n.lod_count == 0 {
-                    nodes[id].error = n.children().map(|c| nodes[c as usize].error).fold(0.0, f32::max);
-                }
+            if n.kind() == NodeKind::Leaf {
+                nodes[id].flags = if self.lod == Lod::Clusters { FLAG_BOUNDED } else { 0 };
+                continue;
+            }
+            nodes[id].triangles = n.children().map(|c| nodes[c as usize].triangles).sum();
+            if n.lods().all(|l| nodes[l as usize].is_cut()) {
+                nodes[id].error = n.children().map(|c| nodes[c as usize].error).fold(0.0, f32::max);
+            }
+            if n.children().all(|c| nodes[c as usize].is_bounded()) {
+                let below: Vec<ErrorBound> = n
+                    .children()
+                    .flat_map(|c| {
+                        let c = &nodes[c as usize];
+                        let cut = c.lods().map(|l| nodes[l as usize]).find(NodeRecord::is_cut).map(|l| l.cut_hi);
+                        cut.into_iter().chain((c.kind() == NodeKind::Group).then_some(c.cut_hi))
+                    })
+                    .collect();
+                nodes[id].flags = FLAG_BOUNDED;
+                nodes[id].cut_hi = crate::clod::enclosing(&below, f32::max);
             }
         }
         report.leaves = tree.iter().filter(|n| n.item.is_some()).count() as u64;
@@ -250,7 +372,53 @@ impl<'a> Built<'a> {
         report.lod_nodes = blocks.len() as u64;
         report.stored_triangles = nodes[bvh_count as usize..].iter().map(|l| l.triangles as u64).sum();
         report.nodes = nodes.len() as u64;
-        crate::build::report_left_out(report, &self.lod_stats, self.not_coarser, self.vanished);
+        crate::build::report_left_out(report, &self.lod_stats, [self.not_coarser, self.vanished, self.open]);
         (nodes, blocks)
     }
+}
+
+/// The LOD node of a static level or HLOD of BVH node `id`.
+fn level_record(id: u32, l: &Level, object: u32) -> NodeRecord {
+    let b = l.mesh.bounds();
+    NodeRecord {
+        bbox_min: b.min.into(),
+        kind: NodeKind::Lod as u32,
+        bbox_max: b.max.into(),
+        error: l.error,
+        parent: id,
+        first_child: 0,
+        child_count: 0,
+        first_lod: 0,
+        lod_count: 0,
+        block: NONE,
+        object,
+        triangles: l.mesh.triangle_count() as u32,
+        flags: 0,
+        cut_hi: bytemuck::Zeroable::zeroed(),
+        cut_lo_error: 0.0,
+    }
+}
+
+/// The cut node of BVH node `id` holding `p`: its bound encloses its triangles' `hi` bounds with
+/// the largest error; its `lo` error (and error: the finest it draws) is their smallest.
+fn cut_record(id: u32, p: &Piece, object: u32) -> NodeRecord {
+    let hi: Vec<ErrorBound> = p.cuts.iter().map(|c| c.hi).collect();
+    let lo_error = p.cuts.iter().map(|c| c.lo.error).fold(f32::INFINITY, f32::min);
+    let b = p.mesh.bounds();
+    NodeRecord {
+        bbox_min: b.min.into(),
+        bbox_max: b.max.into(),
+        triangles: p.mesh.triangle_count() as u32,
+        flags: FLAG_CUT,
+        cut_hi: crate::clod::enclosing(&hi, f32::max),
+        cut_lo_error: lo_error,
+        ..level_record(id, &Level { mesh: Mesh::default(), error: lo_error }, object)
+    }
+}
+
+/// What a cut node's piece leaves for its parent's HLOD: the triangles never simplified
+/// further.
+fn coarsest(p: &Piece) -> Vec<Level> {
+    let (mesh, error) = p.coarsest();
+    if mesh.is_empty() { Vec::new() } else { vec![Level { mesh, error }] }
 }

@@ -21,7 +21,15 @@ pub struct Encoded {
 /// when every index fits, else u32), padding to 4 bytes and the clusters. `object`: the box of
 /// the block's object when that is closed (see [`crate::cluster::clusterize`]).
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
-    let (indices, clusters, opaque_clusters) = crate::cluster::clusterize(mesh, object);
+    encode_with(mesh, crate::cluster::clusterize(mesh, object))
+}
+
+/// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut.
+pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> Encoded {
+    encode_with(&piece.mesh, crate::cluster::clusterize_cut(&piece.mesh, object, &piece.cuts, &piece.cut_of))
+}
+
+fn encode_with(mesh: &Mesh, (indices, clusters, opaque_clusters): (Vec<u32>, Vec<crate::format::ClusterRecord>, u32)) -> Encoded {
     let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters.as_slice()));
     bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
     bytes.extend_from_slice(mesh.colors.as_flattened());
@@ -119,7 +127,7 @@ impl SceneWriter {
     pub fn finish(mut self, fields: SceneFields, nodes: &[NodeRecord], blocks: &[BlockRecord]) -> std::io::Result<(u64, [u64; 2])> {
         let blob_offset = HEADER_BYTES;
         let nodes_offset = blob_offset + self.blob_bytes;
-        let blocks_offset = nodes_offset + nodes.len() as u64 * 64;
+        let blocks_offset = crate::format::blocks_offset(nodes_offset, nodes.len() as u32).expect("offsets fit in u64");
         let file_bytes = blocks_offset + blocks.len() as u64 * BLOCK_BYTES;
         let mut header = Header {
             magic: MAGIC,
@@ -146,6 +154,7 @@ impl SceneWriter {
         let mut file = self.file.take().expect("writer open until finish").finish()?;
         let mut tables = std::io::BufWriter::with_capacity(1 << 22, &mut file);
         tables.write_all(bytemuck::cast_slice(nodes))?;
+        tables.write_all(&[0; 8][..(blocks_offset - nodes_offset - nodes.len() as u64 * crate::format::NODE_BYTES) as usize])?;
         tables.write_all(bytemuck::cast_slice(blocks))?;
         tables.flush()?;
         drop(tables);

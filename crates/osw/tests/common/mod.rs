@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use osw_scene::SceneFile;
-use osw_scene::format::{NONE, NodeKind};
+use osw_scene::format::{ErrorBound, NONE, NodeKind, NodeRecord};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};
 
@@ -62,8 +62,14 @@ pub fn osw_err(args: &[&str], needle: &str) -> String {
 }
 
 pub fn build_gen(dir: &Path, kind: &str, triangles: u64, seed: u64) -> PathBuf {
-    let out = dir.join(format!("{kind}-{triangles}-{seed}.osw"));
-    osw_ok(&["build", "--gen", kind, "--triangles", &triangles.to_string(), "--seed", &seed.to_string(), "-o", out.to_str().unwrap()]);
+    build_gen_lod(dir, kind, triangles, seed, "chains")
+}
+
+/// [`build_gen`] with `--lod` `lod` (chains or clusters).
+pub fn build_gen_lod(dir: &Path, kind: &str, triangles: u64, seed: u64, lod: &str) -> PathBuf {
+    let out = dir.join(format!("{kind}-{triangles}-{seed}-{lod}.osw"));
+    let (t, seed) = (triangles.to_string(), seed.to_string());
+    osw_ok(&["build", "--gen", kind, "--triangles", &t, "--seed", &seed, "--lod", lod, "-o", out.to_str().unwrap()]);
     out
 }
 
@@ -81,7 +87,9 @@ pub fn camera_path(scene: &Path, kind: &str, frames: u32) -> PathBuf {
 ///   vertex of every block in its LOD's box;
 /// - error monotonicity: a BVH child's error <= its parent's; a chain's errors strictly rise
 ///   from 0 at level 0; an HLOD's error >= every child's error;
-/// - every leaf triangle reachable: level-0 triangles of all leaves add up to the header's count.
+/// - every leaf triangle reachable: level-0 triangles of all leaves add up to the header's count;
+/// - cluster hierarchies: every cluster's cut bounds enclosed by its cut node's, and a cut
+///   node's `hi` by its BVH node's parent's bound of what lies below it.
 pub fn check_invariants(s: &SceneFile) {
     let nodes = s.nodes();
     let n = nodes.len();
@@ -106,6 +114,18 @@ pub fn check_invariants(s: &SceneFile) {
             let lod = nodes[l as usize];
             assert_eq!(lod.kind(), NodeKind::Lod);
             assert!(b.contains(&lod.aabb()), "LOD {l} box outside owner {id}");
+            let g = s.geometry(l).expect("geometry passes its checks");
+            assert_eq!(g.indices.len() as u32, lod.triangles * 3);
+            assert!(!g.indices.is_empty(), "empty LOD {l}");
+            assert!(g.positions.iter().all(|p| lod.aabb().contains_point(glam::Vec3::from_array(*p))), "vertex outside LOD {l} box");
+            if lod.is_cut() {
+                check_cut(nodes, id, l, g.clusters);
+                if node.kind() == NodeKind::Leaf {
+                    let original: u32 = g.clusters.iter().filter(|c| c.cut.lo.error == 0.0).map(|c| c.index_count / 3).sum();
+                    assert_eq!(original, node.triangles, "leaf {id}: its chunk in its cut node");
+                }
+                continue;
+            }
             match prev {
                 None if node.kind() == NodeKind::Leaf => assert_eq!(lod.error, 0.0, "level 0 of leaf {id}"),
                 None => {
@@ -115,24 +135,44 @@ pub fn check_invariants(s: &SceneFile) {
                 Some(p) => assert!(lod.error > p, "chain of {id} not increasing"),
             }
             prev = Some(lod.error);
-            let g = s.geometry(l).expect("geometry passes its checks");
-            assert_eq!(g.indices.len() as u32, lod.triangles * 3);
-            assert!(!g.indices.is_empty(), "empty LOD {l}");
-            assert!(g.positions.iter().all(|p| lod.aabb().contains_point(glam::Vec3::from_array(*p))), "vertex outside LOD {l} box");
+            if node.kind() == NodeKind::Leaf && l == node.first_lod {
+                assert_eq!(lod.triangles, node.triangles);
+            }
         }
         match node.kind() {
             NodeKind::Leaf => {
                 assert!(node.lod_count >= 1 && node.child_count == 0);
-                assert_eq!(nodes[node.first_lod as usize].triangles, node.triangles);
                 assert_ne!(node.object, NONE);
                 leaf_triangles += node.triangles as u64;
             }
-            NodeKind::Group => assert!(node.child_count >= 2 && node.lod_count <= 1),
+            NodeKind::Group => assert!(node.child_count >= 2 && node.lods().filter(|&l| !nodes[l as usize].is_cut()).count() <= 1),
             NodeKind::Lod => panic!("LOD {id} in the BVH"),
         }
     }
     assert!(seen.iter().all(|&x| x), "{} nodes unreachable", seen.iter().filter(|x| !**x).count());
     assert_eq!(leaf_triangles, s.header().leaf_triangles as u64);
+}
+
+/// `inner` lies in `outer` (sphere and error), up to f32 rounding.
+fn encloses(outer: &ErrorBound, inner: &ErrorBound) -> bool {
+    let d = (glam::Vec3::from(outer.center) - glam::Vec3::from(inner.center)).length();
+    d + inner.radius <= outer.radius * (1.0 + 1e-4) + 1e-6 && inner.error <= outer.error
+}
+
+/// Cut node `l` of BVH node `id` with clusters `clusters`: each cluster's `hi` in the node's,
+/// its `lo` error no smaller than the node's, and the node's `hi` in the bound of what lies
+/// below the BVH node's parent.
+fn check_cut(nodes: &[NodeRecord], id: u32, l: u32, clusters: &[osw_scene::format::ClusterRecord]) {
+    let n = nodes[l as usize];
+    for c in clusters {
+        assert!(encloses(&n.cut_hi, &c.cut.hi), "cut node {l}: a cluster's hi {:?} outside {:?}", c.cut.hi, n.cut_hi);
+        assert!(encloses(&c.cut.hi, &ErrorBound { error: 0.0, ..c.cut.lo }), "cut node {l}: a cluster's lo outside its hi: {:?}", c.cut);
+        assert!(c.cut.lo.error >= n.cut_lo_error && c.cut.lo.error <= c.cut.hi.error, "cut node {l}: {:?}", c.cut);
+    }
+    let parent = nodes[id as usize].parent;
+    if parent != NONE && nodes[parent as usize].is_bounded() {
+        assert!(encloses(&nodes[parent as usize].cut_hi, &n.cut_hi), "cut node {l} outside its parent {parent}'s bound");
+    }
 }
 
 // Rendering checks shared by the render and numerics tests.

@@ -1,0 +1,149 @@
+//! The cluster hierarchy (`osw build --lod clusters`, Yoon 2003's view-dependent rendering):
+//! its files keep every invariant; at tau 0 every mode draws frames identical to frustum
+//! culling's and culls no leaf that exact visibility finds visible, on the generators and on
+//! every real model; at tau 1 no mode culls a node that exact visibility of the same cut finds
+//! visible; and no cut of a closed object shows the background through it.
+
+mod common;
+use common::*;
+use glam::DVec3;
+use osw_scene::{Camera, SceneFile};
+use std::path::Path;
+
+/// Every mode at tau 1 against exact visibility of the cut at tau 1 (the item buffer draws the
+/// same cut through the frustum-free traversal): no node culled that shows, and every mode's
+/// frames equal vfc's (they draw the same cut of what is visible).
+fn check_tau_one(dir: &Path, scene: &Path, path: &Path, label: &str) {
+    let run = dir.join(format!("{label}-tau1"));
+    let exact = run.join("exact");
+    osw_ok(&["exact", "--scene", s(scene), "--path", s(path), "--size", SIZE, "--tau", "1", "--out", s(&exact)]);
+    render(scene, path, ("vfc", "exact"), "1", &run.join("vfc"));
+    let frames = osw_scene::path::read(path).unwrap().len();
+    for (mode, hc) in MODES {
+        let name = format!("{mode}-{hc}");
+        render(scene, path, (mode, hc), "1", &run.join(&name));
+        let (out, a, vfc) = (run.join(format!("cmp-{name}")), run.join(&name), run.join("vfc"));
+        let args = ["--a", s(&a), "--b", s(&vfc), "--exact", s(&exact), "--exact-lod", s(&exact)];
+        osw_ok(&[&["compare"], &args[..], &["--out", s(&out)]].concat());
+        let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+        assert_eq!(c["culling_a"]["lod_false_culled_total"], 0, "{label} {name}: a visible node of the cut culled: {c}");
+        assert_eq!(c["identical_frames"], frames, "{label} {name}: frames differ from vfc's at tau 1: {c}");
+    }
+    // The cut is coarser than the original: tau 1 takes fewer clusters than tau 0 (the
+    // triangles drawn may not be fewer: at tau 0 more of them cover no pixel centre).
+    let (tau1, tau0) = (summary(&run.join("vfc")).clusters_mean, summary(&dir.join(label).join("vfc")).clusters_mean);
+    assert!(tau1 < tau0, "{label}: tau 1 takes {tau1} clusters a frame, tau 0 {tau0}");
+}
+
+#[test]
+fn every_mode_draws_the_hierarchy_like_vfc_on_the_generators() {
+    let d = tempfile::tempdir().unwrap();
+    for kind in ["isosurface", "plant"] {
+        let scene = build_gen_lod(d.path(), kind, 150_000, 4, "clusters");
+        check_invariants(&SceneFile::open(&scene).unwrap());
+        let path = camera_path(&scene, if kind == "isosurface" { "orbit" } else { "walk" }, 16);
+        check_conservative(d.path(), &scene, &path, kind);
+        check_tau_one(d.path(), &scene, &path, kind);
+    }
+}
+
+#[test]
+fn every_real_model_builds_a_hierarchy_drawn_conservatively() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
+    let mut models: Vec<_> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "glb")).collect();
+    models.sort();
+    assert!(models.len() >= 3, "expected the real models in shared/models, found {models:?}");
+    for model in &models {
+        let stem = model.file_stem().unwrap().to_str().unwrap().to_owned();
+        let scene = d.path().join(format!("{stem}.osw"));
+        osw_ok(&["build", s(model), "--lod", "clusters", "-o", s(&scene)]);
+        check_invariants(&SceneFile::open(&scene).unwrap());
+        let path = d.path().join(format!("{stem}-orbit.csv"));
+        osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "8", "-o", s(&path)]);
+        let frames = 8;
+        let run = d.path().join(&stem);
+        let exact = run.join("exact");
+        osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);
+        render(&scene, &path, ("vfc", "exact"), "0", &run.join("vfc"));
+        render(&scene, &path, ("prev", "hybrid"), "0", &run.join("prev"));
+        osw_ok(&[
+            "run",
+            "--scene",
+            s(&scene),
+            "--path",
+            s(&path),
+            "--size",
+            SIZE,
+            "--tau",
+            "0",
+            "--always-cull",
+            "--out",
+            s(&run.join("switch")),
+        ]);
+        for name in ["prev", "switch"] {
+            let c = compare(&run.join(name), &run.join("vfc"), &exact, &run.join(format!("cmp-{name}")));
+            assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{stem} {name}: false culling: {c}");
+            assert_eq!(c["identical_frames"], frames, "{stem} {name}: frames differ from vfc's: {c}");
+        }
+    }
+}
+
+/// The background pixels of an RGBA8 frame (`sky`: the clear colour), as a mask.
+fn background(frame: &Path, sky: [u8; 4]) -> (u32, u32, Vec<bool>) {
+    let img = image::open(frame).unwrap().to_rgba8();
+    (img.width(), img.height(), img.pixels().map(|p| p.0 == sky).collect())
+}
+
+#[test]
+fn no_cut_of_a_closed_isosurface_shows_the_background_through_it() {
+    // The camera close to one face of the isosurface (one closed object), looking across it:
+    // layer behind layer. At tau 1 to 8 the cut changes detail across the view; a crack
+    // between two groups, or a group left out, shows the sky where tau 0 shows geometry
+    // farther than tau pixels (plus one for rasterisation) from any sky.
+    let d = tempfile::tempdir().unwrap();
+    let scene_path = build_gen_lod(d.path(), "isosurface", 400_000, 2, "clusters");
+    let scene = SceneFile::open(&scene_path).unwrap();
+    let (o, root) = (scene.origin(), scene.node(0).aabb());
+    let (c, e) = (root.center().as_dvec3(), root.extent().as_dvec3());
+    let eye = o + c - DVec3::new(e.x * 0.52, -e.y * 0.1, e.z * 0.2);
+    let path = d.path().join("close.csv");
+    let away = Camera::look_at(eye, eye - DVec3::X, 60.0);
+    osw_scene::path::write(&path, &[Camera::look_at(eye, o + c + DVec3::new(e.x * 0.5, 0.0, 0.0), 75.0), away]).unwrap();
+    let frame = |tau: &str, k: u32| {
+        let out = d.path().join(format!("tau{tau}"));
+        if !out.exists() {
+            render(&scene_path, &path, ("vfc", "exact"), tau, &out);
+        }
+        out.join(format!("frames/{k:05}.png"))
+    };
+    // Looking away from the scene: every pixel is the sky.
+    let sky = image::open(frame("0", 1)).unwrap().to_rgba8().get_pixel(0, 0).0;
+    let (w, h, sky0) = background(&frame("0", 0), sky);
+    assert!(sky0.iter().filter(|&&b| !b).count() as f64 > 0.5 * (w * h) as f64, "the object fills most of the view");
+    for tau in [1u32, 2, 4, 8] {
+        let (_, _, skyk) = background(&frame(&tau.to_string(), 0), sky);
+        let r = tau as i64 + 1;
+        let inside = |x: i64, y: i64| {
+            (-r..=r).all(|dy| {
+                (-r..=r).all(|dx| {
+                    let (px, py) = (x + dx, y + dy);
+                    px >= 0 && py >= 0 && px < w as i64 && py < h as i64 && !sky0[(py * w as i64 + px) as usize]
+                })
+            })
+        };
+        let cracks: Vec<(i64, i64)> = (0..h as i64)
+            .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
+            .filter(|&(x, y)| skyk[(y * w as i64 + x) as usize] && inside(x, y))
+            .collect();
+        assert!(
+            cracks.is_empty(),
+            "tau {tau}: the background shows through the object at {} pixels, e.g. {:?}",
+            cracks.len(),
+            &cracks[..cracks.len().min(5)]
+        );
+    }
+    // The cuts drew coarser geometry: tau 8 takes fewer clusters than tau 0.
+    assert!(summary(&d.path().join("tau8")).clusters_mean < summary(&d.path().join("tau0")).clusters_mean);
+}

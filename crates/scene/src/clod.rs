@@ -1,0 +1,319 @@
+//! The cluster hierarchy of one object (Yoon 2003's view-dependent rendering as the field
+//! builds it today: Nanite, zeux's `demo/clusterlod.h`, built by meshopt's `clod_build`).
+//!
+//! The object's triangles are grouped into clusters, clusters into groups; each group is
+//! simplified with only the borders it shares with other groups locked, the result split into
+//! new clusters, and those regrouped at the next level so that the old borders are simplified
+//! too. A triangle of a simplified group carries two bounds ([`Cut`]): `lo`, the simplified
+//! bounds of the group it was made from, and `hi`, those of its own group. A cut draws it while
+//! `lo` meets tau and `hi` does not (`osw_scene::error_metric::LodView::takes`).
+//!
+//! A surface point is drawn exactly once by every cut when, along each chain of groups it
+//! passes through, the projected error never decreases: then exactly one step of the chain
+//! crosses tau. meshoptimizer builds a group's bounds as a sphere around its clusters' with the
+//! largest error, which holds in exact arithmetic; here each group's sphere is made to enclose
+//! the spheres of the groups its clusters were made from, and its error their largest, with a
+//! margin for rounding (the projection grows with both).
+//!
+//! The original triangles leave in chunks of whole level-0 groups (the BVH's leaves); each
+//! simplified group leaves as one piece, which the build gives to the lowest BVH node that
+//! holds it.
+
+use crate::aabb::Aabb;
+use crate::format::{Cut, ErrorBound};
+use crate::mesh::Mesh;
+use glam::{DVec3, Vec3};
+
+/// Triangles with where the cut draws each: triangle `t` at `cuts[cut_of[t]]`, or at
+/// `cuts[0]` when `cut_of` is empty (static levels and small objects: no per-triangle array).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Piece {
+    pub mesh: Mesh,
+    pub cuts: Vec<Cut>,
+    pub cut_of: Vec<u32>,
+}
+
+impl Piece {
+    /// A mesh drawn at every tau (a static level, or an object too small for a hierarchy).
+    pub fn always(mesh: Mesh) -> Piece {
+        Piece { mesh, cuts: vec![Cut::ALWAYS], cut_of: Vec::new() }
+    }
+
+    /// The index in `cuts` of triangle `t`'s cut.
+    pub fn cut(&self, t: usize) -> u32 {
+        self.cut_of.get(t).copied().unwrap_or(0)
+    }
+
+    pub fn append(&mut self, o: &Piece) {
+        let first = self.cuts.len() as u32;
+        let mine: Vec<u32> = (0..self.mesh.triangle_count()).map(|t| self.cut(t)).collect();
+        self.cut_of = mine;
+        self.cut_of.extend((0..o.mesh.triangle_count()).map(|t| o.cut(t) + first));
+        self.mesh.append(&o.mesh);
+        self.cuts.extend_from_slice(&o.cuts);
+    }
+
+    /// The triangles never simplified further (the coarsest a cut draws), and the largest
+    /// error they stand for.
+    pub fn coarsest(&self) -> (Mesh, f32) {
+        let (mut indices, mut error) = (Vec::new(), 0.0f32);
+        for (k, t) in self.mesh.indices.chunks_exact(3).enumerate() {
+            let cut = &self.cuts[self.cut(k) as usize];
+            if cut.hi.error == f32::INFINITY {
+                indices.extend_from_slice(t);
+                error = error.max(cut.lo.error);
+            }
+        }
+        (self.mesh.sub_mesh(&indices), error)
+    }
+}
+
+/// An object's hierarchy: its original triangles in chunks, and its simplified groups.
+#[derive(Debug, Default)]
+pub struct Hierarchy {
+    pub chunks: Vec<Piece>,
+    pub coarse: Vec<Piece>,
+    /// Levels of simplification (0 when the object was too small for any).
+    pub levels: u32,
+}
+
+/// A group as built: its bounds made monotone, its depth, its triangles (the object's
+/// vertices), its cuts and each triangle's cut.
+type Group = (ErrorBound, i32, Vec<u32>, Vec<Cut>, Vec<u32>);
+
+/// Objects of at most this many triangles are one cluster already: drawn as they are.
+const MIN_TRIANGLES: usize = crate::cluster::MAX_TRIANGLES;
+
+/// The hierarchy of `mesh` (scene-local, cleaned), its original triangles in chunks of at most
+/// `chunk_triangles` (whole groups; one group may exceed it).
+pub fn build(mesh: &Mesh, chunk_triangles: u32) -> Hierarchy {
+    let bounds = mesh.bounds();
+    // The smallest error a simplified group reports: tau 0 draws the original everywhere.
+    let min_error = (bounds.extent().length() * crate::limits::MIN_RELATIVE_ERROR).max(f32::MIN_POSITIVE);
+    if mesh.triangle_count() <= MIN_TRIANGLES {
+        let sphere = ErrorBound { center: bounds.center().into(), radius: bounds.extent().length() * 0.5 * (1.0 + 1e-5), error: 0.0 };
+        let cut = Cut { hi: ErrorBound { error: f32::INFINITY, ..sphere }, lo: sphere };
+        let n = mesh.triangle_count();
+        return Hierarchy {
+            chunks: vec![Piece { mesh: mesh.clone(), cuts: vec![cut], cut_of: vec![0; n] }],
+            coarse: Vec::new(),
+            levels: 0,
+        };
+    }
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte vertices");
+    let mut config = meshopt::clod_default_config(crate::cluster::MAX_TRIANGLES);
+    // No attributes are given, so permissive collapses across colour seams are not wanted.
+    config.simplify_permissive = false;
+    // A group's error bounds its distance to the original: the previous levels' error plus its
+    // own step's (the triangle inequality, as the static chains sum theirs), where
+    // meshoptimizer's default takes the larger of the two.
+    config.simplify_error_merge_additive = 1.0;
+    // The build clusters each block again its own way (crate::cluster): meshoptimizer's
+    // reordering of each cluster for locality would be thrown away.
+    config.optimize_clusters = false;
+    let mut groups: Vec<Group> = Vec::new();
+    meshopt::clod_build(config, &meshopt::ClodMesh::new(&mesh.indices, &adapter), |group, clusters| {
+        let s = group.simplified;
+        let mut own = ErrorBound {
+            center: s.center,
+            radius: s.radius,
+            error: if s.error >= f32::MAX { f32::INFINITY } else { s.error.max(min_error) },
+        };
+        for c in clusters.iter().filter(|c| c.refined >= 0) {
+            own = enclose(own, &groups[c.refined as usize].0);
+        }
+        let (mut indices, mut cuts, mut cut_of) = (Vec::new(), Vec::new(), Vec::new());
+        for c in clusters {
+            let lo = if c.refined < 0 { ErrorBound { error: 0.0, ..own } } else { groups[c.refined as usize].0 };
+            let cut = Cut { hi: own, lo };
+            let k = cuts.iter().position(|x| *x == cut).unwrap_or_else(|| {
+                cuts.push(cut);
+                cuts.len() - 1
+            });
+            indices.extend_from_slice(c.indices);
+            cut_of.extend(std::iter::repeat_n(k as u32, c.indices.len() / 3));
+        }
+        groups.push((own, group.depth, indices, cuts, cut_of));
+        groups.len() as i32 - 1
+    });
+    let levels = groups.iter().map(|g| g.1).max().unwrap_or(0) as u32;
+    // A piece of groups: their triangles out of the object's vertices, their cuts together.
+    let piece = |members: &mut dyn Iterator<Item = &Group>| {
+        let (mut indices, mut cuts, mut cut_of) = (Vec::new(), Vec::new(), Vec::new());
+        for g in members {
+            let first = cuts.len() as u32;
+            indices.extend_from_slice(&g.2);
+            cuts.extend_from_slice(&g.3);
+            cut_of.extend(g.4.iter().map(|c| c + first));
+        }
+        Piece { mesh: mesh.sub_mesh(&indices), cuts, cut_of }
+    };
+    let (original, coarse): (Vec<&Group>, Vec<&Group>) = groups.iter().partition(|g| g.1 == 0);
+    let boxes: Vec<(Aabb, usize)> = original.iter().map(|g| (group_box(mesh, &g.2), g.2.len() / 3)).collect();
+    let chunks =
+        chunks(&boxes, chunk_triangles as usize).into_iter().map(|members| piece(&mut members.into_iter().map(|k| original[k]))).collect();
+    Hierarchy { chunks, coarse: coarse.into_iter().map(|g| piece(&mut std::iter::once(g))).collect(), levels }
+}
+
+/// `a` grown to enclose `b`'s sphere, with the larger error, rounded outwards (f32 centres and
+/// radii, distances taken in f64 at run time).
+fn enclose(a: ErrorBound, b: &ErrorBound) -> ErrorBound {
+    let (ca, cb) = (DVec3::from(a.center.map(f64::from)), DVec3::from(b.center.map(f64::from)));
+    let reach = (ca - cb).length() + b.radius as f64;
+    let radius = (a.radius as f64).max(reach * (1.0 + 1e-5) + 1e-30);
+    ErrorBound { center: a.center, radius: radius as f32, error: a.error.max(b.error) }
+}
+
+/// A sphere around every sphere of `bounds` (rounded outwards), with their errors folded by
+/// `fold` (the largest for an upper bound, the smallest for a lower one). Zero for none.
+pub fn enclosing(bounds: &[ErrorBound], fold: fn(f32, f32) -> f32) -> ErrorBound {
+    let Some(first) = bounds.first() else { return bytemuck::Zeroable::zeroed() };
+    let b = bounds.iter().fold(Aabb::EMPTY, |b, s| {
+        let (c, r) = (Vec3::from(s.center), Vec3::splat(s.radius));
+        b.union(Aabb::new(c - r, c + r))
+    });
+    let center = b.center();
+    let seed = ErrorBound { center: center.into(), radius: 0.0, error: first.error };
+    bounds.iter().fold(seed, |a, s| ErrorBound { error: fold(a.error, s.error), ..enclose(a, s) })
+}
+
+fn group_box(mesh: &Mesh, indices: &[u32]) -> Aabb {
+    Aabb::from_points(indices.iter().map(|&i| &mesh.positions[i as usize]))
+}
+
+/// Groups (box, triangles) put together in chunks of at most `most` triangles by halving at
+/// the median along the longest axis of their centres (a group larger than `most` alone).
+fn chunks(groups: &[(Aabb, usize)], most: usize) -> Vec<Vec<usize>> {
+    let mut out = Vec::new();
+    let mut stack = vec![(0..groups.len()).collect::<Vec<usize>>()];
+    while let Some(mut members) = stack.pop() {
+        let triangles: usize = members.iter().map(|&k| groups[k].1).sum();
+        if triangles <= most.max(1) || members.len() == 1 {
+            out.push(members);
+            continue;
+        }
+        let (lo, hi) = members.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &k| {
+            let c = groups[k].0.center();
+            (lo.min(c), hi.max(c))
+        });
+        let axis = (hi - lo).max_position();
+        members.sort_unstable_by(|&a, &b| groups[a].0.center()[axis].total_cmp(&groups[b].0.center()[axis]));
+        let (mut left, mut split) = (0, 0);
+        while split < members.len() - 1 && (left + groups[members[split]].1) * 2 <= triangles {
+            left += groups[members[split]].1;
+            split += 1;
+        }
+        let right = members.split_off(split.max(1));
+        stack.push(right);
+        stack.push(members);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::format::ErrorBound;
+    use crate::generators::shapes;
+
+    fn sphere() -> Mesh {
+        let mut m = Mesh::default();
+        shapes::lathe(&mut m, Vec3::ZERO, &shapes::sphere_profile(10.0, 64), 128);
+        m.welded()
+    }
+
+    /// The pieces of `h` with every cut, flattened: (triangle's corner positions, cut).
+    fn triangles(h: &Hierarchy) -> Vec<([[f32; 3]; 3], Cut)> {
+        h.chunks
+            .iter()
+            .chain(&h.coarse)
+            .flat_map(|p| {
+                p.mesh
+                    .indices
+                    .chunks_exact(3)
+                    .zip((0..).map(|t| p.cut(t)))
+                    .map(|(t, c)| ([0, 1, 2].map(|k| p.mesh.positions[t[k] as usize]), p.cuts[c as usize]))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_original_triangles_are_in_the_chunks_and_every_chain_is_monotone() {
+        let m = sphere();
+        let h = build(&m, 1024);
+        assert!(h.levels >= 3, "{} levels", h.levels);
+        let original: usize = h.chunks.iter().map(|p| p.mesh.triangle_count()).sum();
+        assert_eq!(original, m.triangle_count());
+        assert!(h.chunks.iter().all(|p| p.cuts.iter().all(|c| c.lo.error == 0.0 && c.hi.error > 0.0)));
+        assert!(h.chunks.len() >= m.triangle_count() / 1024, "{} chunks", h.chunks.len());
+        // Each lo bound is some group's hi bound, enclosed by it with an error no larger.
+        let his: Vec<ErrorBound> = triangles(&h).iter().map(|t| t.1.hi).collect();
+        for (_, cut) in triangles(&h).iter().filter(|t| t.1.lo.error > 0.0) {
+            assert!(his.contains(&cut.lo));
+            let d = (Vec3::from(cut.hi.center) - Vec3::from(cut.lo.center)).length();
+            assert!(d + cut.lo.radius <= cut.hi.radius && cut.lo.error <= cut.hi.error, "{cut:?}");
+        }
+        assert!(his.iter().any(|b| b.error == f32::INFINITY), "the coarsest group is never simplified further");
+    }
+
+    #[test]
+    fn every_cut_of_a_closed_surface_is_closed() {
+        // A hole or a crack leaves an edge without its reverse; a layer drawn twice, an edge
+        // used twice: every directed edge of the cut (by position) must appear once with its
+        // reverse once, at every tau and eye.
+        let m = sphere();
+        let h = build(&m, 1024);
+        let all = triangles(&h);
+        let key = |p: [f32; 3]| p.map(f32::to_bits);
+        for (eye, tau) in [
+            (DVec3::new(0.0, 0.0, 12.0), 1.0),
+            (DVec3::new(0.0, 0.0, 30.0), 4.0),
+            (DVec3::splat(300.0), 8.0),
+            (DVec3::new(11.0, 0.0, 0.0), 0.5),
+            (DVec3::splat(1e5), 1.0),
+        ] {
+            let v = crate::error_metric::LodView { eye, focal_px: 1000.0, tau };
+            let drawn: Vec<_> = all.iter().filter(|t| v.takes(&t.1)).collect();
+            let mut edges: std::collections::HashMap<_, i32> = std::collections::HashMap::new();
+            for (t, _) in &drawn {
+                for k in 0..3 {
+                    *edges.entry((key(t[k]), key(t[(k + 1) % 3]))).or_default() += 1;
+                }
+            }
+            for (&(a, b), &n) in &edges {
+                assert_eq!(
+                    (n, edges.get(&(b, a)).copied()),
+                    (1, Some(1)),
+                    "eye {eye} tau {tau}: an edge drawn {n} times, its reverse {:?}",
+                    edges.get(&(b, a))
+                );
+            }
+            assert!(drawn.len() < m.triangle_count() || tau < 1.0, "eye {eye} tau {tau}: {} triangles", drawn.len());
+        }
+        let v = crate::error_metric::LodView { eye: DVec3::splat(1e9), focal_px: 1000.0, tau: 1.0 };
+        let far = all.iter().filter(|t| v.takes(&t.1)).count();
+        assert!(far * 20 < m.triangle_count(), "far away the coarsest groups: {far} triangles");
+    }
+
+    #[test]
+    fn a_small_object_is_one_piece_drawn_at_every_tau() {
+        let mut m = Mesh::default();
+        shapes::add_box(&mut m, Vec3::ZERO, Vec3::ONE);
+        let h = build(&m, 4096);
+        assert_eq!((h.chunks.len(), h.coarse.len(), h.levels), (1, 0, 0));
+        let v = crate::error_metric::LodView { eye: DVec3::splat(1e6), focal_px: 1000.0, tau: 100.0 };
+        assert!(v.takes(&h.chunks[0].cuts[0]));
+    }
+
+    #[test]
+    fn chunks_hold_whole_groups_within_the_limit() {
+        let groups: Vec<(Aabb, usize)> =
+            (0..40).map(|i| (Aabb::new(Vec3::splat(i as f32), Vec3::splat(i as f32 + 1.0)), 100 + i)).collect();
+        let c = chunks(&groups, 1000);
+        let mut all: Vec<usize> = c.iter().flatten().copied().collect();
+        all.sort();
+        assert_eq!(all, (0..40).collect::<Vec<_>>());
+        assert!(c.iter().all(|m| m.iter().map(|&k| groups[k].1).sum::<usize>() <= 1000));
+        assert!(c.len() <= 8, "{} chunks", c.len());
+    }
+}
