@@ -48,6 +48,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         h.object_count,
         h.leaf_triangles
     );
+    let cuts = scene.nodes()[h.bvh_count as usize..].iter().filter(|n| n.is_cut()).count();
+    if cuts > 0 {
+        out!("detail: a cluster hierarchy per object (--lod clusters), {cuts} cut nodes");
+    } else {
+        out!("detail: static LOD chains and HLODs (--lod chains)");
+    }
     out!("origin: {:?}", h.origin);
     out!("file_bytes: {file_bytes}");
     out!("open_ms: {open_ms:.2}");

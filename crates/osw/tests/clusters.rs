@@ -60,6 +60,7 @@ fn every_real_model_builds_a_hierarchy_drawn_conservatively() {
         let scene = d.path().join(format!("{stem}.osw"));
         osw_ok(&["build", s(model), "--lod", "clusters", "-o", s(&scene)]);
         check_invariants(&SceneFile::open(&scene).unwrap());
+        assert!(osw_ok(&["info", "--scene", s(&scene)]).contains("detail: a cluster hierarchy per object"), "{stem}: osw info");
         let path = d.path().join(format!("{stem}-orbit.csv"));
         osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "8", "-o", s(&path)]);
         let frames = 8;
