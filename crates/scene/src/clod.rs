@@ -276,7 +276,6 @@ mod tests {
         let m = sphere();
         let h = build(&m, 1024);
         let all = triangles(&h);
-        let mut simplified = 0;
         let key = |p: [f32; 3]| p.map(f32::to_bits);
         for (eye, tau) in [
             (DVec3::new(0.0, 0.0, 12.0), 1.0),
@@ -301,9 +300,11 @@ mod tests {
                     edges.get(&(b, a))
                 );
             }
-            simplified += usize::from(drawn.len() < m.triangle_count());
+            // 2 units from the surface at tau 1 the first level's error still projects to
+            // more than a pixel: only there may the cut be the original everywhere.
+            let near = eye.length() < 20.0 && tau <= 1.0;
+            assert!(drawn.len() < m.triangle_count() || near, "eye {eye} tau {tau}: {} triangles", drawn.len());
         }
-        assert!(simplified >= 3, "{simplified} of the cuts drew fewer triangles than the original");
         let v = crate::error_metric::LodView { eye: DVec3::splat(1e9), focal_px: 1000.0, tau: 1.0 };
         let far = all.iter().filter(|t| v.takes(&t.1)).count();
         assert!(far * 20 < m.triangle_count(), "far away the coarsest groups: {far} triangles");
