@@ -54,7 +54,16 @@ impl Renderer {
         }
     }
 
-    fn draw_opaque(&mut self, scene: &SceneFile, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+    /// [`Renderer::draw`]'s first half: the opaque clusters of `ids` only, in any pass. OR and
+    /// HC draw their occluders with it, into the depth buffer or, in prev, into the image too.
+    pub fn draw_opaque(
+        &mut self,
+        scene: &SceneFile,
+        view: &View,
+        ids: &[NodeId],
+        pass: Pass,
+        clear: bool,
+    ) -> Result<DrawStats, RenderError> {
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.options().cluster_tests };
         let drawn = self.gather(scene, view, ids, tests, None).and_then(|mut stats| {
             self.submit(view, pass, Layer::Opaque, clear, &mut stats)?;
@@ -118,7 +127,8 @@ impl Renderer {
 
     /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`
     /// and `select(node, cluster index, cluster)` (all, through the indices kept for this view,
-    /// when `None`), less the triangles `tests` drop, making the nodes resident.
+    /// when `None`), less the triangles `tests` drop, making the nodes resident; returns their
+    /// counts.
     pub fn gather(
         &mut self,
         scene: &SceneFile,
@@ -141,6 +151,7 @@ impl Renderer {
             }
             stats.nodes += 1;
         }
+        stats.triangles = self.indices.len() as u64 / 3;
         Ok(stats)
     }
 }

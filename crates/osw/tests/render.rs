@@ -408,7 +408,8 @@ fn ovc_budget_and_sampling_take_effect_and_say_so() {
 }
 
 /// `--gpu-times`: OR's and RVG's draws timed by GPU timestamps (lavapipe has them), each at
-/// most the CPU time of its pass, which waits for it; the same frames as without.
+/// most the CPU time of its pass, which waits for it; the same frames as without. prev's RVG
+/// draws only what OR and HC did not draw into the image: on some frames nothing.
 #[test]
 fn gpu_times_are_taken_per_pass_and_change_no_frame() {
     let d = tempfile::tempdir().unwrap();
@@ -419,10 +420,13 @@ fn gpu_times_are_taken_per_pass_and_change_no_frame() {
     osw_ok(&[&args[..], &["--gpu-times", "--out", s(&timed)]].concat());
     osw_ok(&[&args[..], &["--out", s(&plain)]].concat());
     let col = |run: &Path, k: &str| csv_column(&run.join("stats.csv"), k);
-    let (or_gpu, or_cpu, rvg_gpu, rvg_cpu) =
-        (col(&timed, "or_gpu_ms"), col(&timed, "or_ms"), col(&timed, "rvg_gpu_ms"), col(&timed, "rvg_ms"));
+    let (or_gpu, or_cpu, rvg_cpu) = (col(&timed, "or_gpu_ms"), col(&timed, "or_ms"), col(&timed, "rvg_ms"));
+    // Empty where RVG drew nothing.
+    let text = std::fs::read_to_string(timed.join("stats.csv")).unwrap();
+    let at = text.lines().next().unwrap().split(',').position(|c| c == "rvg_gpu_ms").unwrap();
+    let rvg_gpu: Vec<Option<f64>> = text.lines().skip(1).map(|l| l.split(',').nth(at).unwrap().parse().ok()).collect();
     for i in 0..6 {
-        assert!(rvg_gpu[i] > 0.0 && rvg_gpu[i] <= rvg_cpu[i], "frame {i}: RVG {} ms on the GPU, {} ms a pass", rvg_gpu[i], rvg_cpu[i]);
+        assert!(rvg_gpu[i].is_none_or(|g| g <= rvg_cpu[i]), "frame {i}: RVG {:?} ms on the GPU, {} ms a pass", rvg_gpu[i], rvg_cpu[i]);
         // Frame 0 has no V(i-1): OR draws nothing.
         assert!(
             i == 0 || (or_gpu[i] > 0.0 && or_gpu[i] <= or_cpu[i]),
@@ -433,7 +437,7 @@ fn gpu_times_are_taken_per_pass_and_change_no_frame() {
     }
     let v = summary(&timed);
     let r = v.render().unwrap();
-    assert!(r.rvg_gpu_ms_median.is_some_and(|m| m > 0.0) && r.or_gpu_ms_median.is_some(), "{r:?}");
+    assert!(r.or_gpu_ms_median.is_some_and(|m| m > 0.0), "{r:?}");
     assert!(summary(&plain).render().unwrap().rvg_gpu_ms_median.is_none());
     assert_eq!(std::fs::read(timed.join("pvs.txt")).unwrap(), std::fs::read(plain.join("pvs.txt")).unwrap());
     for i in 0..6 {

@@ -13,7 +13,8 @@
 //!   4.2), exactly as the two switch nodes run it: the OR of frame i happens while HC of frame
 //!   i-1 is still streaming, so it draws the front of V(i-2) updated for camera i (sec. 4.6),
 //!   then the additions of frame i-1 as they arrive, into the depth buffer; HC tests the
-//!   hierarchy against it (alg. 4.1); RVG draws V(i).
+//!   hierarchy against it (alg. 4.1); RVG draws V(i). On one GPU OR and HC draw into the
+//!   image as well, and RVG draws only the rest (Yoon 2003 sec. 5.4).
 //! - `switch`: the same on two nodes and a display (`osw run`, crates/node); not a mode of
 //!   [`ModeState`], named here so that runs, reports and results share one enum.
 
@@ -27,7 +28,7 @@ use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::payoff::Alternating;
 use osw_cull::{HcStats, View, frustum_cull, hardware_cull};
 use osw_gpu::draw::Pass;
-use osw_gpu::renderer::{BoxTest, RenderError, Renderer, Sampling};
+use osw_gpu::renderer::{BoxTest, DrawStats, RenderError, Renderer, Sampling};
 use osw_gpu::testers::{GpuTester, InterleavedTester};
 use osw_scene::{NodeId, SceneFile};
 use std::time::Instant;
@@ -109,6 +110,9 @@ pub struct ModeState {
     added: Vec<NodeId>,
     removed: Vec<NodeId>,
     occluders: Vec<NodeId>,
+    /// prev: the nodes OR and HC drew into the image this frame (sorted), which RVG does not
+    /// draw again (Yoon 2003 sec. 5.4).
+    image: Vec<NodeId>,
     /// The nodes HC found visible (osw_cull::hardware_cull_seen), one set per parity of the
     /// frame: the switch's two HC nodes each keep their own, from two frames back, and prev
     /// takes the same sets so that its visible sets are the switch's.
@@ -143,6 +147,7 @@ impl ModeState {
             added: Vec::new(),
             removed: Vec::new(),
             occluders: Vec::new(),
+            image: Vec::new(),
             seen: [Vec::new(), Vec::new()],
             chc: None,
             clusters: ClusterHistory::default(),
@@ -164,6 +169,8 @@ impl ModeState {
         let mut s = FrameStats::default();
         let nodes = scene.nodes();
         let mut pvs = Vec::new();
+        // Whether prev's OR and HC drew the image (Yoon 2003 sec. 5.4, below).
+        let mut reused = false;
         // Whether this frame's occlusion culling is expected to pay (prev and chc; see
         // osw_cull::payoff), from the counts of the last frame judged.
         let frame = self.frames as u64;
@@ -218,15 +225,34 @@ impl ModeState {
             Mode::Prev | Mode::Switch => {
                 let t = Instant::now();
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
-                let front = pass::or(r, scene, view, &self.older, self.tau, true, &mut self.occluders)?;
-                let or = front + pass::or(r, scene, view, &self.added, self.tau, false, &mut self.occluders)?;
+                // Yoon 2003 sec. 5.4: OR's occluders are drawn into the image too, and so are
+                // HC's additions, so that RVG does not draw them again. A node drawn there that
+                // HC then dropped is hidden behind what was drawn, or outside the frustum; but
+                // adaptive culling drops visible nodes, and RVG's cluster occlusion test draws
+                // fewer clusters than OR, so those draw the image as the switch's display does.
+                let writes = if self.ovc.adaptive == 0.0 && !r.options().cluster_tests.occlusion { Pass::Color } else { Pass::Depth };
+                self.image.clear();
+                let mut or = DrawStats::default();
+                for (ids, clear) in [(&self.older, true), (&self.added, false)] {
+                    or = or + pass::or(r, scene, view, ids, self.tau, (writes, clear), &mut self.occluders)?;
+                    self.image.extend_from_slice(&self.occluders);
+                }
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
-                let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
+                let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, writes, ..HcOptions::default() };
                 let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[self.frames as usize % 2], &mut pvs)?;
                 s.hc_ms = ms(t);
                 (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
                     (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
+                // A node that sec. 4.7.2's pixel count stopped at a coarser LOD than OR drew
+                // for it would be drawn twice (sec. 5.4 redraws such faces): the image is
+                // drawn anew.
+                if writes == Pass::Color && hc.stats.pixel_stops == 0 {
+                    self.image.extend_from_slice(&hc.drawn);
+                    self.image.sort_unstable();
+                    self.image.dedup();
+                    reused = true;
+                }
                 hc.stats
             }
         };
@@ -243,6 +269,7 @@ impl ModeState {
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {
+            Mode::Prev if reused => pass::rvg_over(r, scene, view, &pvs, &self.image)?,
             Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, cull, &mut self.clusters)?,
             _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
         };

@@ -80,6 +80,7 @@ struct HybridTester<'a> {
     scene: &'a SceneFile,
     pyramid: Pyramid,
     min: usize,
+    writes: Pass,
     /// The new occluders drawn so far (the retest need not draw them again).
     drawn: Vec<NodeId>,
 }
@@ -107,7 +108,7 @@ impl VisibilityTester for HybridTester<'_> {
         if lods.len() < self.min {
             return Ok(false);
         }
-        self.r.draw(self.scene, view, lods, Pass::Depth, false)?;
+        self.r.draw_opaque(self.scene, view, lods, self.writes, false)?;
         self.pyramid = Pyramid::new(view.width, view.height, self.r.read_depth()?);
         self.drawn.extend_from_slice(lods);
         Ok(true)
@@ -126,11 +127,14 @@ pub struct HcOptions {
     pub adaptive: f64,
     /// New occluders the hybrid's traversal takes at a time ([`NEW_OCCLUDERS_MIN`]).
     pub new_occluders_min: usize,
+    /// What the additions drawn as occluders write: the depth buffer, or the image too (prev:
+    /// see [`crate::pass::or()`]).
+    pub writes: Pass,
 }
 
 impl Default for HcOptions {
     fn default() -> HcOptions {
-        HcOptions { test: HcTest::Hybrid, adaptive: 0.0, new_occluders_min: NEW_OCCLUDERS_MIN }
+        HcOptions { test: HcTest::Hybrid, adaptive: 0.0, new_occluders_min: NEW_OCCLUDERS_MIN, writes: Pass::Depth }
     }
 }
 
@@ -142,11 +146,12 @@ pub struct HcTimes {
     pub retest_ms: f64,
 }
 
-/// What HC did: its counts and its passes' times.
-#[derive(Clone, Copy, Debug, Default)]
+/// What HC did: its counts, its passes' times, and the additions it drew as occluders (sorted).
+#[derive(Clone, Debug, Default)]
 pub struct HcPass {
     pub stats: HcStats,
     pub times: HcTimes,
+    pub drawn: Vec<NodeId>,
 }
 
 fn ms(t: Instant) -> f64 {
@@ -196,7 +201,7 @@ pub fn hc(
     }
     let second_look_ms = ms(t);
     let t = Instant::now();
-    let again = retest(r, scene, view, opts.adaptive, previous, &traversal.drawn, pvs)?;
+    let (again, retest_drawn) = retest(r, scene, view, (opts.adaptive, opts.writes), previous, &traversal.drawn, pvs)?;
     let retest_ms = ms(t);
     let stats = traversal.stats;
     let retests = look.tests + again.tests;
@@ -211,6 +216,12 @@ pub fn hc(
             ..stats
         },
         times: HcTimes { traversal_ms, second_look_ms, retest_ms },
+        drawn: {
+            let mut drawn = traversal.drawn;
+            drawn.extend(retest_drawn);
+            drawn.sort_unstable();
+            drawn
+        },
     })
 }
 
@@ -242,7 +253,8 @@ fn traverse(
         t.stats = frustum_cull(nodes, view, tau, pvs);
     } else if opts.test == HcTest::Hybrid {
         let pyramid = Pyramid::new(view.width, view.height, r.read_depth()?);
-        let mut tester = HybridTester { r, scene, pyramid, min: opts.new_occluders_min, drawn: Vec::new() };
+        let (min, writes) = (opts.new_occluders_min, opts.writes);
+        let mut tester = HybridTester { r, scene, pyramid, min, writes, drawn: Vec::new() };
         t.stats = hardware_cull_seen(nodes, view, tau, previous, seen, &mut tester, pvs)?;
         t.drawn = tester.drawn;
         t.drawn.sort_unstable();
@@ -302,32 +314,33 @@ fn second_look(
 }
 
 /// The third pass, as in two-phase occlusion culling (niagara): the PVS's nodes not in V(i-1)
-/// had nothing drawn for them. They are drawn into the depth buffer (but for the hybrid's new
+/// had nothing drawn for them. They are drawn in `writes` (but for the hybrid's new
 /// occluders, drawn already) and tested again, exactly; the ones hidden behind others are
-/// dropped. Only geometry of this frame's PVS is added as occluder: conservative.
+/// dropped. Only geometry of this frame's PVS is added as occluder: conservative. Returns
+/// also the nodes it drew.
 fn retest(
     r: &mut Renderer,
     scene: &SceneFile,
     view: &View,
-    adaptive: f64,
+    (adaptive, writes): (f64, Pass),
     previous: &[NodeId],
     drawn: &[NodeId],
     pvs: &mut Vec<NodeId>,
-) -> Result<Dropped, RenderError> {
+) -> Result<(Dropped, Vec<NodeId>), RenderError> {
     let (added, kept): (Vec<NodeId>, Vec<NodeId>) = pvs.iter().partition(|id| previous.binary_search(id).is_err());
     if added.is_empty() {
-        return Ok(Dropped::default());
+        return Ok(Default::default());
     }
     let undrawn: Vec<NodeId> = added.iter().copied().filter(|id| drawn.binary_search(id).is_err()).collect();
     if !undrawn.is_empty() {
-        r.draw(scene, view, &undrawn, Pass::Depth, false)?;
+        r.draw_opaque(scene, view, &undrawn, writes, false)?;
     }
     // Box by box when few (one round trip), or where Bartz 1999's eq. 1 scores each addition's own
     // pixels; through the hierarchy when many (a region came into view). Exactly on the GPU,
     // also in the hybrid: measured, its pyramid read finer kept 18% more nodes.
     if adaptive > 0.0 || added.len() < RETEST_HIERARCHY_MIN {
         let (hidden, adaptive_culled) = drop_hidden(r, scene, view, &added, adaptive, pvs)?;
-        return Ok(Dropped { tests: added.len() as u32, hidden, adaptive: adaptive_culled });
+        return Ok((Dropped { tests: added.len() as u32, hidden, adaptive: adaptive_culled }, undrawn));
     }
     let mut still = Vec::new();
     let s = retest_additions(scene.nodes(), view, &kept, &added, &mut GpuTester::new(r, scene, BoxTest::Exact), &mut still)?;
@@ -335,7 +348,7 @@ fn retest(
     *pvs = kept;
     pvs.extend(still);
     pvs.sort_unstable();
-    Ok(Dropped { tests: s.tests, hidden, adaptive: 0 })
+    Ok((Dropped { tests: s.tests, hidden, adaptive: 0 }, undrawn))
 }
 
 /// Tests the boxes of `ids` (sorted, in `pvs`) exactly against the depth buffer as it is and

@@ -4,7 +4,8 @@
 //! - [`or()`]: OR, the last visible set's front drawn into the depth buffer for the new camera;
 //! - [`hc()`]: HC, in three passes, each timed: the traversal against that depth, the
 //!   hybrid's second look at small boxes, and the retest of additions drawn as occluders;
-//! - [`rvg()`]: RVG, the visible set drawn in colour.
+//! - [`rvg()`]: RVG, the visible set drawn in colour; in prev, [`rvg_over()`] draws only what
+//!   OR and HC did not draw into the image already.
 
 mod hc;
 mod or;
@@ -12,4 +13,4 @@ mod rvg;
 
 pub use hc::{HcOptions, HcPass, HcTest, HcTimes, NEW_OCCLUDERS_MIN, hc};
 pub use or::or;
-pub use rvg::rvg;
+pub use rvg::{rvg, rvg_over};

@@ -7,8 +7,10 @@ use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
 
-/// Draws `ids` re-selected for `view` at `tau` (the front update of sec. 4.6) into the depth
-/// buffer; `clear` starts a new one. OR draws the front of V(i-2), then HC's additions of
+/// Draws the opaque clusters of `ids` re-selected for `view` at `tau` (the front update of
+/// sec. 4.6) in `writes`: into the depth buffer (the switch's nodes), or into the image too
+/// (prev: RVG then draws only what OR and HC did not, Yoon 2003 sec. 5.4); `clear` starts a
+/// new one. OR draws the front of V(i-2), then HC's additions of
 /// frame i-1 as they arrive: HC chose those for camera i-1, so they are re-selected too and
 /// every occluder is geometry at tau for camera i (tau may also change between frames).
 /// `front` is scratch space kept across frames.
@@ -18,9 +20,9 @@ pub fn or(
     view: &View,
     ids: &[NodeId],
     tau: f64,
-    clear: bool,
+    (writes, clear): (Pass, bool),
     front: &mut Vec<NodeId>,
 ) -> Result<DrawStats, RenderError> {
     update_front(scene.nodes(), ids, view, tau, front);
-    r.draw(scene, view, front, Pass::Depth, clear)
+    r.draw_opaque(scene, view, front, writes, clear)
 }

@@ -36,6 +36,19 @@ pub fn rvg(
     r.draw(scene, view, pvs, Pass::Color, true)
 }
 
+/// Draws `pvs` over the image that OR and HC began (`drawn`, sorted): the opaque clusters of
+/// the nodes they did not draw, then the translucent clusters of all, as [`Renderer::draw`]
+/// orders them (Yoon 2003 sec. 5.4). What they drew and HC did not keep is hidden behind
+/// what they drew or lies outside the frustum, so the image is the PVS's. Returns the PVS's
+/// counts as [`rvg()`] would draw it (gathered for this view already: copied), with the time
+/// of the draws made.
+pub fn rvg_over(r: &mut Renderer, scene: &SceneFile, view: &View, pvs: &[NodeId], drawn: &[NodeId]) -> Result<DrawStats, RenderError> {
+    let new: Vec<NodeId> = pvs.iter().copied().filter(|id| drawn.binary_search(id).is_err()).collect();
+    let opaque = if new.is_empty() { DrawStats::default() } else { r.draw_opaque(scene, view, &new, Pass::Color, false)? };
+    let counts = r.gather(scene, view, pvs, r.options().cluster_tests, None)?;
+    Ok(DrawStats { draws: opaque.draws, gpu_ns: opaque.gpu_ns, ..counts } + r.draw_translucent(scene, view, pvs, Pass::Color, false)?)
+}
+
 /// The opaque clusters of `pvs` with occlusion culling, in two passes as in niagara: first
 /// those that `history` says were visible in the last frame, then every cluster's box is
 /// tested against the farthest-depth pyramid of what that drew (read back; on lavapipe the
