@@ -149,7 +149,7 @@ impl Switch {
         if duty == Duty::Solo && cull {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let t = Instant::now();
-            let or = pass::or(r, &self.scene, &view, &self.visible, cam.tau_px, (Pass::Depth, true), &mut self.occluders)?;
+            let or = pass::or(r, &self.scene, &view, &self.visible, cam.tau_px, (Pass::Depth, true, None), &mut self.occluders)?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
         }
         let mut pvs = Vec::new();
@@ -238,7 +238,7 @@ impl Switch {
         let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn = drawn + pass::or(r, scene, &view, ids, cam.tau_px, (Pass::Depth, clear), scratch)?;
+                drawn = drawn + pass::or(r, scene, &view, ids, cam.tau_px, (Pass::Depth, clear, None), scratch)?;
                 or_ms += ms(t);
             }
             Ok(())

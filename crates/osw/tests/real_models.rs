@@ -23,20 +23,25 @@ fn models() -> Vec<PathBuf> {
     found
 }
 
-/// Checks prev and the switch (culling every frame) and prev as it runs by default (culling
-/// where it pays) against vfc and exact visibility on `path` at `size`, tau 0. Returns the
-/// frames the default prev skipped.
+/// Checks prev and the switch (culling every frame), prev with RVG's cluster occlusion test
+/// (its OR drawing only the clusters visible in the last frame) and prev as it runs by default
+/// (culling where it pays) against vfc and exact visibility on `path` at `size`, tau 0.
+/// Returns the frames the default prev skipped.
 fn check(scene: &Path, path: &Path, size: &str, out: &Path, label: &str) -> u64 {
     let frames = osw_scene::path::read(path).unwrap().len();
-    let [exact, vfc, prev, switch, paying] = ["exact", "vfc", "prev", "switch", "prev-paying"].map(|n| out.join(n));
+    let [exact, vfc, prev, occ, switch, paying] = ["exact", "vfc", "prev", "prev-occ", "switch", "prev-paying"].map(|n| out.join(n));
     let walk = ["--scene", s(scene), "--path", s(path), "--size", size];
     osw_ok(&[&["exact"], &walk[..], &["--out", s(&exact)]].concat());
-    for (mode, dir, always) in [("vfc", &vfc, ""), ("prev", &prev, "--always-cull"), ("prev", &paying, "")] {
-        let args = [&["render", "--mode", mode, "--tau", "0"], &walk[..], &["--out", s(dir)]].concat();
-        osw_ok(&args.into_iter().chain((!always.is_empty()).then_some(always)).collect::<Vec<_>>());
+    let occlusion: &[&str] = &["--always-cull", "--cluster-tests", "frustum,cone,backface,small,occlusion"];
+    for (mode, dir, extra) in
+        [("vfc", &vfc, &[][..]), ("prev", &prev, &["--always-cull"]), ("prev", &occ, occlusion), ("prev", &paying, &[])]
+    {
+        osw_ok(&[&["render", "--mode", mode, "--tau", "0"], &walk[..], &["--out", s(dir)], extra].concat());
     }
     osw_ok(&[&["run", "--tau", "0", "--always-cull"], &walk[..], &["--out", s(&switch)]].concat());
-    for (name, run) in [("prev", &prev), ("switch", &switch), ("prev where culling pays", &paying)] {
+    for (name, run) in
+        [("prev", &prev), ("prev with the cluster occlusion test", &occ), ("switch", &switch), ("prev where culling pays", &paying)]
+    {
         let c = compare(run, &vfc, &exact, &out.join(format!("cmp-{name}")));
         assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{label} {name}: false culling: {c}");
         assert_eq!(c["identical_frames"], frames, "{label} {name}: frames differ from vfc's: {c}");

@@ -60,9 +60,10 @@ fn the_switch_is_prev_split_across_processes() {
 }
 
 /// `osw run --cluster-tests` reaches the display: with RVG's occlusion test, or with the
-/// frustum test alone, its counts say so and its frames and visible sets are prev's with the
-/// same tests (the nodes take the list too; their depth, and so the visible sets, do not
-/// depend on it).
+/// frustum test alone, its counts say so and its frames are prev's with the same tests. With
+/// the frustum test alone the visible sets are prev's too (the nodes take the list; their
+/// depth does not depend on it); with the occlusion test prev's OR draws only the clusters
+/// visible in the last frame, the switch's nodes all: other visible sets, the same image.
 #[test]
 fn the_switch_runs_the_cluster_tests_it_is_given() {
     let d = tempfile::tempdir().unwrap();
@@ -74,13 +75,16 @@ fn the_switch_runs_the_cluster_tests_it_is_given() {
         osw_ok(&[&["run"], &walk[..], &["--out", s(&run)]].concat());
         osw_ok(&[&["render", "--mode", "prev"], &walk[..], &["--out", s(&prev)]].concat());
         let pvs = |p: &Path| std::fs::read_to_string(p.join("pvs.txt")).unwrap();
-        assert_eq!(pvs(&run), pvs(&prev), "{tests}: visible sets");
+        if tests == "frustum" {
+            assert_eq!(pvs(&run), pvs(&prev), "{tests}: visible sets");
+            let (r, p) = (summary(&run), summary(&prev));
+            assert_eq!(r.triangles_drawn_mean, p.triangles_drawn_mean, "{tests}: RVG draws what prev's RVG draws");
+        }
         for i in 0..12 {
             let f = |p: &Path| std::fs::read(p.join(format!("frames/{i:05}.png"))).unwrap();
             assert!(f(&run) == f(&prev), "{tests}: frame {i} differs from prev's");
         }
-        let (r, p) = (summary(&run), summary(&prev));
-        assert_eq!(r.triangles_drawn_mean, p.triangles_drawn_mean, "{tests}: RVG draws what prev's RVG draws");
+        let r = summary(&run);
         let occlusion = r.clusters_occlusion_culled_fraction;
         let cone = r.clusters_cone_culled_fraction;
         match tests {

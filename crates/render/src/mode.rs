@@ -110,8 +110,8 @@ pub struct ModeState {
     added: Vec<NodeId>,
     removed: Vec<NodeId>,
     occluders: Vec<NodeId>,
-    /// prev: the nodes OR and HC drew into the image this frame (sorted), which RVG does not
-    /// draw again (Yoon 2003 sec. 5.4).
+    /// prev: the nodes OR drew into the image this frame (sorted), which RVG does not draw
+    /// again (Yoon 2003 sec. 5.4).
     image: Vec<NodeId>,
     /// The nodes HC found visible (osw_cull::hardware_cull_seen), one set per parity of the
     /// frame: the switch's two HC nodes each keep their own, from two frames back, and prev
@@ -169,8 +169,9 @@ impl ModeState {
         let mut s = FrameStats::default();
         let nodes = scene.nodes();
         let mut pvs = Vec::new();
-        // Whether prev's OR and HC drew the image (Yoon 2003 sec. 5.4, below).
-        let mut reused = false;
+        // HC's additions and pyramid where prev's OR and HC drew the image (Yoon 2003 sec.
+        // 5.4, below).
+        let mut reused = None;
         // Whether this frame's occlusion culling is expected to pay (prev and chc; see
         // osw_cull::payoff), from the counts of the last frame judged.
         let frame = self.frames as u64;
@@ -228,15 +229,21 @@ impl ModeState {
                 // Yoon 2003 sec. 5.4: OR's occluders are drawn into the image too, and so are
                 // HC's additions, so that RVG does not draw them again. A node drawn there that
                 // HC then dropped is hidden behind what was drawn, or outside the frustum; but
-                // adaptive culling drops visible nodes, and RVG's cluster occlusion test draws
-                // fewer clusters than OR, so those draw the image as the switch's display does.
-                let writes = if self.ovc.adaptive == 0.0 && !r.options().cluster_tests.occlusion { Pass::Color } else { Pass::Depth };
+                // adaptive culling drops visible nodes, so it draws the image as the switch's
+                // display does, and so does a run that counts the fragments of the visible set
+                // (RVG's draws alone). With RVG's cluster occlusion test OR draws the clusters
+                // visible in the last frame (sec. 5.3.1): fewer occluders than the switch's
+                // OR, so the visible sets may differ from the switch's, the image not.
+                let writes = if self.ovc.adaptive == 0.0 && !r.counts_fragments() { Pass::Color } else { Pass::Depth };
+                let history = (writes == Pass::Color && r.options().cluster_tests.occlusion).then_some(&self.clusters);
                 self.image.clear();
                 let mut or = DrawStats::default();
                 for (ids, clear) in [(&self.older, true), (&self.added, false)] {
-                    or = or + pass::or(r, scene, view, ids, self.tau, (writes, clear), &mut self.occluders)?;
+                    or = or + pass::or(r, scene, view, ids, self.tau, (writes, clear, history), &mut self.occluders)?;
                     self.image.extend_from_slice(&self.occluders);
                 }
+                self.image.sort_unstable();
+                self.image.dedup();
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, writes, ..HcOptions::default() };
@@ -248,10 +255,7 @@ impl ModeState {
                 // for it would be drawn twice (sec. 5.4 redraws such faces): the image is
                 // drawn anew.
                 if writes == Pass::Color && hc.stats.pixel_stops == 0 {
-                    self.image.extend_from_slice(&hc.drawn);
-                    self.image.sort_unstable();
-                    self.image.dedup();
-                    reused = true;
+                    reused = Some((hc.drawn, hc.pyramid));
                 }
                 hc.stats
             }
@@ -269,7 +273,10 @@ impl ModeState {
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {
-            Mode::Prev if reused => pass::rvg_over(r, scene, view, &pvs, &self.image)?,
+            Mode::Prev if let Some((hc, pyramid)) = reused => {
+                let begun = pass::Begun { or: &self.image, hc: &hc, pyramid };
+                pass::rvg_over(r, scene, view, &pvs, begun, &mut self.clusters)?
+            }
             Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, cull, &mut self.clusters)?,
             _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
         };

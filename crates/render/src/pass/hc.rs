@@ -146,12 +146,14 @@ pub struct HcTimes {
     pub retest_ms: f64,
 }
 
-/// What HC did: its counts, its passes' times, and the additions it drew as occluders (sorted).
-#[derive(Clone, Debug, Default)]
+/// What HC did: its counts, its passes' times, the additions it drew as occluders (sorted),
+/// and the hybrid's pyramid of the depth buffer as its traversal left it.
+#[derive(Default)]
 pub struct HcPass {
     pub stats: HcStats,
     pub times: HcTimes,
     pub drawn: Vec<NodeId>,
+    pub pyramid: Option<Pyramid>,
 }
 
 fn ms(t: Instant) -> f64 {
@@ -222,6 +224,7 @@ pub fn hc(
             drawn.sort_unstable();
             drawn
         },
+        pyramid: traversal.pyramid,
     })
 }
 

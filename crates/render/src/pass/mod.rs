@@ -13,4 +13,4 @@ mod rvg;
 
 pub use hc::{HcOptions, HcPass, HcTest, HcTimes, NEW_OCCLUDERS_MIN, hc};
 pub use or::or;
-pub use rvg::{rvg, rvg_over};
+pub use rvg::{Begun, rvg, rvg_over};
