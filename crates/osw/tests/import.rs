@@ -408,3 +408,44 @@ fn a_coloured_model_renders_in_its_colours() {
         assert!(counts[1][k] < counts[0][k] / 10, "colour {c:?}: {} pixels with --colors hashed", counts[1][k]);
     }
 }
+
+/// The build counts a model's repeats: the Khronos engine uses 14 of its 29 meshes in 52 nodes.
+/// The reference is the same file with each mesh kept in its first node only (the others'
+/// `mesh` removed), which has no repeats: its triangles after clean-up are the unique ones.
+#[test]
+fn the_engines_repeated_meshes_are_counted_once() {
+    let d = tempfile::tempdir().unwrap();
+    let engine = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models/2CylinderEngine.glb");
+    let (mut uses, mut repeated) = (std::collections::HashMap::new(), (0, 0));
+    let once = edit_glb(&engine, |doc| {
+        for node in doc["nodes"].as_array_mut().unwrap() {
+            if let Some(m) = node.get("mesh").and_then(|m| m.as_u64()) {
+                *uses.entry(m).or_insert(0) += 1;
+                if uses[&m] > 1 {
+                    node.as_object_mut().unwrap().remove("mesh");
+                }
+            }
+        }
+    });
+    for &n in uses.values().filter(|&&n| n > 1) {
+        repeated = (repeated.0 + 1, repeated.1 + n);
+    }
+    assert_eq!(repeated, (14, 52), "the engine's meshes used more than once, and their uses");
+    let once_path = d.path().join("once.glb");
+    std::fs::write(&once_path, once).unwrap();
+    let full_path = d.path().join("engine.glb");
+    std::fs::copy(&engine, &full_path).unwrap();
+    let ((_, full), (_, once)) = (build(&full_path), build(&once_path));
+    let n = |r: &serde_json::Value, k: &str| r[k].as_u64().unwrap_or_else(|| panic!("no {k} in {r}"));
+    assert_eq!(n(&full, "input_triangles"), 121_496);
+    assert_eq!(n(&full, "instances"), 52);
+    assert_eq!(n(&once, "instances"), 0);
+    assert_eq!(n(&full, "unique_triangles"), n(&once, "input_triangles") - n(&once, "degenerate_triangles_dropped"));
+    assert_eq!(n(&once, "unique_triangles"), n(&full, "unique_triangles"));
+    // Stored in full: every use's triangles are in the scene, and the report says so.
+    assert!(n(&full, "instanced_triangles") > n(&full, "input_triangles") - n(&once, "input_triangles"));
+    assert!(
+        full["left_out"].as_array().unwrap().iter().any(|l| l.as_str().unwrap().contains("52 objects are uses of 14 meshes")),
+        "{full}"
+    );
+}

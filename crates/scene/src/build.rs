@@ -129,6 +129,16 @@ pub struct BuildReport {
     /// Triangles stored over all LOD and HLOD blocks.
     pub stored_triangles: u64,
     pub degenerate_triangles_dropped: u64,
+    /// Repeats: the input's triangles with each mesh that the input says several objects use
+    /// (a glTF mesh of several nodes, EXT_mesh_gpu_instancing) counted once, after clean-up;
+    /// the triangles of those objects, and how many they are. Each is built and stored in
+    /// full today (`left_out` says so).
+    #[serde(default)]
+    pub unique_triangles: u64,
+    #[serde(default)]
+    pub instanced_triangles: u64,
+    #[serde(default)]
+    pub instances: u64,
     pub output_bytes: u64,
     pub content_hash: String,
     pub seconds: f64,

@@ -53,6 +53,9 @@ pub struct Object {
     /// Whole units added after `placement`: world = anchor + placement · p. Kept apart so that
     /// nothing is composed at a large magnitude (see [`crate::place`]). Zero once placed.
     pub anchor: glam::DVec3,
+    /// The input's mesh this object is a use of, where the input names one (a glTF mesh):
+    /// objects of one prototype have the same mesh.
+    pub prototype: Option<u32>,
 }
 
 impl Object {
@@ -63,7 +66,7 @@ impl Object {
 
     /// An object at `anchor + placement · p`; `anchor` whole units.
     pub fn placed(name: impl Into<String>, mesh: Mesh, anchor: glam::DVec3, placement: glam::DAffine3) -> Object {
-        Object { name: name.into(), mesh, placement, anchor }
+        Object { name: name.into(), mesh, placement, anchor, prototype: None }
     }
 
     /// World position of vertex `p` of the mesh, in f64.

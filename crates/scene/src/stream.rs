@@ -46,6 +46,7 @@ pub fn stream(
     let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
     let (mut chunks, mut coarse, mut closed_objects) = (Vec::new(), Vec::new(), Vec::new());
     let (mut seen, mut clean_stats, mut empty, mut colors_dropped) = (0, CleanStats::default(), Vec::new(), 0);
+    let mut repeats = Repeats::default();
     progress.stage("input", source.triangles_hint());
     loop {
         if progress.cancelled() {
@@ -61,6 +62,7 @@ pub fn stream(
         }
         let cleaned = times.run("clean", || clean(batch, seen))?;
         seen += cleaned.len();
+        cleaned.iter().for_each(|(o, _)| repeats.add(o));
         // Whether each object is closed and wound outwards is decided on the whole object,
         // before chunks cut it open (see crate::cluster).
         let split: Vec<_> = times.run("chunk", || {
@@ -123,12 +125,48 @@ pub fn stream(
         let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();
         report.left_out.push(format!("{} objects with no triangles left after clean-up, e.g. {}", empty.len(), names.join(", ")));
     }
+    repeats.report(report);
     if chunks.is_empty() {
         return Err(BuildError::Empty(format!("no triangles in the input ({} objects)", empty.len())));
     }
     report.temp_bytes = spill.bytes();
     let spill = spill.seal().map_err(|e| BuildError::temp(out, e))?;
     Ok(Streamed { chunks, coarse, spill, closed_objects, origin })
+}
+
+/// The input's triangles per prototype (after clean-up, the same for each use) and its uses,
+/// and the triangles of objects of no prototype.
+#[derive(Default)]
+struct Repeats {
+    prototypes: rustc_hash::FxHashMap<u32, (u64, u64)>,
+    single: u64,
+}
+
+impl Repeats {
+    fn add(&mut self, o: &Object) {
+        let triangles = o.mesh.triangle_count() as u64;
+        match o.prototype {
+            Some(p) => self.prototypes.entry(p).or_insert((triangles, 0)).1 += 1,
+            None => self.single += triangles,
+        }
+    }
+
+    fn report(&self, report: &mut BuildReport) {
+        let repeated = || self.prototypes.values().filter(|&&(_, uses)| uses > 1);
+        report.unique_triangles = self.single + self.prototypes.values().map(|&(t, _)| t).sum::<u64>();
+        report.instanced_triangles = repeated().map(|&(t, uses)| t * uses).sum();
+        report.instances = repeated().map(|&(_, uses)| uses).sum();
+        if report.instances > 0 {
+            let once: u64 = repeated().map(|&(t, _)| t).sum();
+            report.left_out.push(format!(
+                "storing repeats once: {} objects are uses of {} meshes that the input uses more than once, {} triangles where {} would do; each use is built and stored in full",
+                report.instances,
+                repeated().count(),
+                report.instanced_triangles,
+                once
+            ));
+        }
+    }
 }
 
 /// Cleans a batch whose first object is the input's `first`-th (errors name it by that index).

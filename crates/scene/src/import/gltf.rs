@@ -67,8 +67,9 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
         if let Some(mesh) = node.mesh() {
             let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| format!("mesh {}: {e}", mesh.index()))?;
             let name = node.name().or(mesh.name()).map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
+            let prototype = Some(mesh.index() as u32);
             match &raw_node.extensions.instancing {
-                None => out.objects.push(Object::placed(name, m, anchor, DAffine3::from_mat4(world))),
+                None => out.objects.push(Object { prototype, ..Object::placed(name, m, anchor, DAffine3::from_mat4(world)) }),
                 Some(inst) => {
                     let at = |e: String| format!("node {} EXT_mesh_gpu_instancing: {e}", node.index());
                     for (k, t) in instances(inst, &doc, &buffers).map_err(at)?.into_iter().enumerate() {
@@ -77,7 +78,8 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
                             return Err(at(format!("instance {k} has a non-finite transform")));
                         }
                         let placement = DAffine3::from_mat4(placement);
-                        out.objects.push(Object::placed(format!("{name} instance {k}"), m.clone(), anchor + whole, placement));
+                        let o = Object::placed(format!("{name} instance {k}"), m.clone(), anchor + whole, placement);
+                        out.objects.push(Object { prototype, ..o });
                     }
                 }
             }
