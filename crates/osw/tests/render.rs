@@ -422,9 +422,7 @@ fn gpu_times_are_taken_per_pass_and_change_no_frame() {
     let col = |run: &Path, k: &str| csv_column(&run.join("stats.csv"), k);
     let (or_gpu, or_cpu, rvg_cpu) = (col(&timed, "or_gpu_ms"), col(&timed, "or_ms"), col(&timed, "rvg_ms"));
     // Empty where RVG drew nothing.
-    let text = std::fs::read_to_string(timed.join("stats.csv")).unwrap();
-    let at = text.lines().next().unwrap().split(',').position(|c| c == "rvg_gpu_ms").unwrap();
-    let rvg_gpu: Vec<Option<f64>> = text.lines().skip(1).map(|l| l.split(',').nth(at).unwrap().parse().ok()).collect();
+    let rvg_gpu = csv_cells(&timed.join("stats.csv"), "rvg_gpu_ms");
     for i in 0..6 {
         assert!(rvg_gpu[i].is_none_or(|g| g <= rvg_cpu[i]), "frame {i}: RVG {:?} ms on the GPU, {} ms a pass", rvg_gpu[i], rvg_cpu[i]);
         // Frame 0 has no V(i-1): OR draws nothing.

@@ -134,30 +134,42 @@ pub fn stream(
     Ok(Streamed { chunks, coarse, spill, closed_objects, origin })
 }
 
-/// The input's triangles per prototype (after clean-up, the same for each use) and its uses,
-/// and the triangles of objects of no prototype.
+/// Per prototype: its first use's triangles after clean-up, its uses and their triangles
+/// (clean-up runs after placement, in the scene's f32 coordinates, so a use turned otherwise
+/// may keep a few near-degenerate triangles more or fewer); the triangles of objects of no
+/// prototype.
 #[derive(Default)]
 struct Repeats {
-    prototypes: rustc_hash::FxHashMap<u32, (u64, u64)>,
+    prototypes: rustc_hash::FxHashMap<u32, Uses>,
     single: u64,
+}
+
+#[derive(Clone, Copy)]
+struct Uses {
+    first: u64,
+    uses: u64,
+    triangles: u64,
 }
 
 impl Repeats {
     fn add(&mut self, o: &Object) {
         let triangles = o.mesh.triangle_count() as u64;
         match o.prototype {
-            Some(p) => self.prototypes.entry(p).or_insert((triangles, 0)).1 += 1,
+            Some(p) => {
+                let u = self.prototypes.entry(p).or_insert(Uses { first: triangles, uses: 0, triangles: 0 });
+                (u.uses, u.triangles) = (u.uses + 1, u.triangles + triangles);
+            }
             None => self.single += triangles,
         }
     }
 
     fn report(&self, report: &mut BuildReport) {
-        let repeated = || self.prototypes.values().filter(|&&(_, uses)| uses > 1);
-        report.unique_triangles = self.single + self.prototypes.values().map(|&(t, _)| t).sum::<u64>();
-        report.instanced_triangles = repeated().map(|&(t, uses)| t * uses).sum();
-        report.instances = repeated().map(|&(_, uses)| uses).sum();
+        let repeated = || self.prototypes.values().filter(|u| u.uses > 1);
+        report.unique_triangles = self.single + self.prototypes.values().map(|u| u.first).sum::<u64>();
+        report.instanced_triangles = repeated().map(|u| u.triangles).sum();
+        report.instances = repeated().map(|u| u.uses).sum();
         if report.instances > 0 {
-            let once: u64 = repeated().map(|&(t, _)| t).sum();
+            let once: u64 = repeated().map(|u| u.first).sum();
             report.left_out.push(format!(
                 "storing repeats once: {} objects are uses of {} meshes that the input uses more than once, {} triangles where {} would do; each use is built and stored in full",
                 report.instances,

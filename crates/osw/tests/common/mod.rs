@@ -192,10 +192,15 @@ pub const SIZE: &str = "256x256";
 
 /// Column `name` of a CSV file with a header row.
 pub fn csv_column(file: &Path, name: &str) -> Vec<f64> {
+    csv_cells(file, name).into_iter().map(|c| c.unwrap_or_else(|| panic!("{}: an empty {name}", file.display()))).collect()
+}
+
+/// Column `name` of a CSV file with a header row, `None` where a cell is empty.
+pub fn csv_cells(file: &Path, name: &str) -> Vec<Option<f64>> {
     let text = std::fs::read_to_string(file).unwrap();
     let mut lines = text.lines();
     let col = lines.next().unwrap().split(',').position(|c| c == name).unwrap_or_else(|| panic!("{} has no {name}", file.display()));
-    lines.map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect()
+    lines.map(|l| l.split(',').nth(col).unwrap()).map(|c| (!c.is_empty()).then(|| c.parse().unwrap())).collect()
 }
 
 pub fn s(p: &Path) -> &str {
