@@ -6,16 +6,17 @@
 # are used again: an interrupted sweep resumes. Every mode culls every frame, as CHC's paper
 # runs it; --cost-adaptive lets prev and the switch frustum cull only where culling did not pay.
 #
-#   scripts/scale.sh [--sizes 2M,20M,100M] [--huge] [--taus 1,5] [--modes vfc,chc,hzb,prev,switch]
-#                    [--frames N] [--size WxH] [--cost-adaptive] --out DIR
+#   scripts/scale.sh [--sizes 2M,20M,100M] [--huge] [--instanced] [--taus 1,5]
+#                    [--modes vfc,chc,hzb,prev,switch] [--frames N] [--size WxH] [--cost-adaptive] --out DIR
 #
 # --huge adds the billion-triangle plant: 27 GB of disk (13 GB more while it builds, 3 GB of
-# memory, about 8 minutes here); keep DIR under out/ (ignored by git).
+# memory, about 8 minutes here); keep DIR under out/ (ignored by git). --instanced sweeps the
+# plant of catalogue parts instead (each part's mesh stored once; sizes as drawn, up to 20B).
 set -euo pipefail
 args=() out=""
 while (($#)); do
   case "$1" in
-    --huge|--cost-adaptive) args+=("$1"); shift ;;
+    --huge|--cost-adaptive|--instanced) args+=("$1"); shift ;;
     --sizes|--taus|--modes|--frames|--size) args+=("$1" "$2"); shift 2 ;;
     --out) out=$(realpath -m "$2"); shift 2 ;;
     -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;

@@ -65,7 +65,7 @@ impl ChcState {
                         }
                     } else {
                         stats.occlusion_culled += 1;
-                        stats.culled_triangles += nodes[id as usize].triangles as u64;
+                        stats.culled_triangles += nodes[id as usize].triangles;
                     }
                 }
                 pending.clear();

@@ -222,7 +222,7 @@ fn traverse<E>(
                 refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
             } else {
                 stats.occlusion_culled += 1;
-                stats.culled_triangles += nodes[id as usize].triangles as u64;
+                stats.culled_triangles += nodes[id as usize].triangles;
             }
         }
         // Occluders where OR drew none (a region came into view): the PVS's new LODs, for

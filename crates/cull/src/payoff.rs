@@ -52,7 +52,7 @@ pub struct CullCounts {
 
 /// Triangles of LOD nodes `ids` by the node table (OR's occluders in a steady state: the PVS).
 pub fn triangles(nodes: &[osw_scene::NodeRecord], ids: &[osw_scene::NodeId]) -> u64 {
-    ids.iter().map(|&id| nodes[id as usize].triangles as u64).sum()
+    ids.iter().map(|&id| nodes[id as usize].triangles).sum()
 }
 
 /// Most frames skipped between two probes.

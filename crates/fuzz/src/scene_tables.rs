@@ -8,7 +8,7 @@ use bytemuck::pod_read_unaligned;
 use osw_cull::hc::frustum_cull;
 use osw_cull::view::View;
 use osw_scene::Camera;
-use osw_scene::format::{BLOCK_BYTES, BlockRecord, Header, NodeKind, NodeRecord};
+use osw_scene::format::{BLOCK_BYTES, BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, NODE_BYTES, NodeKind, NodeRecord};
 use osw_scene::writer::{content_hash, header_hash};
 use std::path::Path;
 
@@ -21,10 +21,14 @@ fn rehash(bytes: &mut [u8]) {
         let end = off.checked_add(count as u64 * size)?;
         bytes.get(off as usize..usize::try_from(end).ok()?)
     };
-    if let (Some(n), Some(b)) = (table(h.nodes_offset, h.node_count, 64), table(h.blocks_offset, h.block_count, BLOCK_BYTES)) {
+    let n = table(h.nodes_offset, h.node_count, NODE_BYTES);
+    let b = table(h.blocks_offset, h.block_count, BLOCK_BYTES);
+    let i = table(h.instances_offset, h.instance_count, INSTANCE_BYTES);
+    if let (Some(n), Some(b), Some(i)) = (n, b, i) {
         let nodes: Vec<NodeRecord> = bytemuck::pod_collect_to_vec(n);
         let blocks: Vec<BlockRecord> = bytemuck::pod_collect_to_vec(b);
-        h.content_hash = content_hash(&h, &nodes, &blocks);
+        let instances: Vec<InstanceRecord> = bytemuck::pod_collect_to_vec(i);
+        h.content_hash = content_hash(&h, &nodes, &blocks, &instances);
     }
     h.header_hash = header_hash(&h);
     bytes[..hs].copy_from_slice(bytemuck::bytes_of(&h));

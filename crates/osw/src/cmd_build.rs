@@ -1,7 +1,7 @@
 //! `osw build`: input (glTF, GLB, OBJ, PLY or a generator) → scene file + `<scene>.build.json`.
 
 use anyhow::{Context, bail};
-use osw_scene::build::Lod;
+use osw_scene::build::{Instances, Lod};
 use osw_scene::generators::GenKind;
 use osw_scene::source::{InMemory, Shifted, Source};
 use osw_scene::{BuildOptions, build};
@@ -25,6 +25,10 @@ pub struct Args {
     /// Seed of a generated scene (same seed, same scene, same content hash).
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// With --gen plant: the plant made of catalogue parts (bay designs, each object a use of
+    /// its design's mesh, 2.5% of the triangles unique), up to 20B triangles as drawn.
+    #[arg(long)]
+    instanced: bool,
     /// Largest chunk in triangles (objects above it are split).
     #[arg(long, default_value_t = osw_scene::limits::CHUNK_TRIANGLES, value_name = "N")]
     chunk_triangles: u32,
@@ -50,14 +54,22 @@ pub struct Args {
     /// surface, Yoon 2003's view-dependent rendering as meshoptimizer's clusterlod builds it).
     #[arg(long, default_value_t = Lod::Chains, value_name = "chains|clusters")]
     lod: Lod,
+    /// A mesh the input uses several times (glTF nodes sharing a mesh, EXT_mesh_gpu_instancing):
+    /// `keep` stores it once with a transform per use; `expand` stores a placed copy per use
+    /// (the same triangles: for comparisons). Either way it is cleaned and simplified once, in
+    /// its own frame. With `--lod clusters` every use is expanded.
+    #[arg(long, default_value = "keep", value_name = "keep|expand")]
+    instances: Instances,
     /// Output scene file; the report goes beside it as <scene>.build.json. A temporary
     /// <scene>.osw.spill of about the input's size lies beside it while building.
     #[arg(short, long)]
     output: PathBuf,
 }
 
-/// Most triangles of a generated scene: node and header triangle counts are u32.
+/// Most triangles of a generated scene: a plant's leaves, LODs and HLODs take node ids (u32)
+/// and table memory by the chunk; an instanced plant's triangles cost the file nothing.
 const MOST_TRIANGLES: u64 = 4_000_000_000;
+const MOST_INSTANCED: u64 = 20_000_000_000;
 /// Most triangles of a generator that makes its scene in memory (all but the plant): about 6 GB
 /// of mesh and build tables at 100M.
 const MOST_IN_MEMORY: u64 = 100_000_000;
@@ -98,11 +110,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             (Box::new(InMemory::new(imported.objects)), path.display().to_string(), notes)
         }
         (None, Some(kind)) => {
-            if a.triangles > MOST_TRIANGLES {
+            if a.instanced && kind != GenKind::Plant {
+                bail!("--instanced is a plant of catalogue parts: it needs --gen plant");
+            }
+            let most = if a.instanced { MOST_INSTANCED } else { MOST_TRIANGLES };
+            if a.triangles > most {
                 bail!(
-                    "--triangles {} is above the {}M a scene file holds (triangle counts are u32)",
+                    "--triangles {} is above the {}M this generator makes (node ids are u32; --instanced takes up to {}M)",
                     a.triangles,
-                    MOST_TRIANGLES / 1_000_000
+                    most / 1_000_000,
+                    MOST_INSTANCED / 1_000_000
                 );
             }
             if kind != GenKind::Plant && a.triangles > MOST_IN_MEMORY {
@@ -113,9 +130,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     MOST_IN_MEMORY / 1_000_000
                 );
             }
-            let input = format!("--gen {kind:?} --triangles {} --seed {}", a.triangles, a.seed).to_lowercase();
+            let instanced = if a.instanced { " --instanced" } else { "" };
+            let input = format!("--gen {kind:?}{instanced} --triangles {} --seed {}", a.triangles, a.seed).to_lowercase();
             let (source, notes): (Box<dyn Source>, _) = match kind {
                 // The plant streams (a site of any size); the others are small by nature.
+                GenKind::Plant if a.instanced => {
+                    (Box::new(osw_scene::generators::plant::Site::instanced(a.triangles.max(1_000), a.seed)), Vec::new())
+                }
                 GenKind::Plant => (Box::new(osw_scene::generators::plant::Site::new(a.triangles.max(1_000), a.seed)), Vec::new()),
                 _ => {
                     let g = osw_scene::generators::generate(kind, a.triangles, a.seed);
@@ -136,6 +157,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         model_colors: a.colors == Colors::Model,
         bucket_triangles: a.bucket_triangles,
         lod: a.lod,
+        instances: a.instances,
     };
     let report = build(source.as_mut(), &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
@@ -164,6 +186,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             report.simplified_groups,
             report.cluster_levels_max,
             report.cut_nodes
+        );
+    }
+    if report.instances > 0 {
+        out!(
+            "repeats: {} uses of meshes used more than once, {} triangles of {} unique; {} meshes stored once, {:.1} MB of blocks shared",
+            report.instances,
+            report.instanced_triangles,
+            report.unique_triangles,
+            report.prototypes,
+            report.bytes_saved as f64 / 1e6
         );
     }
     out!("colours: {} of {} objects have none of their own (drawn in hashed colours)", report.objects_without_color, report.objects);

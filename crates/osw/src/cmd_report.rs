@@ -220,7 +220,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bail!("--adaptive: {t} is not a threshold (a finite number ≥ 0)");
     }
     let scene = osw_scene::SceneFile::open(&a.walk.scene)?;
-    let scene_triangles = scene.header().leaf_triangles as u64;
+    let scene_triangles = scene.header().leaf_triangles;
     let scene_hash = osw_scene::format::hash_hex(scene.content_hash());
     drop(scene);
     std::fs::create_dir_all(a.out.join("runs"))?;

@@ -27,6 +27,11 @@ pub struct Args {
     /// Add the billion-triangle plant (1B) to the sizes.
     #[arg(long)]
     huge: bool,
+    /// The instanced plant (`osw build --gen plant --instanced`: catalogue parts stored once),
+    /// files plant-instanced-SIZE.osw; sizes count the triangles as drawn (10B builds in
+    /// minutes).
+    #[arg(long)]
+    instanced: bool,
     /// Pixels-of-error thresholds to run each mode at.
     #[arg(long, value_delimiter = ',', default_value = "1,5")]
     taus: Vec<f64>,
@@ -131,20 +136,24 @@ fn strings(v: &[&str]) -> Vec<String> {
 }
 
 /// The plant of `triangles` and its walk in `out`, built unless there from an earlier sweep.
-fn scene(out: &Path, triangles: u64, frames: u32) -> anyhow::Result<(Scene, PathBuf, PathBuf)> {
+fn scene(out: &Path, triangles: u64, frames: u32, instanced: bool) -> anyhow::Result<(Scene, PathBuf, PathBuf)> {
     let name = label(triangles);
-    let file = out.join(format!("plant-{name}.osw"));
+    let file = out.join(format!("plant-{}{name}.osw", if instanced { "instanced-" } else { "" }));
     let report = file.with_extension("build.json");
     let timing = file.with_extension("seconds");
     if !(file.exists() && report.exists() && timing.exists()) {
         let t = Instant::now();
         let args = ["build", "--gen", "plant", "--triangles", &triangles.to_string(), "--seed", "1", "-o", &file.display().to_string()];
-        osw(&strings(&args), &file.with_extension("build.log"))?;
+        let mut args = strings(&args);
+        if instanced {
+            args.push("--instanced".into());
+        }
+        osw(&args, &file.with_extension("build.log"))?;
         std::fs::write(&timing, t.elapsed().as_secs_f64().to_string())?;
     }
     let r: BuildReport = results::read_json(&report)?;
     let build_seconds = std::fs::read_to_string(&timing)?.trim().parse().with_context(|| format!("{}: not seconds", timing.display()))?;
-    let walk = out.join(format!("plant-{name}-walk-{frames}.csv"));
+    let walk = file.with_file_name(format!("{}-walk-{frames}.csv", file.file_stem().and_then(|s| s.to_str()).unwrap_or("plant")));
     if !walk.exists() {
         let args = ["path", "--scene", &file.display().to_string(), "--kind", "walk", "--frames", &frames.to_string(), "--seed", "1"];
         let mut args = strings(&args);
@@ -249,7 +258,7 @@ pub fn run(mut a: Args) -> anyhow::Result<()> {
     let (mut scenes, mut rows) = (Vec::new(), Vec::new());
     for &n in &a.sizes {
         bar.set_message(format!("plant {}", label(n)));
-        let (s, file, walk) = scene(&a.out, n, a.frames).with_context(|| format!("the {}-triangle plant", label(n)))?;
+        let (s, file, walk) = scene(&a.out, n, a.frames, a.instanced).with_context(|| format!("the {}-triangle plant", label(n)))?;
         bar.inc(1);
         for &tau in &a.taus {
             for &mode in &a.modes {

@@ -191,8 +191,8 @@ fn corrupted_or_truncated_scene_files_are_refused_by_name() {
     let mut v = bytes.clone();
     v[8] = 99; // version
     info(&v, "version");
-    v[8] = 5; // a file of version 5 (no cluster hierarchy bounds): refused with how to rebuild it
-    info(&v, "scene format version 5, this build reads version 6; rebuild the scene with `osw build`");
+    v[8] = 6; // a file of version 6 (no instances): refused with how to rebuild it
+    info(&v, "scene format version 6, this build reads version 7; rebuild the scene with `osw build`");
     let h = *osw_scene::SceneFile::open(&good).unwrap().header();
     let mut v = bytes.clone();
     v[h.nodes_offset as usize + 100] ^= 0x40; // inside the node table
@@ -226,6 +226,11 @@ fn bad_command_lines_are_refused() {
     osw_err(&["build", "--gen", "city", "--chunk-triangles", "0", "-o", o.to_str().unwrap()], "chunk-triangles");
     osw_err(&["build", "--gen", "city", "--bucket-triangles", "0", "-o", o.to_str().unwrap()], "bucket-triangles");
     osw_err(&["build", "--gen", "plant", "--triangles", "5000000000", "-o", o.to_str().unwrap()], "u32");
+    osw_err(&["build", "--gen", "plant", "--instanced", "--triangles", "30000000000", "-o", o.to_str().unwrap()], "20000M");
+    osw_err(&["build", "--gen", "city", "--instanced", "-o", o.to_str().unwrap()], "needs --gen plant");
+    let out = osw(&["build", "--gen", "city", "--instances", "some", "-o", o.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected keep or expand"));
     osw_err(&["build", "--gen", "isosurface", "--triangles", "1000000000", "-o", o.to_str().unwrap()], "in memory");
     for f in ["1.5", "-0.1", "NaN"] {
         let arg = format!("--loose-split={f}");

@@ -104,12 +104,14 @@ fn write_chain_scene(path: &Path, tris: &[[DVec3; 3]]) {
         flags: 0,
         cut_hi: osw_scene::format::ErrorBound { center: [0.0; 3], radius: 0.0, error: 0.0 },
         cut_lo_error: 0.0,
+        instance: NONE,
+        _pad: 0,
     };
     let mut nodes = vec![record(NodeKind::Group, bounds(0..1), NONE); (bvh_count + n) as usize];
     for k in 0..n - 1 {
         let g = &mut nodes[2 * k as usize];
         *g = record(NodeKind::Group, bounds(k as usize..n as usize), if k == 0 { NONE } else { 2 * (k - 1) });
-        (g.first_child, g.child_count, g.triangles) = (2 * k + 1, 2, n - k);
+        (g.first_child, g.child_count, g.triangles) = (2 * k + 1, 2, (n - k) as u64);
     }
     for k in 0..n {
         let (id, parent) = (leaf_id(k), if k + 1 == n { 2 * (n - 2) } else { 2 * k });
@@ -129,7 +131,7 @@ fn write_chain_scene(path: &Path, tris: &[[DVec3; 3]]) {
         blocks,
         object_count: n,
         leaf_count: n,
-        leaf_triangles: n,
+        leaf_triangles: n as u64,
         closed_objects: Vec::new(),
     };
     osw_scene::writer::write_scene(path, &data).unwrap();

@@ -83,7 +83,7 @@ pub fn cull_error(scene: &SceneFile, pvs: &[NodeId], exact_leaves: &[NodeId], ex
     for &id in pvs {
         let node = n.get(id as usize).filter(|x| x.kind() == NodeKind::Lod).ok_or_else(|| bad(id))?;
         drawn[node.parent as usize] = true;
-        pvs_triangles += node.triangles as u64;
+        pvs_triangles += node.triangles;
     }
     // BVH ids are breadth first: parents before children. covered: drawn or under a drawn
     // node; below: a node under it is drawn.

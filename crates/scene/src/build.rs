@@ -38,6 +38,30 @@ pub struct BuildOptions {
     pub bucket_triangles: u64,
     /// Static LOD chains per chunk, or a cluster hierarchy per object.
     pub lod: Lod,
+    /// A mesh that the input uses several times: stored once, or a copy per use.
+    pub instances: Instances,
+}
+
+/// What the build does with a mesh the input uses several times (a glTF mesh of several nodes,
+/// EXT_mesh_gpu_instancing). Both clean and cut it in its own frame and build its LOD chains
+/// once; `Expand` then writes each use's copy, placed, where `Keep` writes the use's transform.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Instances {
+    #[default]
+    Keep,
+    Expand,
+}
+
+impl std::str::FromStr for Instances {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Instances, String> {
+        match s {
+            "keep" => Ok(Instances::Keep),
+            "expand" => Ok(Instances::Expand),
+            _ => Err(format!("{s:?}: expected keep or expand")),
+        }
+    }
 }
 
 /// How a scene's detail is reduced.
@@ -76,6 +100,7 @@ impl Default for BuildOptions {
             model_colors: true,
             bucket_triangles: crate::limits::BUCKET_TRIANGLES,
             lod: Lod::Chains,
+            instances: Instances::Keep,
         }
     }
 }
@@ -131,14 +156,19 @@ pub struct BuildReport {
     pub degenerate_triangles_dropped: u64,
     /// Repeats: the input's triangles with each mesh that the input says several objects use
     /// (a glTF mesh of several nodes, EXT_mesh_gpu_instancing) counted once, after clean-up;
-    /// the triangles of those objects, and how many they are. Each is built and stored in
-    /// full today (`left_out` says so).
+    /// the triangles of those objects, and how many they are.
     #[serde(default)]
     pub unique_triangles: u64,
     #[serde(default)]
     pub instanced_triangles: u64,
     #[serde(default)]
     pub instances: u64,
+    /// Meshes stored once (`--instances keep`), and the bytes of geometry blocks their uses
+    /// share instead of storing a copy each.
+    #[serde(default)]
+    pub prototypes: u64,
+    #[serde(default)]
+    pub bytes_saved: u64,
     pub output_bytes: u64,
     pub content_hash: String,
     pub seconds: f64,
@@ -233,9 +263,6 @@ pub fn build(
         return Err(BuildError::TooLarge(format!("{} chunks need more than 2^32 node ids", s.chunks.len())));
     }
     let subtree_triangles = subtree_triangles(&tree, &s.chunks);
-    if subtree_triangles[0] > u32::MAX as u64 {
-        return Err(BuildError::TooLarge(format!("{} triangles: a scene holds at most 2^32", subtree_triangles[0])));
-    }
     let buckets = buckets(&tree, &subtree_triangles, opts.bucket_triangles.max(1));
     report.buckets = buckets.len() as u64;
     report.bucket_triangles = buckets.iter().map(|b| b.iter().map(|&r| subtree_triangles[r as usize]).sum::<u64>()).max().unwrap_or(0);
@@ -248,11 +275,25 @@ pub fn build(
     };
 
     let mut writer = SceneWriter::create(out).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
-    let mut built = Built::new(&tree, &s.chunks, &s.closed_objects, min_error, opts.lod, &owners);
+    let mut built =
+        Built::new(&tree, &s.chunks, &s.closed_objects, min_error, (opts.lod, opts.instances), &owners, (&s.prototypes, &s.instances));
+    // Each prototype's part is read and built in the first bucket that places it.
+    let mut first_bucket = vec![u32::MAX; s.prototypes.parts.len()];
+    for (k, bucket) in buckets.iter().enumerate() {
+        for id in crate::subtree::layers(&tree, bucket, |_| false).into_iter().flatten() {
+            if let Some(c) = tree[id as usize].item.map(|c| &s.chunks[c as usize]).filter(|c| c.part != crate::format::NONE) {
+                first_bucket[c.part as usize] = first_bucket[c.part as usize].min(k as u32);
+            }
+        }
+    }
     progress.stage("build", subtree_triangles[0]);
     // While a bucket is built on both cores, a thread reads the next one's chunks from the spill
     // (which no longer fits the page cache at 1B triangles, so reads wait for the disk).
-    let read = |k: usize| crate::subtree::read(&tree, &s.chunks, (&s.coarse, &owners.owned), &s.spill, &buckets[k]);
+    let read = |k: usize| {
+        crate::subtree::read(&tree, &s.chunks, (&s.coarse, &owners.owned), &s.spill, &buckets[k], |part| {
+            first_bucket[part as usize] == k as u32
+        })
+    };
     std::thread::scope(|scope| -> Result<(), BuildError> {
         let mut next = Some(scope.spawn(move || read(0)));
         for k in 0..buckets.len() {
@@ -278,16 +319,16 @@ pub fn build(
     drop(s.spill);
 
     progress.stage("tables", 1);
-    let (nodes, blocks) = times.run("tables", || built.tables(&mut report));
+    let (bvh, lods) = times.run("tables", || built.tables(&mut report));
     let fields = SceneFields {
         origin: s.origin.to_array(),
         bvh_count: tree.len() as u32,
         object_count: report.objects as u32,
         leaf_count: report.leaves as u32,
-        leaf_triangles: nodes[0].triangles,
+        leaf_triangles: bvh[0].triangles,
     };
     let (bytes, hash) = times
-        .run("write", || writer.finish(fields, &nodes, &blocks))
+        .run("write", || writer.finish(fields, &bvh, &lods, if opts.instances == Instances::Keep { &s.instances } else { &[] }))
         .map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
     report.output_bytes = bytes;
     report.content_hash = crate::format::hash_hex(hash);

@@ -5,10 +5,15 @@
 //! reads a page of geometry. A geometry block is checked (hash, index range) the first time it
 //! is read, so a corrupted block gives an error naming the block instead of a wrong picture.
 
-use crate::format::{BLOCK_BYTES, BlockRecord, ClusterRecord, Header, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord, VERSION};
+use crate::format::{
+    BLOCK_BYTES, BlockRecord, ClusterRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord,
+    VERSION,
+};
+use crate::instance::{Placed, Placement};
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
 use crate::writer::{content_hash, header_hash};
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 /// What is wrong with a scene file. Every message names what was expected.
@@ -33,6 +38,9 @@ pub struct SceneFile {
     header: Header,
     /// Per block: 0 = not yet checked, 1 = good, 2 = bad.
     checked: Vec<AtomicU8>,
+    /// Per LOD node (id less `bvh_count`) of an instance: its block placed, made the first
+    /// time it is read.
+    placed: Vec<OnceLock<Box<Placed>>>,
 }
 
 /// A view of one geometry block in the mapped file.
@@ -102,7 +110,9 @@ impl SceneFile {
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
         let header = validate(path, &map)?;
         let checked = (0..header.block_count).map(|_| AtomicU8::new(0)).collect();
-        Ok(SceneFile { path: path.to_owned(), map, header, checked })
+        let lods = header.node_count - header.bvh_count;
+        let placed = if header.instance_count == 0 { Vec::new() } else { (0..lods).map(|_| OnceLock::new()).collect() };
+        Ok(SceneFile { path: path.to_owned(), map, header, checked, placed })
     }
 
     pub fn path(&self) -> &Path {
@@ -143,14 +153,31 @@ impl SceneFile {
         blocks_of(&self.map, &self.header)
     }
 
+    /// The uses of meshes stored once ([`InstanceRecord`]).
+    pub fn instances(&self) -> &[InstanceRecord] {
+        instances_of(&self.map, &self.header)
+    }
+
     /// Whether LOD node `lod` has translucent triangles (false for other nodes).
     pub fn has_translucent(&self, lod: NodeId) -> bool {
         let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
         self.blocks().get(block as usize).is_some_and(BlockRecord::has_translucent)
     }
 
-    /// The geometry of LOD node `lod`, checked on first read.
+    /// The geometry of LOD node `lod` in the scene's frame, checked on first read; a node of an
+    /// instance gets its block placed ([`crate::instance`]) once.
     pub fn geometry(&self, lod: NodeId) -> Result<Geometry<'_>, SceneError> {
+        let g = self.stored_geometry(lod)?;
+        let instance = self.node(lod).instance;
+        if instance == NONE {
+            return Ok(g);
+        }
+        let placement = Placement::new(self.instances()[instance as usize].affine());
+        Ok(self.placed[(lod - self.header.bvh_count) as usize].get_or_init(|| Box::new(placement.geometry(&g))).over(&g))
+    }
+
+    /// The geometry of LOD node `lod` as stored: in its mesh's own frame for an instance's node.
+    pub fn stored_geometry(&self, lod: NodeId) -> Result<Geometry<'_>, SceneError> {
         let node = self
             .nodes()
             .get(lod as usize)
@@ -175,7 +202,7 @@ impl SceneFile {
     }
 }
 
-fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
+pub(crate) fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
     let (front, clusters) = bytes.split_at(rec.clusters_at() as usize);
     let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
     let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
@@ -212,6 +239,11 @@ fn blocks_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [BlockRecord] {
     bytemuck::cast_slice(&bytes[s..s + h.block_count as usize * BLOCK_BYTES as usize])
 }
 
+fn instances_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [InstanceRecord] {
+    let s = h.instances_offset as usize;
+    bytemuck::cast_slice(&bytes[s..s + h.instance_count as usize * INSTANCE_BYTES as usize])
+}
+
 /// Checks everything but the geometry bytes; returns the header.
 pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     let corrupt = |what: String| SceneError::Corrupt { path: path.to_owned(), what };
@@ -232,13 +264,14 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     if h.file_bytes != bytes.len() as u64 {
         return Err(SceneError::Truncated { path: path.to_owned(), expected: h.file_bytes, found: bytes.len() as u64 });
     }
-    let blocks_end = h.blocks_offset.checked_add(h.block_count as u64 * BLOCK_BYTES);
+    let instances_end = h.instances_offset.checked_add(h.instance_count as u64 * INSTANCE_BYTES);
     let layout_ok = h.header_bytes as usize == hsize
         && h.blob_offset == hsize as u64
         && h.blob_bytes.is_multiple_of(BLOCK_ALIGN)
         && h.blob_offset.checked_add(h.blob_bytes) == Some(h.nodes_offset)
         && crate::format::blocks_offset(h.nodes_offset, h.node_count) == Some(h.blocks_offset)
-        && blocks_end == Some(h.file_bytes);
+        && crate::format::instances_offset(h.blocks_offset, h.block_count) == Some(h.instances_offset)
+        && instances_end == Some(h.file_bytes);
     if !layout_ok {
         return Err(corrupt("section offsets do not match the counts".into()));
     }
@@ -250,7 +283,8 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     }
     let nodes = nodes_of(bytes, &h);
     let blocks = blocks_of(bytes, &h);
-    if content_hash(&h, nodes, blocks) != h.content_hash {
+    let instances = instances_of(bytes, &h);
+    if content_hash(&h, nodes, blocks, instances) != h.content_hash {
         return Err(corrupt("content hash mismatch in the node or block table".into()));
     }
     for (i, b) in blocks.iter().enumerate() {
@@ -265,7 +299,16 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
             return Err(corrupt(format!("block {i} record is out of range: {b:?}")));
         }
     }
+    for (i, k) in instances.iter().enumerate() {
+        let finite = k.linear.iter().chain(&k.translation).all(|v| v.is_finite());
+        if !finite || k.object >= h.object_count {
+            return Err(corrupt(format!("instance {i} has a non-finite transform or no object: {k:?}")));
+        }
+    }
     for (id, n) in nodes.iter().enumerate() {
+        if n.instance != NONE && n.instance >= h.instance_count {
+            return Err(corrupt(format!("node {id}: instance {} of {}", n.instance, h.instance_count)));
+        }
         check_node(id as u32, n, nodes, &h).map_err(|what| corrupt(format!("node {id}: {what}")))?;
     }
     Ok(h)

@@ -8,8 +8,9 @@
 //!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
 //!                       block has colours, [u16 or u32; index_count] in cluster order,
 //!                       padding to 4 bytes, then [ClusterRecord; cluster_count]
-//! header.nodes_offset   [NodeRecord; node_count]       92 bytes each, right after the blob
-//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each, 8-aligned, to the end
+//! header.nodes_offset   [NodeRecord; node_count]       104 bytes each, right after the blob
+//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each, 8-aligned
+//! header.instances_offset [InstanceRecord; instance_count] 104 bytes each, to the end
 //! ```
 //! The tables follow the blob because the build streams: blocks are written as each part of the
 //! model is built, and the tables are complete only at the end (see [`crate::build`]). Blocks
@@ -17,6 +18,11 @@
 //! All integers little-endian. Node ids are dense: ids `0..bvh_count` are BVH nodes in
 //! breadth-first order (root = 0), ids `bvh_count..node_count` are LOD and HLOD nodes, each its
 //! own id as in occlusion switch sec. 4.1; a BVH node's LODs are contiguous, finest first.
+//!
+//! A mesh that the model uses several times (a catalogue part) is stored once, in its own
+//! frame: the LOD nodes of each use name the same blocks and an [`InstanceRecord`] that places
+//! them (see [`crate::instance`]). Every use keeps its own node ids, so the wire, the visible
+//! sets and the hierarchy's tests do not know instances exist.
 //!
 //! Hashes (xxh3): `header_hash` covers the header with that field zeroed; `content_hash` covers
 //! the header's scene fields, the node table and the block table (which holds a hash of every
@@ -36,8 +42,10 @@ pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// triangles are grouped into clusters with bounds and normal cones (see [`ClusterRecord`]).
 /// 4: the tables follow the blob (an out-of-core build writes them last). 5: a block's
 /// translucent triangles are its last clusters ([`BlockRecord::opaque_clusters`]). 6: the
-/// cluster hierarchy: nodes and clusters carry [`Cut`] bounds (see [`crate::clod`]).
-pub const VERSION: u32 = 6;
+/// cluster hierarchy: nodes and clusters carry [`Cut`] bounds (see [`crate::clod`]). 7: a
+/// mesh used several times is stored once: nodes name an [`InstanceRecord`]; triangle counts
+/// of subtrees and the scene are u64.
+pub const VERSION: u32 = 7;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -55,8 +63,7 @@ pub struct Header {
     pub block_count: u32,
     pub object_count: u32,
     pub leaf_count: u32,
-    /// Triangles of the full-detail scene (all level-0 LODs).
-    pub leaf_triangles: u32,
+    pub instance_count: u32,
     pub nodes_offset: u64,
     pub blocks_offset: u64,
     pub blob_offset: u64,
@@ -64,7 +71,10 @@ pub struct Header {
     pub file_bytes: u64,
     pub content_hash: [u64; 2],
     pub header_hash: u64,
-    pub reserved: [u64; 16],
+    pub instances_offset: u64,
+    /// Triangles of the full-detail scene (all level-0 LODs, each use of a mesh counted).
+    pub leaf_triangles: u64,
+    pub reserved: [u64; 14],
 }
 
 /// A content hash as the reports and the handshake print it: 32 hex digits, high word first.
@@ -130,7 +140,7 @@ pub const FLAG_CUT: u32 = 1;
 /// chain), so that [`NodeRecord::cut_hi`] bounds every cut cluster below it.
 pub const FLAG_BOUNDED: u32 = 2;
 
-/// One node: 92 bytes.
+/// One node: 104 bytes.
 ///
 /// For a BVH node, `error` is the object-space error of its finest representation (0 for a leaf,
 /// whose level 0 is the original; the HLOD's error for a group with an HLOD; for a group
@@ -144,6 +154,9 @@ pub struct NodeRecord {
     pub kind: u32,
     pub bbox_max: [f32; 3],
     pub error: f32,
+    /// Triangles: of the block for a LOD node, of the full-detail subtree for a BVH node (each
+    /// use of a mesh counted: more than 2^32 in a large instanced scene).
+    pub triangles: u64,
     /// BVH parent for BVH nodes (NONE for the root), owning BVH node for LOD nodes.
     pub parent: u32,
     /// BVH children `first_child..first_child + child_count` (groups only).
@@ -156,8 +169,6 @@ pub struct NodeRecord {
     pub block: u32,
     /// Object the geometry came from (leaves and their LODs; NONE for groups and HLODs).
     pub object: u32,
-    /// Triangles: of the block for a LOD node, of the full-detail subtree for a BVH node.
-    pub triangles: u32,
     /// [`FLAG_CUT`], [`FLAG_BOUNDED`].
     pub flags: u32,
     /// A cut node: encloses its clusters' `hi` bounds, with the largest error (each cluster's
@@ -166,6 +177,10 @@ pub struct NodeRecord {
     pub cut_hi: ErrorBound,
     /// A cut node: the smallest error of its clusters' `lo` bounds. Zero otherwise.
     pub cut_lo_error: f32,
+    /// The use of a stored-once mesh this node belongs to ([`InstanceRecord`]), or NONE. A LOD
+    /// node's block is then in the mesh's own frame, its box and error in the scene's.
+    pub instance: u32,
+    pub _pad: u32,
 }
 
 impl NodeRecord {
@@ -272,6 +287,26 @@ impl ClusterRecord {
     }
 }
 
+/// One use of a mesh stored once: its LOD nodes' blocks are drawn at
+/// `linear · p + translation` (scene-local, column-major, f64 so that a use far out places its
+/// vertices as exactly as an expanded copy; see [`crate::place`]): 104 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct InstanceRecord {
+    pub linear: [f64; 9],
+    pub translation: [f64; 3],
+    /// The input's mesh (its index among the stored-once meshes).
+    pub prototype: u32,
+    /// The object this use is.
+    pub object: u32,
+}
+
+impl InstanceRecord {
+    pub fn affine(&self) -> glam::DAffine3 {
+        glam::DAffine3 { matrix3: glam::DMat3::from_cols_array(&self.linear), translation: glam::DVec3::from_array(self.translation) }
+    }
+}
+
 pub const NODE_BYTES: u64 = std::mem::size_of::<NodeRecord>() as u64;
 pub const BLOCK_BYTES: u64 = std::mem::size_of::<BlockRecord>() as u64;
 
@@ -281,6 +316,13 @@ pub fn blocks_offset(nodes_offset: u64, node_count: u32) -> Option<u64> {
     Some(nodes_offset.checked_add(node_count as u64 * NODE_BYTES)?.next_multiple_of(8))
 }
 pub const CLUSTER_BYTES: u64 = std::mem::size_of::<ClusterRecord>() as u64;
+pub const INSTANCE_BYTES: u64 = std::mem::size_of::<InstanceRecord>() as u64;
+
+/// Where the instance table starts after `block_count` blocks at `blocks_offset` (8-aligned
+/// already: blocks are 40 bytes).
+pub fn instances_offset(blocks_offset: u64, block_count: u32) -> Option<u64> {
+    blocks_offset.checked_add(block_count as u64 * BLOCK_BYTES)
+}
 
 #[cfg(test)]
 mod tests {
@@ -289,7 +331,8 @@ mod tests {
     #[test]
     fn record_sizes_are_stable() {
         assert_eq!(std::mem::size_of::<Header>(), 256);
-        assert_eq!(std::mem::size_of::<NodeRecord>(), 92);
+        assert_eq!(std::mem::size_of::<NodeRecord>(), 104);
+        assert_eq!(std::mem::size_of::<InstanceRecord>(), 104);
         assert_eq!(std::mem::size_of::<BlockRecord>(), 40);
         assert_eq!(std::mem::size_of::<ClusterRecord>(), 140);
     }

@@ -5,6 +5,7 @@
 //! - [`import`]: glTF 2.0 (.gltf/.glb) and PLY readers; [`generators`]: the city, teapots and plant
 //!   generators.
 //! - [`place`]: one scene origin for the objects' f64 world coordinates, scene-local f32.
+//! - [`instance`]: a mesh used several times stored once, and how one use places its blocks.
 //! - [`chunk`]: splits large objects into chunks of bounded triangle count, and halves chunks
 //!   whose box is loose.
 //! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
@@ -31,6 +32,7 @@ pub mod format;
 pub mod generators;
 pub mod hlod;
 pub mod import;
+pub mod instance;
 pub mod limits;
 pub mod lod;
 pub mod mesh;

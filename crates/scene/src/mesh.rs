@@ -54,7 +54,8 @@ pub struct Object {
     /// nothing is composed at a large magnitude (see [`crate::place`]). Zero once placed.
     pub anchor: glam::DVec3,
     /// The input's mesh this object is a use of, where the input names one (a glTF mesh):
-    /// objects of one prototype have the same mesh.
+    /// objects of one prototype have the same mesh. A use after the first may come with an
+    /// empty mesh (a generator's catalogue part): the build takes the one given first.
     pub prototype: Option<u32>,
 }
 

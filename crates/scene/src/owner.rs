@@ -76,7 +76,7 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let mut spill = crate::spill::Spill::create(&d.path().join("s.osw")).unwrap();
         let r = spill.append(&crate::clod::Piece::default()).unwrap();
-        let at = |b: Aabb, object: u32| Chunk { bounds: b, object, triangles: 1, spill: r };
+        let at = |b: Aabb, object: u32| Chunk::own(b, object, 1, r);
         let chunks: Vec<Chunk> = boxes.iter().enumerate().map(|(i, &b)| at(b, i as u32 / 2)).collect();
         let coarse = [at(boxes[0], 0), at(boxes[0].union(boxes[1]), 0), at(boxes[3], 1)];
         let o = owners(&tree, &chunks, &coarse, 2);

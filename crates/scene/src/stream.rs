@@ -1,15 +1,22 @@
 //! Stage 1 of the build: the source's batches → placement around one origin → clean-up → chunks
 //! (and, for cluster hierarchies, the simplified groups: [`crate::clod`]), appended to the
 //! spill file. Of each only its box and where it lies stay in memory.
+//!
+//! A mesh that the input uses several times (with LOD chains) goes another way: at its first
+//! use it is cleaned and cut into chunks in its own frame, once; each use then adds an
+//! [`InstanceRecord`] and a chunk per part with the part's placed box (see [`crate::instance`]).
 
 use crate::aabb::Aabb;
-use crate::build::{BuildError, BuildOptions, BuildReport, Lod, Progress, Times};
+use crate::build::{BuildError, BuildOptions, BuildReport, Instances, Lod, Progress, Times};
 use crate::chunk::SplitOptions;
 use crate::clod::Piece;
-use crate::mesh::{CleanStats, Object};
+use crate::format::{InstanceRecord, NONE};
+use crate::instance::Placement;
+use crate::mesh::{CleanStats, Mesh, MeshError, Object};
 use crate::source::Source;
 use crate::spill::{Sealed, Spill, SpillRef};
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 use std::path::Path;
 
 /// A chunk, the unit of the BVH (one per leaf), or a simplified group of a cluster hierarchy:
@@ -18,6 +25,34 @@ use std::path::Path;
 pub struct Chunk {
     pub bounds: Aabb,
     pub object: u32,
+    pub triangles: u32,
+    pub spill: SpillRef,
+    /// The use of a stored-once mesh it is part of, and which of [`Prototypes::parts`] it
+    /// places (both NONE for a chunk of its own).
+    pub instance: u32,
+    pub part: u32,
+}
+
+impl Chunk {
+    pub fn own(bounds: Aabb, object: u32, triangles: u32, spill: SpillRef) -> Chunk {
+        Chunk { bounds, object, triangles, spill, instance: NONE, part: NONE }
+    }
+}
+
+/// The meshes stored once, cleaned and cut in their own frames.
+#[derive(Default)]
+pub struct Prototypes {
+    pub parts: Vec<Part>,
+    /// Per prototype: its box when it is closed and wound outwards, and the largest scale of
+    /// its uses (its LODs' errors are bounded in the scene's units through it).
+    pub closed: Vec<Option<Aabb>>,
+    pub scale: Vec<f32>,
+}
+
+/// A chunk of a prototype, in its frame.
+#[derive(Clone, Copy, Debug)]
+pub struct Part {
+    pub prototype: u32,
     pub triangles: u32,
     pub spill: SpillRef,
 }
@@ -31,6 +66,8 @@ pub struct Streamed {
     /// Per object: its box when it is closed and wound outwards (see [`crate::cluster`]).
     pub closed_objects: Vec<Option<Aabb>>,
     pub origin: glam::DVec3,
+    pub prototypes: Prototypes,
+    pub instances: Vec<InstanceRecord>,
 }
 
 pub fn stream(
@@ -42,27 +79,49 @@ pub fn stream(
     progress: &dyn Progress,
 ) -> Result<Streamed, BuildError> {
     let origin = source.world_bounds().origin();
-    let mut spill = Spill::create(out).map_err(|e| BuildError::temp(out, e))?;
+    let spill = Spill::create(out).map_err(|e| BuildError::temp(out, e))?;
     let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
-    let (mut chunks, mut coarse, mut closed_objects) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut seen, mut clean_stats, mut empty, mut colors_dropped) = (0, CleanStats::default(), Vec::new(), 0);
-    let mut repeats = Repeats::default();
+    // Meshes are stored once only with LOD chains: a cluster hierarchy's groups coarser than a
+    // chunk belong to BVH nodes (crate::owner), which differ from use to use.
+    let instancing = opts.lod == Lod::Chains;
+    let mut s = Stream {
+        spill,
+        report,
+        chunks: Vec::new(),
+        coarse: Vec::new(),
+        closed_objects: Vec::new(),
+        prototypes: Prototypes::default(),
+        seen: FxHashMap::default(),
+        instances: Vec::new(),
+        repeats: Repeats::default(),
+        clean_stats: CleanStats::default(),
+        empty: Vec::new(),
+    };
+    let (mut seen, mut colors_dropped) = (0, 0);
     progress.stage("input", source.triangles_hint());
     loop {
         if progress.cancelled() {
             return Err(BuildError::Interrupted);
         }
         let Some(mut batch) = times.run("input", || source.next_batch()) else { break };
-        let triangles: u64 = batch.iter().map(|o| o.mesh.triangle_count() as u64).sum();
-        report.input_triangles += triangles;
-        times.run("place", || crate::place::to_local(&mut batch, origin));
+        let before = s.report.input_triangles;
+        s.report.input_triangles += batch.iter().map(|o| o.mesh.triangle_count() as u64).sum::<u64>();
         if !opts.model_colors {
             colors_dropped += batch.iter().filter(|o| !o.mesh.colors.is_empty()).count();
             batch.iter_mut().for_each(|o| o.mesh.colors = Vec::new());
         }
-        let cleaned = times.run("clean", || clean(batch, seen))?;
-        seen += cleaned.len();
-        cleaned.iter().for_each(|(o, _)| repeats.add(o));
+        let first = seen;
+        seen += batch.len();
+        let (uses, mut own): (Vec<_>, Vec<_>) =
+            batch.into_iter().enumerate().map(|(i, o)| (first + i, o)).partition(|(_, o)| instancing && o.prototype.is_some());
+        for (index, o) in uses {
+            if let Some(o) = times.run("clean", || s.add_use(index, o, origin, split))? {
+                own.push((index, o));
+            }
+        }
+        let (indices, mut own): (Vec<usize>, Vec<Object>) = own.into_iter().unzip();
+        times.run("place", || crate::place::to_local(&mut own, origin));
+        let cleaned = times.run("clean", || clean(indices.into_iter().zip(own).collect()))?;
         // Whether each object is closed and wound outwards is decided on the whole object,
         // before chunks cut it open (see crate::cluster).
         let split: Vec<_> = times.run("chunk", || {
@@ -80,35 +139,35 @@ pub fn stream(
                             (h.chunks, h.coarse, 0, h.levels)
                         }
                     });
-                    (o.name, o.mesh.colors.is_empty(), o.mesh.translucent_triangles() as u64, stats, closed, chunks)
+                    let kept = Kept::of(&o.mesh);
+                    (o.name, o.prototype, kept, stats, closed, chunks)
                 })
                 .collect()
         });
         times.run("spill", || -> Result<(), BuildError> {
-            for (name, uncolored, translucent, stats, closed, split) in split {
-                clean_stats.add(stats);
+            for (name, prototype, kept, stats, closed, split) in split {
+                s.clean_stats.add(stats);
                 let Some((pieces, simplified, loose_splits, levels)) = split else {
-                    empty.push(name);
+                    s.empty.push(name);
                     continue;
                 };
-                let object = closed_objects.len() as u32;
-                closed_objects.push(closed);
-                report.objects_without_color += u64::from(uncolored);
-                report.translucent_triangles += translucent;
-                report.translucent_objects += u64::from(translucent > 0);
-                report.loose_splits += loose_splits as u64;
-                report.cluster_levels_max = report.cluster_levels_max.max(levels as u64);
-                for (to, pieces) in [(&mut chunks, &pieces), (&mut coarse, &simplified)] {
+                s.repeats.add(prototype, kept.triangles);
+                let object = s.object(closed, &kept);
+                s.report.loose_splits += loose_splits as u64;
+                s.report.cluster_levels_max = s.report.cluster_levels_max.max(levels as u64);
+                for (coarse, pieces) in [(false, &pieces), (true, &simplified)] {
                     for p in pieces {
-                        let at = spill.append(p).map_err(|e| BuildError::temp(spill.path(), e))?;
-                        to.push(Chunk { bounds: p.mesh.bounds(), object, triangles: p.mesh.triangle_count() as u32, spill: at });
+                        let at = s.spill.append(p).map_err(|e| BuildError::temp(s.spill.path(), e))?;
+                        let c = Chunk::own(p.mesh.bounds(), object, p.mesh.triangle_count() as u32, at);
+                        if coarse { s.coarse.push(c) } else { s.chunks.push(c) }
                     }
                 }
             }
             Ok(())
         })?;
-        progress.advance(triangles);
+        progress.advance(s.report.input_triangles - before);
     }
+    let Stream { spill, report, chunks, coarse, closed_objects, prototypes, instances, repeats, clean_stats, empty, .. } = s;
     report.objects = closed_objects.len() as u64;
     report.chunks = chunks.len() as u64;
     report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
@@ -125,19 +184,164 @@ pub fn stream(
         let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();
         report.left_out.push(format!("{} objects with no triangles left after clean-up, e.g. {}", empty.len(), names.join(", ")));
     }
-    repeats.report(report);
+    let why = match (instancing, opts.instances) {
+        (false, _) => Some("cluster hierarchies (--lod clusters) are built per object"),
+        (true, Instances::Expand) => Some("--instances expand"),
+        (true, Instances::Keep) => None,
+    };
+    repeats.report(report, why);
+    report.prototypes = if why.is_none() { prototypes.closed.len() as u64 } else { 0 };
     if chunks.is_empty() {
         return Err(BuildError::Empty(format!("no triangles in the input ({} objects)", empty.len())));
     }
     report.temp_bytes = spill.bytes();
     let spill = spill.seal().map_err(|e| BuildError::temp(out, e))?;
-    Ok(Streamed { chunks, coarse, spill, closed_objects, origin })
+    Ok(Streamed { chunks, coarse, spill, closed_objects, origin, prototypes, instances })
 }
 
-/// Per prototype: its first use's triangles after clean-up, its uses and their triangles
-/// (clean-up runs after placement, in the scene's f32 coordinates, so a use turned otherwise
-/// may keep a few near-degenerate triangles more or fewer); the triangles of objects of no
-/// prototype.
+/// What the stream gathers, object by object.
+struct Stream<'a> {
+    spill: Spill,
+    report: &'a mut BuildReport,
+    chunks: Vec<Chunk>,
+    coarse: Vec<Chunk>,
+    closed_objects: Vec<Option<Aabb>>,
+    prototypes: Prototypes,
+    /// The input's meshes seen so far that objects use, by the input's index.
+    seen: FxHashMap<u32, Seen>,
+    instances: Vec<InstanceRecord>,
+    repeats: Repeats,
+    clean_stats: CleanStats,
+    empty: Vec<String>,
+}
+
+/// A prototype while the input streams: what each of its uses needs.
+struct Seen {
+    /// Of the input's mesh: a use with another mesh under the same index is an object of its own.
+    hash: u64,
+    /// The input mesh's triangles (a use that comes without it stands for as many).
+    input: u64,
+    /// Its index among the prototypes and its first part.
+    index: u32,
+    first_part: u32,
+    /// Its parts' boxes and positions, for each use's placed boxes.
+    parts: Vec<(Aabb, Vec<[f32; 3]>)>,
+    kept: Kept,
+}
+
+/// Of an object's mesh after clean-up: what the report counts.
+#[derive(Clone, Copy)]
+struct Kept {
+    triangles: u64,
+    translucent: u64,
+    uncolored: bool,
+}
+
+impl Kept {
+    fn of(mesh: &Mesh) -> Kept {
+        Kept {
+            triangles: mesh.triangle_count() as u64,
+            translucent: mesh.translucent_triangles() as u64,
+            uncolored: mesh.colors.is_empty(),
+        }
+    }
+}
+
+impl Stream<'_> {
+    /// A new object; returns its id.
+    fn object(&mut self, closed: Option<Aabb>, kept: &Kept) -> u32 {
+        self.report.objects_without_color += u64::from(kept.uncolored);
+        self.report.translucent_triangles += kept.translucent;
+        self.report.translucent_objects += u64::from(kept.translucent > 0);
+        self.closed_objects.push(closed);
+        self.closed_objects.len() as u32 - 1
+    }
+
+    /// A use of a mesh the input names (the input's `index`-th object): its instance and its
+    /// placed parts, the mesh cleaned and cut at its first use. Hands back an object whose mesh
+    /// is not the one its index named first, to be built as its own.
+    fn add_use(&mut self, index: usize, o: Object, origin: glam::DVec3, split: SplitOptions) -> Result<Option<Object>, BuildError> {
+        let key = o.prototype.expect("a use names its mesh");
+        let given = !(o.mesh.is_empty() && self.seen.contains_key(&key));
+        let hash = if given { mesh_hash(&o.mesh) } else { 0 };
+        if given && self.seen.get(&key).is_some_and(|s| s.hash != hash) {
+            return Ok(Some(o));
+        }
+        if !given {
+            self.report.input_triangles += self.seen[&key].input;
+        }
+        if !self.seen.contains_key(&key) {
+            let input = o.mesh.triangle_count() as u64;
+            let (mesh, stats) = o.mesh.clone().clean().map_err(|source| BuildError::Mesh { index, name: o.name.clone(), source })?;
+            self.clean_stats.add(stats);
+            let closed = crate::cluster::Parts::of(&mesh).all_closed().then(|| mesh.bounds());
+            let c = crate::chunk::split(&mesh, split);
+            self.report.loose_splits += c.loose_splits as u64;
+            let prototype = self.prototypes.closed.len() as u32;
+            self.prototypes.closed.push(closed);
+            self.prototypes.scale.push(0.0);
+            let first_part = self.prototypes.parts.len() as u32;
+            let mut parts = Vec::with_capacity(c.meshes.len());
+            for m in c.meshes {
+                let spill = self.spill.append(&Piece::always(m.clone())).map_err(|e| BuildError::temp(self.spill.path(), e))?;
+                self.prototypes.parts.push(Part { prototype, triangles: m.triangle_count() as u32, spill });
+                parts.push((m.bounds(), m.positions));
+            }
+            self.seen.insert(key, Seen { hash, input, index: prototype, first_part, parts, kept: Kept::of(&mesh) });
+        }
+        let s = &self.seen[&key];
+        if s.kept.triangles == 0 {
+            self.empty.push(o.name);
+            return Ok(None);
+        }
+        // Whole units apart (see crate::place): the same translation wherever the model stands.
+        let shift = o.anchor - origin;
+        let place = Placement::new(glam::DAffine3 { matrix3: o.placement.matrix3, translation: o.placement.translation + shift });
+        let mut chunks = Vec::with_capacity(s.parts.len());
+        for (k, (bounds, positions)) in s.parts.iter().enumerate() {
+            // A part turned off the axes is boxed by its vertices placed.
+            let placed = if place.axis_aligned { place.bounds(*bounds) } else { Aabb::from_points(&place.points(positions)) };
+            if !(placed.min.is_finite() && placed.max.is_finite()) {
+                let points = place.points(positions);
+                let (vertex, &pos) =
+                    points.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())).unwrap_or((0, &[f32::INFINITY; 3]));
+                return Err(BuildError::Mesh { index, name: o.name, source: MeshError::NonFinite { vertex, pos } });
+            }
+            let part = s.first_part + k as u32;
+            let triangles = self.prototypes.parts[part as usize].triangles;
+            let at = self.prototypes.parts[part as usize].spill;
+            chunks.push(Chunk { instance: self.instances.len() as u32, part, ..Chunk::own(placed, NONE, triangles, at) });
+        }
+        let (prototype, kept) = (s.index, s.kept);
+        let closed = self.prototypes.closed[prototype as usize].map(|b| place.bounds(b));
+        let scale = &mut self.prototypes.scale[prototype as usize];
+        *scale = scale.max(place.scale);
+        self.repeats.add(Some(key), kept.triangles);
+        let object = self.object(closed, &kept);
+        self.chunks.extend(chunks.into_iter().map(|c| Chunk { object, ..c }));
+        self.instances.push(InstanceRecord {
+            linear: place.affine.matrix3.to_cols_array(),
+            translation: place.affine.translation.to_array(),
+            prototype,
+            object,
+        });
+        Ok(None)
+    }
+}
+
+/// Names a mesh's content (positions, indices and colours).
+fn mesh_hash(m: &Mesh) -> u64 {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    h.update(bytemuck::cast_slice(&m.positions));
+    h.update(bytemuck::cast_slice(&m.indices));
+    h.update(m.colors.as_flattened());
+    h.digest()
+}
+
+/// Per prototype: its triangles after clean-up, its uses and their triangles (a mesh not
+/// stored once is cleaned after placement, in the scene's f32 coordinates, so a use turned
+/// otherwise may keep a few near-degenerate triangles more or fewer); the triangles of objects
+/// of no prototype.
 #[derive(Default)]
 struct Repeats {
     prototypes: rustc_hash::FxHashMap<u32, Uses>,
@@ -152,9 +356,8 @@ struct Uses {
 }
 
 impl Repeats {
-    fn add(&mut self, o: &Object) {
-        let triangles = o.mesh.triangle_count() as u64;
-        match o.prototype {
+    fn add(&mut self, prototype: Option<u32>, triangles: u64) {
+        match prototype {
             Some(p) => {
                 let u = self.prototypes.entry(p).or_insert(Uses { first: triangles, uses: 0, triangles: 0 });
                 (u.uses, u.triangles) = (u.uses + 1, u.triangles + triangles);
@@ -163,31 +366,37 @@ impl Repeats {
         }
     }
 
-    fn report(&self, report: &mut BuildReport) {
+    /// The report's counts; `expanded` says why each use was stored in full, if it was.
+    fn report(&self, report: &mut BuildReport, expanded: Option<&str>) {
         let repeated = || self.prototypes.values().filter(|u| u.uses > 1);
         report.unique_triangles = self.single + self.prototypes.values().map(|u| u.first).sum::<u64>();
         report.instanced_triangles = repeated().map(|u| u.triangles).sum();
         report.instances = repeated().map(|u| u.uses).sum();
-        if report.instances > 0 {
+        if let Some(why) = expanded.filter(|_| report.instances > 0) {
             let once: u64 = repeated().map(|u| u.first).sum();
             report.left_out.push(format!(
-                "storing repeats once: {} objects are uses of {} meshes that the input uses more than once, {} triangles where {} would do; each use is built and stored in full",
+                "storing repeats once ({why}): {} objects are uses of {} meshes that the input uses more than once, {} triangles where {} would do; each use is built and stored in full",
                 report.instances,
                 repeated().count(),
                 report.instanced_triangles,
                 once
             ));
         }
+        if self.single > 0 && expanded.is_none() {
+            report.left_out.push(format!(
+                "looking for repeats the input does not name: {} triangles of objects with a mesh of their own are stored as they are (no search for identical meshes yet)",
+                self.single
+            ));
+        }
     }
 }
 
-/// Cleans a batch whose first object is the input's `first`-th (errors name it by that index).
-fn clean(batch: Vec<Object>, first: usize) -> Result<Vec<(Object, CleanStats)>, BuildError> {
+/// Cleans objects, each with its index in the input (errors name it by that index).
+fn clean(batch: Vec<(usize, Object)>) -> Result<Vec<(Object, CleanStats)>, BuildError> {
     batch
         .into_par_iter()
-        .enumerate()
-        .map(|(i, o)| {
-            let (mesh, stats) = o.mesh.clean().map_err(|source| BuildError::Mesh { index: first + i, name: o.name.clone(), source })?;
+        .map(|(index, o)| {
+            let (mesh, stats) = o.mesh.clean().map_err(|source| BuildError::Mesh { index, name: o.name.clone(), source })?;
             Ok((Object { mesh, ..o }, stats))
         })
         .collect()

@@ -13,16 +13,17 @@
 //! a cut takes one by one. Its coarsest representation is what its groups never simplify
 //! further, and a group gets an HLOD only where no object under it reaches outside it.
 
-use crate::build::{BuildError, BuildReport, Lod, Progress, Times};
+use crate::build::{BuildError, BuildReport, Instances, Lod, Progress, Times};
 use crate::bvh::BvhNode;
 use crate::clod::Piece;
-use crate::format::{BlockRecord, ErrorBound, FLAG_BOUNDED, FLAG_CUT, NONE, NodeKind, NodeRecord};
+use crate::format::{BlockRecord, ErrorBound, FLAG_BOUNDED, FLAG_CUT, InstanceRecord, NONE, NodeKind, NodeRecord};
 use crate::hlod::NoHlod;
+use crate::instance::Placement;
 use crate::lod::{Level, LodStats};
 use crate::mesh::Mesh;
 use crate::owner::Owners;
 use crate::spill::Sealed;
-use crate::stream::Chunk;
+use crate::stream::{Chunk, Prototypes};
 use crate::writer::{Encoded, SceneWriter, encode, encode_cut};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -36,6 +37,15 @@ pub struct Built<'a> {
     min_error: f32,
     lod: Lod,
     owners: &'a Owners,
+    prototypes: &'a Prototypes,
+    instances: &'a [InstanceRecord],
+    expand: bool,
+    /// The prototypes' parts built so far.
+    parts: FxHashMap<u32, PartLods>,
+    /// Bytes of the blocks that instances' nodes name, and of those blocks once each.
+    shared_bytes: u64,
+    part_bytes: u64,
+    part_triangles: u64,
     /// Per BVH node, its levels in `levels`: its cut node if any, then its static levels
     /// finest first (a group has at most its HLOD).
     lods: Vec<Range<u32>>,
@@ -50,12 +60,28 @@ pub struct Built<'a> {
     open: u64,
 }
 
+/// A part of a prototype built: its levels in its frame, finest first, and its coarsest.
+struct PartLods {
+    levels: Vec<PartLevel>,
+    coarsest: Level,
+}
+
+struct PartLevel {
+    bounds: crate::Aabb,
+    error: f32,
+    triangles: u64,
+    /// Written once (`--instances keep`), or kept to write a placed copy per use.
+    block: Result<BlockRecord, Encoded>,
+}
+
 /// Subtrees to build together: their nodes layer by layer, their leaves and the leaves'
-/// chunks, and the simplified groups their nodes own.
+/// chunks (empty for a leaf placing a prototype's part), the parts first needed here, and the
+/// simplified groups their nodes own.
 pub struct Bucket {
     layers: Vec<Vec<u32>>,
     leaves: Vec<u32>,
     meshes: Vec<Piece>,
+    parts: Vec<(u32, Mesh)>,
     owned: FxHashMap<u32, Owned>,
 }
 
@@ -80,19 +106,34 @@ pub fn read_owned(nodes: &[u32], (coarse, owned): (&[Chunk], &[Vec<u32>]), spill
 }
 
 /// Reads the chunks of the subtrees under `roots` from the spill, in the order they lie in it
-/// (the next bucket is read this way while the current one is built, see [`crate::build`]).
-pub fn read(tree: &[BvhNode], chunks: &[Chunk], coarse: (&[Chunk], &[Vec<u32>]), spill: &Sealed, roots: &[u32]) -> std::io::Result<Bucket> {
+/// (the next bucket is read this way while the current one is built, see [`crate::build`]),
+/// and the prototypes' parts for which `first_needed` says so.
+pub fn read(
+    tree: &[BvhNode],
+    chunks: &[Chunk],
+    coarse: (&[Chunk], &[Vec<u32>]),
+    spill: &Sealed,
+    roots: &[u32],
+    first_needed: impl Fn(u32) -> bool,
+) -> std::io::Result<Bucket> {
     let layers = layers(tree, roots, |_| false);
     let leaves: Vec<u32> = layers.iter().flatten().copied().filter(|&id| tree[id as usize].item.is_some()).collect();
     let chunk = |k: usize| &chunks[tree[leaves[k] as usize].item.expect("a leaf") as usize];
     let mut order: Vec<usize> = (0..leaves.len()).collect();
     order.sort_unstable_by_key(|&k| chunk(k).spill.offset);
     let mut meshes = vec![Piece::default(); leaves.len()];
+    let mut parts = Vec::new();
+    let mut part_read = rustc_hash::FxHashSet::default();
     for k in order {
-        meshes[k] = spill.read(&chunk(k).spill)?;
+        let c = chunk(k);
+        if c.part == NONE {
+            meshes[k] = spill.read(&c.spill)?;
+        } else if first_needed(c.part) && part_read.insert(c.part) {
+            parts.push((c.part, spill.read(&c.spill)?.mesh));
+        }
     }
     let owned = read_owned(&layers.concat(), coarse, spill)?;
-    Ok(Bucket { layers, leaves, meshes, owned })
+    Ok(Bucket { layers, leaves, meshes, parts, owned })
 }
 
 /// Breadth-first layers of the subtrees under `roots`, not entering `stop` nodes (which are
@@ -115,8 +156,9 @@ impl<'a> Built<'a> {
         chunks: &'a [Chunk],
         closed_objects: &'a [Option<crate::Aabb>],
         min_error: f32,
-        lod: Lod,
+        (lod, instances_option): (Lod, Instances),
         owners: &'a Owners,
+        (prototypes, instances): (&'a Prototypes, &'a [InstanceRecord]),
     ) -> Built<'a> {
         Built {
             tree,
@@ -125,6 +167,13 @@ impl<'a> Built<'a> {
             min_error,
             lod,
             owners,
+            prototypes,
+            instances,
+            expand: instances_option == Instances::Expand,
+            parts: FxHashMap::default(),
+            shared_bytes: 0,
+            part_bytes: 0,
+            part_triangles: 0,
             lods: vec![0..0; tree.len()],
             levels: Vec::new(),
             coarse: FxHashMap::default(),
@@ -144,7 +193,10 @@ impl<'a> Built<'a> {
         progress: &dyn Progress,
     ) -> Result<(), BuildError> {
         match self.lod {
-            Lod::Chains => self.leaves(&bucket.leaves, bucket.meshes.into_iter().map(|p| p.mesh).collect(), w, times, progress)?,
+            Lod::Chains => {
+                self.parts(bucket.parts, w, times)?;
+                self.leaves(&bucket.leaves, bucket.meshes.into_iter().map(|p| p.mesh).collect(), w, times, progress)?
+            }
             Lod::Clusters => {
                 let pieces = bucket.leaves.iter().zip(bucket.meshes).map(|(id, mut p)| {
                     if let Some((o, _)) = bucket.owned.remove(id) {
@@ -197,6 +249,13 @@ impl<'a> Built<'a> {
         progress: &dyn Progress,
     ) -> Result<(), BuildError> {
         let chunk = |id: u32| &self.chunks[self.tree[id as usize].item.expect("a leaf") as usize];
+        let (placing, own): (Vec<_>, Vec<_>) = leaves.iter().copied().zip(meshes).partition(|&(id, _)| chunk(id).part != NONE);
+        for (id, _) in placing {
+            self.place(id, w, times)?;
+            progress.advance(chunk(id).triangles as u64);
+        }
+        let (leaves, meshes): (Vec<u32>, Vec<Mesh>) = own.into_iter().unzip();
+        let leaves = &leaves[..];
         let min_error = self.min_error;
         let chains: Vec<(Vec<Level>, LodStats)> =
             times.run("lod", || meshes.into_par_iter().map(|m| crate::lod::chain(m, min_error)).collect());
@@ -215,11 +274,77 @@ impl<'a> Built<'a> {
         for ((&id, (mut levels, stats)), blocks) in leaves.iter().zip(chains).zip(encoded) {
             self.lod_stats.add(stats);
             let object = chunk(id).object;
-            let records = levels.iter().map(|l| level_record(id, l, object)).zip(blocks).collect();
+            let records = levels.iter().map(|l| mesh_record(id, l, object)).zip(blocks).collect();
             self.write(id, records, w, times)?;
             progress.advance(chunk(id).triangles as u64);
             self.coarse.insert(id, vec![levels.pop().expect("level 0")]);
         }
+        Ok(())
+    }
+
+    /// LOD chains of prototypes' `parts` (each in its mesh's frame), in their prototype's units:
+    /// a level's error in the scene is at most its scale times larger.
+    fn parts(&mut self, parts: Vec<(u32, Mesh)>, w: &mut SceneWriter, times: &mut Times) -> Result<(), BuildError> {
+        let p = self.prototypes;
+        let prototype = |part: u32| p.parts[part as usize].prototype as usize;
+        let min_error = self.min_error;
+        let chains: Vec<(u32, (Vec<Level>, LodStats))> = times.run("lod", || {
+            parts.into_par_iter().map(|(k, m)| (k, crate::lod::chain(m, min_error / p.scale[prototype(k)].max(1e-30)))).collect()
+        });
+        let encoded: Vec<Vec<Encoded>> = times.run("encode", || {
+            chains
+                .par_iter()
+                .map(|(k, (levels, _))| {
+                    let closed = p.closed[prototype(*k)];
+                    levels.iter().enumerate().map(|(i, l)| encode(&l.mesh, if i == 0 { closed } else { None })).collect()
+                })
+                .collect()
+        });
+        for ((k, (mut levels, stats)), blocks) in chains.into_iter().zip(encoded) {
+            self.lod_stats.add(stats);
+            let mut out = Vec::with_capacity(levels.len());
+            for (l, e) in levels.iter().zip(blocks) {
+                let block = if self.expand {
+                    Err(e)
+                } else {
+                    self.part_bytes += e.bytes.len().next_multiple_of(crate::limits::BLOCK_ALIGN as usize) as u64;
+                    self.part_triangles += l.mesh.triangle_count() as u64;
+                    Ok(times.run("write", || w.block(e)).map_err(|e| write_error(w, e))?)
+                };
+                out.push(PartLevel { bounds: l.mesh.bounds(), error: l.error, triangles: l.mesh.triangle_count() as u64, block });
+            }
+            self.parts.insert(k, PartLods { levels: out, coarsest: levels.pop().expect("level 0") });
+        }
+        Ok(())
+    }
+
+    /// The LOD nodes of leaf `id`, which places a prototype's part: the part's levels, placed.
+    fn place(&mut self, id: u32, w: &mut SceneWriter, times: &mut Times) -> Result<(), BuildError> {
+        let c = self.chunks[self.tree[id as usize].item.expect("a leaf") as usize];
+        let place = Placement::new(self.instances[c.instance as usize].affine());
+        let part = &self.parts[&c.part];
+        let start = self.levels.len() as u32;
+        for l in &part.levels {
+            // Simplification keeps a subset of the part's vertices, so the level lies in the leaf.
+            let b = place.bounds(l.bounds);
+            let bounds = crate::Aabb::new(b.min.max(c.bounds.min), b.max.min(c.bounds.max));
+            let record = NodeRecord { instance: c.instance, ..level_record(id, bounds, l.error * place.scale, l.triangles, c.object) };
+            let block = match &l.block {
+                Ok(block) => {
+                    self.shared_bytes += block.byte_len().next_multiple_of(crate::limits::BLOCK_ALIGN);
+                    *block
+                }
+                Err(e) => {
+                    let placed = crate::writer::place(e, &place);
+                    times.run("write", || w.block(placed)).map_err(|e| write_error(w, e))?
+                }
+            };
+            let record = if self.expand { NodeRecord { instance: NONE, ..record } } else { record };
+            self.levels.push((record, block));
+        }
+        self.lods[id as usize] = start..self.levels.len() as u32;
+        let coarsest = &part.coarsest;
+        self.coarse.insert(id, vec![Level { mesh: place.mesh(&coarsest.mesh), error: coarsest.error * place.scale }]);
         Ok(())
     }
 
@@ -267,7 +392,7 @@ impl<'a> Built<'a> {
             let mut records: Vec<(NodeRecord, Encoded)> = p.iter().map(|(p, object)| cut_record(g, p, *object)).zip(cut).collect();
             let coarse = match (hlod, e) {
                 (Ok(h), Some(e)) => {
-                    records.push((level_record(g, &h, NONE), e));
+                    records.push((mesh_record(g, &h, NONE), e));
                     vec![h]
                 }
                 (Err(why), _) => {
@@ -290,22 +415,23 @@ impl<'a> Built<'a> {
     fn write(&mut self, id: u32, levels: Vec<(NodeRecord, Encoded)>, w: &mut SceneWriter, times: &mut Times) -> Result<(), BuildError> {
         let start = self.levels.len() as u32;
         for (record, e) in levels {
-            let block = times
-                .run("write", || w.block(e))
-                .map_err(|e| BuildError::Write { path: w.partial_path().display().to_string(), error: e })?;
+            let block = times.run("write", || w.block(e)).map_err(|e| write_error(w, e))?;
             self.levels.push((record, block));
         }
         self.lods[id as usize] = start..self.levels.len() as u32;
         Ok(())
     }
 
-    /// The node table (BVH nodes breadth first, then each one's LODs contiguous, finest first)
-    /// and the block table (block k belongs to LOD node bvh_count + k).
-    pub fn tables(self, report: &mut BuildReport) -> (Vec<NodeRecord>, Vec<BlockRecord>) {
+    /// The node table: the BVH nodes breadth first, and after them each one's LOD nodes
+    /// contiguous, finest first, each with its block record (LOD node `bvh_count + k` has
+    /// block `k`). The LOD nodes are the built levels put in id order in place: at a billion
+    /// triangles they are most of the build's memory, and the writer streams them.
+    pub fn tables(mut self, report: &mut BuildReport) -> (Vec<NodeRecord>, Vec<(NodeRecord, BlockRecord)>) {
         let (tree, chunks) = (self.tree, self.chunks);
         let bvh_count = tree.len() as u32;
-        let mut nodes: Vec<NodeRecord> = Vec::with_capacity(tree.len() + self.levels.len());
-        let mut next_lod = bvh_count;
+        let mut nodes: Vec<NodeRecord> = Vec::with_capacity(tree.len());
+        let mut dest = vec![0u32; self.levels.len()];
+        let mut next_lod = 0u32;
         for (id, n) in tree.iter().enumerate() {
             let lods = self.lods[id].clone();
             let chunk = n.item.map(|c| &chunks[c as usize]);
@@ -323,24 +449,36 @@ impl<'a> Built<'a> {
                 parent: n.parent.unwrap_or(NONE),
                 first_child: if n.children.is_empty() { 0 } else { n.children.start },
                 child_count: n.children.len() as u32,
-                first_lod: next_lod,
+                first_lod: bvh_count + next_lod,
                 lod_count: lods.len() as u32,
                 block: NONE,
                 object: chunk.map_or(NONE, |c| c.object),
-                triangles: chunk.map_or(0, |c| c.triangles),
+                triangles: chunk.map_or(0, |c| c.triangles as u64),
                 flags: 0,
                 cut_hi: bytemuck::Zeroable::zeroed(),
                 cut_lo_error: 0.0,
+                instance: chunk.map_or(NONE, |c| if self.expand { NONE } else { c.instance }),
+                _pad: 0,
             });
-            next_lod += lods.len() as u32;
-        }
-        let mut blocks = Vec::with_capacity(self.levels.len());
-        for lods in &self.lods {
-            for (record, block) in &self.levels[lods.start as usize..lods.end as usize] {
-                nodes.push(NodeRecord { block: blocks.len() as u32, ..*record });
-                blocks.push(*block);
+            for k in lods {
+                dest[k as usize] = next_lod;
+                next_lod += 1;
             }
         }
+        // Into id order, cycle by cycle.
+        let levels = &mut self.levels;
+        for i in 0..levels.len() {
+            while dest[i] as usize != i {
+                let j = dest[i] as usize;
+                levels.swap(i, j);
+                dest.swap(i, j);
+            }
+        }
+        drop(dest);
+        for (k, (record, _)) in levels.iter_mut().enumerate() {
+            record.block = k as u32;
+        }
+        let lod = |l: u32| &levels[(l - bvh_count) as usize].0;
         // Bottom-up (children have larger ids): subtree triangles, the error of a group
         // without an HLOD (the largest of its children's, so errors never decrease going up),
         // and, where the subtree holds only cluster hierarchies, the bound of its cut nodes.
@@ -351,7 +489,7 @@ impl<'a> Built<'a> {
                 continue;
             }
             nodes[id].triangles = n.children().map(|c| nodes[c as usize].triangles).sum();
-            if n.lods().all(|l| nodes[l as usize].is_cut()) {
+            if n.lods().all(|l| lod(l).is_cut()) {
                 nodes[id].error = n.children().map(|c| nodes[c as usize].error).fold(0.0, f32::max);
             }
             if n.children().all(|c| nodes[c as usize].is_bounded()) {
@@ -359,7 +497,7 @@ impl<'a> Built<'a> {
                     .children()
                     .flat_map(|c| {
                         let c = &nodes[c as usize];
-                        let cut = c.lods().map(|l| nodes[l as usize]).find(NodeRecord::is_cut).map(|l| l.cut_hi);
+                        let cut = c.lods().map(lod).find(|l| l.is_cut()).map(|l| l.cut_hi);
                         cut.into_iter().chain((c.kind() == NodeKind::Group).then_some(c.cut_hi))
                     })
                     .collect();
@@ -369,22 +507,28 @@ impl<'a> Built<'a> {
         }
         report.leaves = tree.iter().filter(|n| n.item.is_some()).count() as u64;
         report.groups = tree.len() as u64 - report.leaves;
-        report.lod_nodes = blocks.len() as u64;
-        report.stored_triangles = nodes[bvh_count as usize..].iter().map(|l| l.triangles as u64).sum();
-        report.nodes = nodes.len() as u64;
+        report.lod_nodes = levels.len() as u64;
+        // A block that instances share is stored once: the parts' blocks count once.
+        let own: u64 = levels.iter().filter(|(l, _)| l.instance == NONE).map(|(l, _)| l.triangles).sum();
+        report.stored_triangles = own + self.part_triangles;
+        report.bytes_saved = self.shared_bytes.saturating_sub(self.part_bytes);
+        report.nodes = (nodes.len() + levels.len()) as u64;
         crate::build::report_left_out(report, &self.lod_stats, [self.not_coarser, self.vanished, self.open]);
-        (nodes, blocks)
+        (nodes, self.levels)
     }
 }
 
+fn write_error(w: &SceneWriter, error: std::io::Error) -> BuildError {
+    BuildError::Write { path: w.partial_path().display().to_string(), error }
+}
+
 /// The LOD node of a static level or HLOD of BVH node `id`.
-fn level_record(id: u32, l: &Level, object: u32) -> NodeRecord {
-    let b = l.mesh.bounds();
+fn level_record(id: u32, b: crate::Aabb, error: f32, triangles: u64, object: u32) -> NodeRecord {
     NodeRecord {
         bbox_min: b.min.into(),
         kind: NodeKind::Lod as u32,
         bbox_max: b.max.into(),
-        error: l.error,
+        error,
         parent: id,
         first_child: 0,
         child_count: 0,
@@ -392,11 +536,18 @@ fn level_record(id: u32, l: &Level, object: u32) -> NodeRecord {
         lod_count: 0,
         block: NONE,
         object,
-        triangles: l.mesh.triangle_count() as u32,
+        triangles,
         flags: 0,
         cut_hi: bytemuck::Zeroable::zeroed(),
         cut_lo_error: 0.0,
+        instance: NONE,
+        _pad: 0,
     }
+}
+
+/// The LOD node of level `l`.
+fn mesh_record(id: u32, l: &Level, object: u32) -> NodeRecord {
+    level_record(id, l.mesh.bounds(), l.error, l.mesh.triangle_count() as u64, object)
 }
 
 /// The cut node of BVH node `id` holding `p`: its bound encloses its triangles' `hi` bounds with
@@ -408,11 +559,11 @@ fn cut_record(id: u32, p: &Piece, object: u32) -> NodeRecord {
     NodeRecord {
         bbox_min: b.min.into(),
         bbox_max: b.max.into(),
-        triangles: p.mesh.triangle_count() as u32,
+        triangles: p.mesh.triangle_count() as u64,
         flags: FLAG_CUT,
         cut_hi: crate::clod::enclosing(&hi, f32::max),
         cut_lo_error: lo_error,
-        ..level_record(id, &Level { mesh: Mesh::default(), error: lo_error }, object)
+        ..level_record(id, b, lo_error, 0, object)
     }
 }
 

@@ -3,7 +3,7 @@
 //! end, follow the blob. Nothing of the geometry stays in memory once written.
 
 use crate::append::Appender;
-use crate::format::{BLOCK_BYTES, BlockRecord, Header, MAGIC, NONE, NodeKind, NodeRecord, VERSION};
+use crate::format::{BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NONE, NodeKind, NodeRecord, VERSION};
 use crate::limits::BLOCK_ALIGN;
 use crate::mesh::Mesh;
 use rayon::prelude::*;
@@ -29,6 +29,19 @@ pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> En
     encode_with(&piece.mesh, crate::cluster::clusterize_cut(&piece.mesh, object, &piece.cuts, &piece.cut_of))
 }
 
+/// A block as one use of its mesh places it ([`crate::instance`]): what a reader of the
+/// block and its instance sees, stored as it is.
+pub fn place(e: &Encoded, place: &crate::instance::Placement) -> Encoded {
+    let g = crate::file::geometry_of(&e.bytes, &e.record);
+    let placed = place.geometry(&g);
+    let g = placed.over(&g);
+    let indices: Vec<u32> = g.indices.iter().collect();
+    let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec() };
+    encode_with(&mesh, (indices, g.clusters.to_vec(), e.record.opaque_clusters))
+}
+
+/// [`encode`] with the clusters made already: `indices` in cluster order, `opaque_clusters`
+/// of them first.
 fn encode_with(mesh: &Mesh, (indices, clusters, opaque_clusters): (Vec<u32>, Vec<crate::format::ClusterRecord>, u32)) -> Encoded {
     let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters.as_slice()));
     bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
@@ -57,14 +70,22 @@ fn encode_with(mesh: &Mesh, (indices, clusters, opaque_clusters): (Vec<u32>, Vec
 }
 
 /// Hash that names the scene's content: see [`crate::format`].
-pub fn content_hash(header: &Header, nodes: &[NodeRecord], blocks: &[BlockRecord]) -> [u64; 2] {
+pub fn content_hash(header: &Header, nodes: &[NodeRecord], blocks: &[BlockRecord], instances: &[InstanceRecord]) -> [u64; 2] {
+    hash_tables(header, |s| {
+        s.update(bytemuck::cast_slice(nodes));
+        s.update(bytemuck::cast_slice(blocks));
+        s.update(bytemuck::cast_slice(instances));
+    })
+}
+
+/// [`content_hash`] of the header and the tables that `tables` feeds in file order.
+fn hash_tables(header: &Header, tables: impl FnOnce(&mut xxhash_rust::xxh3::Xxh3)) -> [u64; 2] {
     let mut h = *header;
     h.content_hash = [0; 2];
     h.header_hash = 0;
     let mut s = xxhash_rust::xxh3::Xxh3::new();
     s.update(bytemuck::bytes_of(&h));
-    s.update(bytemuck::cast_slice(nodes));
-    s.update(bytemuck::cast_slice(blocks));
+    tables(&mut s);
     let v = s.digest128();
     [v as u64, (v >> 64) as u64]
 }
@@ -82,7 +103,7 @@ pub struct SceneFields {
     pub bvh_count: u32,
     pub object_count: u32,
     pub leaf_count: u32,
-    pub leaf_triangles: u32,
+    pub leaf_triangles: u64,
 }
 
 /// A scene file being written: `<path>.partial` until [`SceneWriter::finish`] renames it into
@@ -122,24 +143,33 @@ impl SceneWriter {
         &self.partial
     }
 
-    /// Writes the tables and the header, and renames the file into place. Returns the file's
-    /// size and its content hash.
-    pub fn finish(mut self, fields: SceneFields, nodes: &[NodeRecord], blocks: &[BlockRecord]) -> std::io::Result<(u64, [u64; 2])> {
+    /// Writes the tables and the header, and renames the file into place: the BVH nodes
+    /// `bvh`, then the LOD nodes of `lods` (each naming its block by its index in `lods`) and
+    /// their blocks, then the instances. Returns the file's size and its content hash.
+    pub fn finish(
+        mut self,
+        fields: SceneFields,
+        bvh: &[NodeRecord],
+        lods: &[(NodeRecord, BlockRecord)],
+        instances: &[InstanceRecord],
+    ) -> std::io::Result<(u64, [u64; 2])> {
+        let node_count = bvh.len() + lods.len();
         let blob_offset = HEADER_BYTES;
         let nodes_offset = blob_offset + self.blob_bytes;
-        let blocks_offset = crate::format::blocks_offset(nodes_offset, nodes.len() as u32).expect("offsets fit in u64");
-        let file_bytes = blocks_offset + blocks.len() as u64 * BLOCK_BYTES;
+        let blocks_offset = crate::format::blocks_offset(nodes_offset, node_count as u32).expect("offsets fit in u64");
+        let instances_offset = crate::format::instances_offset(blocks_offset, lods.len() as u32).expect("offsets fit in u64");
+        let file_bytes = instances_offset + instances.len() as u64 * INSTANCE_BYTES;
         let mut header = Header {
             magic: MAGIC,
             version: VERSION,
             header_bytes: HEADER_BYTES as u32,
             origin: fields.origin,
-            node_count: nodes.len() as u32,
+            node_count: node_count as u32,
             bvh_count: fields.bvh_count,
-            block_count: blocks.len() as u32,
+            block_count: lods.len() as u32,
             object_count: fields.object_count,
             leaf_count: fields.leaf_count,
-            leaf_triangles: fields.leaf_triangles,
+            instance_count: instances.len() as u32,
             nodes_offset,
             blocks_offset,
             blob_offset,
@@ -147,15 +177,24 @@ impl SceneWriter {
             file_bytes,
             content_hash: [0; 2],
             header_hash: 0,
-            reserved: [0; 16],
+            instances_offset,
+            leaf_triangles: fields.leaf_triangles,
+            reserved: [0; 14],
         };
-        header.content_hash = content_hash(&header, nodes, blocks);
+        header.content_hash = hash_tables(&header, |s| {
+            s.update(bytemuck::cast_slice(bvh));
+            lods.iter().for_each(|(n, _)| s.update(bytemuck::bytes_of(n)));
+            lods.iter().for_each(|(_, b)| s.update(bytemuck::bytes_of(b)));
+            s.update(bytemuck::cast_slice(instances));
+        });
         header.header_hash = header_hash(&header);
         let mut file = self.file.take().expect("writer open until finish").finish()?;
         let mut tables = std::io::BufWriter::with_capacity(1 << 22, &mut file);
-        tables.write_all(bytemuck::cast_slice(nodes))?;
-        tables.write_all(&[0; 8][..(blocks_offset - nodes_offset - nodes.len() as u64 * crate::format::NODE_BYTES) as usize])?;
-        tables.write_all(bytemuck::cast_slice(blocks))?;
+        tables.write_all(bytemuck::cast_slice(bvh))?;
+        lods.iter().try_for_each(|(n, _)| tables.write_all(bytemuck::bytes_of(n)))?;
+        tables.write_all(&[0; 8][..(blocks_offset - nodes_offset - node_count as u64 * crate::format::NODE_BYTES) as usize])?;
+        lods.iter().try_for_each(|(_, b)| tables.write_all(bytemuck::bytes_of(b)))?;
+        tables.write_all(bytemuck::cast_slice(instances))?;
         tables.flush()?;
         drop(tables);
         file.seek(std::io::SeekFrom::Start(0))?;
@@ -185,7 +224,7 @@ pub struct SceneData {
     pub blocks: Vec<Mesh>,
     pub object_count: u32,
     pub leaf_count: u32,
-    pub leaf_triangles: u32,
+    pub leaf_triangles: u64,
     /// Per object: its box when it is closed and wound outwards (see [`crate::cluster`]).
     pub closed_objects: Vec<Option<crate::Aabb>>,
 }
@@ -209,6 +248,10 @@ pub fn write_scene(path: &Path, scene: &SceneData) -> std::io::Result<(u64, [u64
         .collect();
     let mut w = SceneWriter::create(path)?;
     let blocks = encoded.into_iter().map(|e| w.block(e)).collect::<std::io::Result<Vec<_>>>()?;
+    // LOD node k names block k (a block two nodes share is listed for each).
+    let (bvh, lods) = scene.nodes.split_at(scene.bvh_count as usize);
+    let lods: Vec<(NodeRecord, BlockRecord)> =
+        lods.iter().enumerate().map(|(k, n)| (NodeRecord { block: k as u32, ..*n }, blocks[n.block as usize])).collect();
     let fields = SceneFields {
         origin: scene.origin,
         bvh_count: scene.bvh_count,
@@ -216,5 +259,5 @@ pub fn write_scene(path: &Path, scene: &SceneData) -> std::io::Result<(u64, [u64
         leaf_count: scene.leaf_count,
         leaf_triangles: scene.leaf_triangles,
     };
-    w.finish(fields, &scene.nodes, &blocks)
+    w.finish(fields, bvh, &lods, &[])
 }

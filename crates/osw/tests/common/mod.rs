@@ -115,13 +115,13 @@ pub fn check_invariants(s: &SceneFile) {
             assert_eq!(lod.kind(), NodeKind::Lod);
             assert!(b.contains(&lod.aabb()), "LOD {l} box outside owner {id}");
             let g = s.geometry(l).expect("geometry passes its checks");
-            assert_eq!(g.indices.len() as u32, lod.triangles * 3);
+            assert_eq!(g.indices.len() as u64, lod.triangles * 3);
             assert!(!g.indices.is_empty(), "empty LOD {l}");
             assert!(g.positions.iter().all(|p| lod.aabb().contains_point(glam::Vec3::from_array(*p))), "vertex outside LOD {l} box");
             if lod.is_cut() {
                 check_cut(nodes, id, l, g.clusters);
                 if node.kind() == NodeKind::Leaf {
-                    let original: u32 = g.clusters.iter().filter(|c| c.cut.lo.error == 0.0).map(|c| c.index_count / 3).sum();
+                    let original: u64 = g.clusters.iter().filter(|c| c.cut.lo.error == 0.0).map(|c| c.index_count as u64 / 3).sum();
                     assert_eq!(original, node.triangles, "leaf {id}: its chunk in its cut node");
                 }
                 continue;
@@ -143,14 +143,14 @@ pub fn check_invariants(s: &SceneFile) {
             NodeKind::Leaf => {
                 assert!(node.lod_count >= 1 && node.child_count == 0);
                 assert_ne!(node.object, NONE);
-                leaf_triangles += node.triangles as u64;
+                leaf_triangles += node.triangles;
             }
             NodeKind::Group => assert!(node.child_count >= 2 && node.lods().filter(|&l| !nodes[l as usize].is_cut()).count() <= 1),
             NodeKind::Lod => panic!("LOD {id} in the BVH"),
         }
     }
     assert!(seen.iter().all(|&x| x), "{} nodes unreachable", seen.iter().filter(|x| !**x).count());
-    assert_eq!(leaf_triangles, s.header().leaf_triangles as u64);
+    assert_eq!(leaf_triangles, s.header().leaf_triangles);
 }
 
 /// `inner` lies in `outer` (sphere and error), up to f32 rounding.

@@ -8,12 +8,18 @@
 //! them, as real sites grow (more units, not denser ones), each building like a smaller plant.
 //! The site streams a batch of bays at a time ([`Site`] is a [`Source`]), so a plant of any
 //! size is generated in the memory of one batch.
+//!
+//! The instanced plant ([`Site::instanced`], `--gen plant --instanced`) is built as real plants
+//! are drawn, from a catalogue: each bay is one of a few thousand bay designs (its equipment
+//! finely tessellated, as a vendor's part is), turned by a multiple of 90 degrees, and every
+//! object of it a use of the design's mesh. The catalogue's meshes are 2.5% of the triangles;
+//! the floors and walls are each building's own.
 
 use super::shapes::{add_box, cylinder, lathe, rounded, tube};
 use super::triangles_of;
 use crate::mesh::{Mesh, Object};
 use crate::source::Source;
-use glam::Vec3;
+use glam::{DAffine3, DMat3, DVec3, Vec3};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -29,6 +35,10 @@ pub const BUILDING_TRIANGLES: u64 = 100_000_000;
 const ROAD: f32 = 2.0 * BAY;
 /// Bays generated at once (about a million triangles).
 const BATCH_BAYS: u64 = 512;
+/// The instanced plant: how much finer its parts are tessellated (round segments times this),
+/// and the share of its triangles that its catalogue of bay designs holds.
+const CATALOGUE_DETAIL: u32 = 12;
+const CATALOGUE_SHARE: f64 = 0.025;
 
 /// The whole plant in memory.
 pub fn generate(triangles: u64, seed: u64) -> Vec<Object> {
@@ -47,18 +57,44 @@ pub struct Site {
     /// The next building and the next bay in it.
     building: usize,
     bay: u64,
+    catalogue: Option<Catalogue>,
+}
+
+/// The bay designs of the instanced plant, and which of them the stream has given already
+/// (a later use of a design's mesh comes without it; see [`Object::prototype`]).
+struct Catalogue {
+    designs: u64,
+    /// Per design: its objects once given, 0 before.
+    given: Vec<u8>,
 }
 
 impl Site {
     pub fn new(triangles: u64, seed: u64) -> Site {
-        Site::sized(triangles, seed, BUILDING_TRIANGLES)
+        Site::sized(triangles, seed, BUILDING_TRIANGLES, 1, 1_000_000..1_000_016)
     }
 
-    /// A site whose buildings hold at most `building` triangles each.
-    fn sized(triangles: u64, seed: u64, building: u64) -> Site {
+    /// The instanced plant of about `triangles` triangles as drawn (its bays' uses of the
+    /// catalogue counted each time).
+    pub fn instanced(triangles: u64, seed: u64) -> Site {
+        // Sized by the designs the site will use (all of them while they are few), so that a
+        // small plant of few designs meets its budget too.
+        let designs = |site: &Site| ((site.bays() * site.corners.len() as u64) as f64 * CATALOGUE_SHARE).ceil() as u64;
+        let first = Site::sized(triangles, design_seed(seed), BUILDING_TRIANGLES, CATALOGUE_DETAIL, 0..16);
+        let sample = 0..designs(&first).min(16);
+        let mut site = Site::sized(triangles, design_seed(seed), BUILDING_TRIANGLES, CATALOGUE_DETAIL, sample);
+        site.seed = seed;
+        let designs = designs(&site);
+        site.catalogue = Some(Catalogue { designs, given: vec![0; designs as usize] });
+        site
+    }
+
+    /// A site whose buildings hold at most `building` triangles each, bays tessellated `detail`
+    /// times finer than the plant's, sized by the bays of ids `sample`.
+    fn sized(triangles: u64, seed: u64, building: u64, detail: u32, sample: std::ops::Range<u64>) -> Site {
         // Measure the average bay on a sample, then lay out as many bays as the budget pays for.
+        let n = (sample.end - sample.start).max(1);
         let sample: u64 =
-            (0..16).map(|i| triangles_of(&bay(Vec3::ZERO, 1_000_000 + i, seed, Vec3::ZERO, Vec3::splat(BAY * 100.0)))).sum::<u64>() / 16;
+            sample.map(|i| triangles_of(&bay(Vec3::ZERO, i, seed, (Vec3::ZERO, Vec3::splat(BAY * 100.0)), detail))).sum::<u64>() / n;
         // Buildings (each about twice as wide as deep) on a full grid about as wide as it is
         // deep: no empty lot, so a walk through the site walks through buildings.
         let at_least = triangles.div_ceil(building).max(1);
@@ -72,7 +108,7 @@ impl Site {
         let corners = (0..buildings)
             .map(|k| Vec3::new((k % columns) as f32 * (size.x + ROAD), 0.0, (k / columns) as f32 * (size.z + ROAD)))
             .collect();
-        Site { seed, nx, nz, corners, triangles, building: 0, bay: 0 }
+        Site { seed, nx, nz, corners, triangles, building: 0, bay: 0, catalogue: None }
     }
 
     fn size(&self) -> Vec3 {
@@ -107,7 +143,10 @@ impl Source for Site {
             let bays = self.bay..(self.bay + BATCH_BAYS).min(self.bays());
             self.bay = bays.end;
             let origin = |b: u64| corner + Vec3::new((b % nx) as f32 * BAY, (b / (nx * nz)) as f32 * FLOOR, ((b / nx) % nz) as f32 * BAY);
-            return Some(bays.into_par_iter().flat_map_iter(|b| bay(origin(b), first_id + b, seed, corner, size)).collect());
+            if let Some(c) = &mut self.catalogue {
+                return Some(c.bays(bays.map(|b| (origin(b), first_id + b)).collect(), seed));
+            }
+            return Some(bays.into_par_iter().flat_map_iter(|b| bay(origin(b), first_id + b, seed, (corner, size), 1)).collect());
         }
         let mut objects: Vec<Object> = (0..FLOORS)
             .map(|f| Object::new(format!("structure floor {f}{}", suffix(self.building)), structure(corner, size, f, nx, nz)))
@@ -119,14 +158,70 @@ impl Source for Site {
     }
 }
 
+impl Catalogue {
+    /// The bays at `bays` (corner, id): each a design and a quarter turn drawn from its id, its
+    /// objects uses of the design's meshes; a design's meshes come with its first use only.
+    fn bays(&mut self, bays: Vec<(Vec3, u64)>, seed: u64) -> Vec<Object> {
+        let picks: Vec<(Vec3, u64, u32)> = bays
+            .into_iter()
+            .map(|(o, id)| {
+                let mut r = super::rng(seed, id ^ 0xC47A_1064);
+                (o, r.random_range(0..self.designs), r.random_range(0..4u32))
+            })
+            .collect();
+        let mut new: Vec<u64> = picks.iter().map(|p| p.1).filter(|&d| self.given[d as usize] == 0).collect();
+        new.sort_unstable();
+        new.dedup();
+        // A design is a bay at the origin; its pipes may reach one bay beyond it.
+        let reach = (Vec3::splat(-BAY), Vec3::splat(3.0 * BAY));
+        let meshes: rustc_hash::FxHashMap<u64, Vec<Object>> =
+            new.into_par_iter().map(|d| (d, bay(Vec3::ZERO, d, design_seed(seed), reach, CATALOGUE_DETAIL))).collect();
+        for (&d, objects) in &meshes {
+            self.given[d as usize] = objects.len() as u8;
+        }
+        let mut out = Vec::new();
+        for (o, design, turn) in picks {
+            let placement = quarter_turn(o, turn);
+            let given = meshes.get(&design);
+            // Objects of a design are the same whichever bay draws it: a design's k-th object
+            // is prototype (design, k).
+            for k in 0..self.given[design as usize] as usize {
+                let mesh = given.map_or_else(Mesh::default, |g| g[k].mesh.clone());
+                let name = given.map_or_else(|| format!("part {k} of design {design}"), |g| format!("{} of design {design}", g[k].name));
+                let prototype = u32::try_from(design * MAX_DESIGN_OBJECTS + k as u64).expect("designs fit in u32 ids");
+                out.push(Object { prototype: Some(prototype), ..Object::placed(name, mesh, DVec3::ZERO, placement) });
+            }
+        }
+        out
+    }
+}
+
+/// The seed of the catalogue's designs: design `d` is the bay of id `d` under it.
+fn design_seed(seed: u64) -> u64 {
+    seed ^ 0xDE51_6A5E
+}
+
+/// Most objects of one bay (a bay has at most 5 pumps, 3 pipes, a tank or boiler and a walkway).
+const MAX_DESIGN_OBJECTS: u64 = 16;
+
+/// Turns a bay about its centre by `turn` quarter turns and moves it to `o`, exactly (the
+/// rotation's entries are 0 and ±1).
+fn quarter_turn(o: Vec3, turn: u32) -> DAffine3 {
+    let (c, s) = [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][turn as usize % 4];
+    let m = DMat3::from_cols(DVec3::new(c, 0.0, -s), DVec3::Y, DVec3::new(s, 0.0, c));
+    let centre = DVec3::new(BAY as f64 / 2.0, 0.0, BAY as f64 / 2.0);
+    DAffine3 { matrix3: m, translation: o.as_dvec3() + centre - m * centre }
+}
+
 /// Names of a building's own objects: building 0 as the plant always named them.
 fn suffix(building: usize) -> String {
     if building == 0 { String::new() } else { format!(" building {building}") }
 }
 
 /// The equipment of one bay with its corner at `o`, in a building from `corner` and `size`
-/// (x, z) across; `id` seeds it.
-fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
+/// (x, z) across; `id` seeds it, round parts have `detail` times the plant's segments.
+fn bay(o: Vec3, id: u64, seed: u64, (corner, size): (Vec3, Vec3), detail: u32) -> Vec<Object> {
+    let d = detail;
     let mut r = super::rng(seed, id);
     let mut out = Vec::new();
     let floor_y = o.y + SLAB;
@@ -147,9 +242,9 @@ fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
             (if i == 8 { 0.0 } else { rad * a.cos() }, h + rad * 0.45 * a.sin())
         }));
         let mut m = Mesh::default();
-        lathe(&mut m, c, &prof, 48);
+        lathe(&mut m, c, &prof, 48 * d);
         // Legs and a nozzle.
-        cylinder(&mut m, c + Vec3::new(rad, h * 0.7, 0.0), c + Vec3::new(rad + 0.6, h * 0.7, 0.0), 0.15, 12);
+        cylinder(&mut m, c + Vec3::new(rad, h * 0.7, 0.0), c + Vec3::new(rad + 0.6, h * 0.7, 0.0), 0.15, 12 * d);
         push("tank", m);
     } else if roll < 0.45 {
         // A boiler: a casing, a bank of vertical tubes in front and a steam drum on top.
@@ -160,9 +255,9 @@ fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
         let tubes = r.random_range(8..24);
         for k in 0..tubes {
             let x = lo.x + (hi.x - lo.x) * (k as f32 + 0.5) / tubes as f32;
-            cylinder(&mut m, Vec3::new(x, lo.y, lo.z - 0.3), Vec3::new(x, hi.y, lo.z - 0.3), 0.12, 10);
+            cylinder(&mut m, Vec3::new(x, lo.y, lo.z - 0.3), Vec3::new(x, hi.y, lo.z - 0.3), 0.12, 10 * d);
         }
-        cylinder(&mut m, Vec3::new(lo.x, hi.y + 0.6, (lo.z + hi.z) / 2.0), Vec3::new(hi.x, hi.y + 0.6, (lo.z + hi.z) / 2.0), 0.6, 24);
+        cylinder(&mut m, Vec3::new(lo.x, hi.y + 0.6, (lo.z + hi.z) / 2.0), Vec3::new(hi.x, hi.y + 0.6, (lo.z + hi.z) / 2.0), 0.6, 24 * d);
         push("boiler", m);
     } else if roll < 0.7 {
         // Pumps with motors and valves: small objects.
@@ -170,8 +265,8 @@ fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
             let p = inner(&mut r, 1.5);
             let mut m = Mesh::default();
             add_box(&mut m, p, p + Vec3::new(1.2, 0.4, 0.8));
-            cylinder(&mut m, p + Vec3::new(0.2, 0.75, 0.4), p + Vec3::new(1.0, 0.75, 0.4), 0.32, 16);
-            cylinder(&mut m, p + Vec3::new(0.6, 1.05, 0.4), p + Vec3::new(0.6, 1.6, 0.4), 0.06, 8);
+            cylinder(&mut m, p + Vec3::new(0.2, 0.75, 0.4), p + Vec3::new(1.0, 0.75, 0.4), 0.32, 16 * d);
+            cylinder(&mut m, p + Vec3::new(0.6, 1.05, 0.4), p + Vec3::new(0.6, 1.6, 0.4), 0.06, 8 * d);
             let wheel: Vec<Vec3> = (0..=16)
                 .map(|k| {
                     p + Vec3::new(0.6, 1.6, 0.4)
@@ -179,7 +274,7 @@ fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
                             * Vec3::new((k as f32 * std::f32::consts::FRAC_PI_8).cos(), 0.0, (k as f32 * std::f32::consts::FRAC_PI_8).sin())
                 })
                 .collect();
-            tube(&mut m, &wheel, 0.03, 6, false);
+            tube(&mut m, &wheel, 0.03, 6 * d, false);
             push("pump", m);
         }
     }
@@ -203,7 +298,7 @@ fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
         for c in &mut corners {
             (c.x, c.z) = (c.x.clamp(corner.x + 0.5, corner.x + size.x - 0.5), c.z.clamp(corner.z + 0.5, corner.z + size.z - 0.5));
         }
-        let seg = (8.0 + rad * 30.0) as u32;
+        let seg = (8.0 + rad * 30.0) as u32 * d;
         let mut m = Mesh::default();
         tube(&mut m, &rounded(&corners, rad * 3.0, 6), rad, seg, true);
         push("pipe", m);
@@ -218,8 +313,8 @@ fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3) -> Vec<Object> {
             let x = a.x + BAY * k as f32 / 8.0;
             add_box(&mut m, Vec3::new(x, y, b.z - 0.05), Vec3::new(x + 0.06, y + 1.1, b.z));
         }
-        cylinder(&mut m, Vec3::new(a.x, y + 1.1, b.z - 0.02), Vec3::new(b.x, y + 1.1, b.z - 0.02), 0.03, 6);
-        cylinder(&mut m, Vec3::new(a.x, y + 0.55, b.z - 0.02), Vec3::new(b.x, y + 0.55, b.z - 0.02), 0.03, 6);
+        cylinder(&mut m, Vec3::new(a.x, y + 1.1, b.z - 0.02), Vec3::new(b.x, y + 1.1, b.z - 0.02), 0.03, 6 * d);
+        cylinder(&mut m, Vec3::new(a.x, y + 0.55, b.z - 0.02), Vec3::new(b.x, y + 0.55, b.z - 0.02), 0.03, 6 * d);
         push("walkway", m);
     }
     out
@@ -289,7 +384,7 @@ mod tests {
     #[test]
     fn a_site_streams_buildings_side_by_side_within_its_bounds() {
         for (triangles, building) in [(60_000, BUILDING_TRIANGLES), (150_000, 40_000)] {
-            let mut site = Site::sized(triangles, 7, building);
+            let mut site = Site::sized(triangles, 7, building, 1, 1_000_000..1_000_016);
             let crate::place::Bounds { min, max, .. } = site.world_bounds();
             let batches: Vec<Vec<Object>> = std::iter::from_fn(|| site.next_batch()).collect();
             let objects: Vec<Object> = batches.into_iter().flatten().collect();
