@@ -115,9 +115,9 @@ impl Renderer {
             let base = self.residency.ensure(&self.gpu, scene, id)?;
             let g = scene.geometry(id)?;
             let (out, s, clusters) = (&mut self.indices, &mut stats.clusters, &g.clusters[g.opaque..]);
-            match g.indices {
-                Indices::U16(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
-                Indices::U32(ix) => gather(view, tests, (g.positions, ix, clusters), s, |_, _| true, base, out),
+            match &g.indices {
+                Indices::U16(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
+                Indices::U32(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
             }
             stats.nodes += 1;
         }
@@ -145,9 +145,9 @@ impl Renderer {
             let g = scene.geometry(id)?;
             let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
             let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
-            match g.indices {
-                Indices::U16(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
-                Indices::U32(ix) => gather_node(view, tests, id, (g.positions, ix, clusters), select, gathered, base, s, out),
+            match &g.indices {
+                Indices::U16(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),
+                Indices::U32(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),
             }
             stats.nodes += 1;
         }

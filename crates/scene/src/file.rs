@@ -9,11 +9,11 @@ use crate::format::{
     BLOCK_BYTES, BlockRecord, ClusterRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord,
     VERSION,
 };
-use crate::instance::{Placed, Placement};
+use crate::instance::Placement;
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
 use crate::writer::{content_hash, header_hash};
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 /// What is wrong with a scene file. Every message names what was expected.
@@ -38,20 +38,18 @@ pub struct SceneFile {
     header: Header,
     /// Per block: 0 = not yet checked, 1 = good, 2 = bad.
     checked: Vec<AtomicU8>,
-    /// Per LOD node (id less `bvh_count`) of an instance: its block placed, made the first
-    /// time it is read.
-    placed: Vec<OnceLock<Box<Placed>>>,
 }
 
-/// A view of one geometry block in the mapped file.
-#[derive(Clone, Copy, Debug)]
+/// One geometry block: a view of it in the mapped file, or, for a use of a mesh stored once,
+/// its positions, clusters and (where mirrored) indices placed.
+#[derive(Clone, Debug)]
 pub struct Geometry<'a> {
-    pub positions: &'a [[f32; 3]],
+    pub positions: Cow<'a, [[f32; 3]]>,
     /// One per vertex, or empty when the block has no colours.
     pub colors: &'a [[u8; 4]],
     /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
     pub indices: Indices<'a>,
-    pub clusters: &'a [ClusterRecord],
+    pub clusters: Cow<'a, [ClusterRecord]>,
     /// `clusters[..opaque]` are opaque, the rest translucent ([`BlockRecord::opaque_clusters`]).
     pub opaque: usize,
 }
@@ -63,10 +61,10 @@ impl Geometry<'_> {
     }
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub enum Indices<'a> {
-    U16(&'a [u16]),
-    U32(&'a [u32]),
+    U16(Cow<'a, [u16]>),
+    U32(Cow<'a, [u32]>),
 }
 
 impl Indices<'_> {
@@ -94,8 +92,8 @@ impl Indices<'_> {
 
     pub fn bytes(&self) -> &[u8] {
         match self {
-            Indices::U16(s) => bytemuck::cast_slice(s),
-            Indices::U32(s) => bytemuck::cast_slice(s),
+            Indices::U16(s) => bytemuck::cast_slice(s.as_ref()),
+            Indices::U32(s) => bytemuck::cast_slice(s.as_ref()),
         }
     }
 }
@@ -110,9 +108,7 @@ impl SceneFile {
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
         let header = validate(path, &map)?;
         let checked = (0..header.block_count).map(|_| AtomicU8::new(0)).collect();
-        let lods = header.node_count - header.bvh_count;
-        let placed = if header.instance_count == 0 { Vec::new() } else { (0..lods).map(|_| OnceLock::new()).collect() };
-        Ok(SceneFile { path: path.to_owned(), map, header, checked, placed })
+        Ok(SceneFile { path: path.to_owned(), map, header, checked })
     }
 
     pub fn path(&self) -> &Path {
@@ -165,15 +161,15 @@ impl SceneFile {
     }
 
     /// The geometry of LOD node `lod` in the scene's frame, checked on first read; a node of an
-    /// instance gets its block placed ([`crate::instance`]) once.
+    /// instance gets its block placed ([`crate::instance`]) at each read, so that reading a
+    /// scene of ten billion placed triangles holds no more than what is read at once.
     pub fn geometry(&self, lod: NodeId) -> Result<Geometry<'_>, SceneError> {
         let g = self.stored_geometry(lod)?;
         let instance = self.node(lod).instance;
         if instance == NONE {
             return Ok(g);
         }
-        let placement = Placement::new(self.instances()[instance as usize].affine());
-        Ok(self.placed[(lod - self.header.bvh_count) as usize].get_or_init(|| Box::new(placement.geometry(&g))).over(&g))
+        Ok(Placement::new(self.instances()[instance as usize].affine()).geometry(&g))
     }
 
     /// The geometry of LOD node `lod` as stored: in its mesh's own frame for an instance's node.
@@ -207,12 +203,16 @@ pub(crate) fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a
     let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
     let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
     let idx = &idx[..rec.index_count as usize * rec.index_bytes as usize];
-    let indices = if rec.index_bytes == 2 { Indices::U16(bytemuck::cast_slice(idx)) } else { Indices::U32(bytemuck::cast_slice(idx)) };
+    let indices = if rec.index_bytes == 2 {
+        Indices::U16(Cow::Borrowed(bytemuck::cast_slice(idx)))
+    } else {
+        Indices::U32(Cow::Borrowed(bytemuck::cast_slice(idx)))
+    };
     Geometry {
-        positions: bytemuck::cast_slice(pos),
+        positions: Cow::Borrowed(bytemuck::cast_slice(pos)),
         colors: bytemuck::cast_slice(colors),
         indices,
-        clusters: bytemuck::cast_slice(clusters),
+        clusters: Cow::Borrowed(bytemuck::cast_slice(clusters)),
         opaque: rec.opaque_clusters as usize,
     }
 }

@@ -15,6 +15,7 @@ use crate::file::{Geometry, Indices};
 use crate::format::ClusterRecord;
 use crate::mesh::Mesh;
 use glam::{DAffine3, DVec3, Vec3};
+use std::borrow::Cow;
 
 /// How far a placement's linear part may be from a similarity (relative) and still keep the
 /// normal cones: glTF stores rotations as f32 quaternions, which are unit only to about 1e-7.
@@ -100,18 +101,20 @@ impl Placement {
         Mesh { positions: self.points(&mesh.positions), indices, colors: mesh.colors.clone() }
     }
 
-    /// A block placed (see [`Placed`]).
-    pub fn geometry(&self, g: &Geometry) -> Placed {
-        let positions = self.points(g.positions);
-        let indices = self.flips.then(|| match g.indices {
-            Indices::U16(ix) => PlacedIndices::U16(flipped(ix)),
-            Indices::U32(ix) => PlacedIndices::U32(flipped(ix)),
-        });
-        let clusters = g.clusters.iter().map(|c| self.cluster(c, &positions, g.indices)).collect();
-        Placed { positions, indices, clusters }
+    /// A block placed: its own positions and clusters, its indices reversed where the
+    /// placement mirrors (else the stored ones), its colours the stored ones.
+    pub fn geometry<'a>(&self, g: &Geometry<'a>) -> Geometry<'a> {
+        let positions = self.points(&g.positions);
+        let indices = match &g.indices {
+            Indices::U16(ix) if self.flips => Indices::U16(Cow::Owned(flipped(ix))),
+            Indices::U32(ix) if self.flips => Indices::U32(Cow::Owned(flipped(ix))),
+            same => same.clone(),
+        };
+        let clusters = g.clusters.iter().map(|c| self.cluster(c, &positions, &g.indices)).collect();
+        Geometry { positions: Cow::Owned(positions), colors: g.colors, indices, clusters: Cow::Owned(clusters), opaque: g.opaque }
     }
 
-    fn cluster(&self, c: &ClusterRecord, positions: &[[f32; 3]], indices: Indices) -> ClusterRecord {
+    fn cluster(&self, c: &ClusterRecord, positions: &[[f32; 3]], indices: &Indices) -> ClusterRecord {
         let range = c.first_index as usize..(c.first_index + c.index_count) as usize;
         let bbox = Aabb::from_points(range.map(|k| &positions[indices.get(k) as usize]));
         let center = self.point(c.center);
@@ -140,33 +143,6 @@ fn flipped<T: Copy>(ix: &[T]) -> Vec<T> {
     let mut out = ix.to_vec();
     out.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
     out
-}
-
-/// A block as one use places it: its own positions and clusters, and its indices where the
-/// placement reverses them (else the stored ones).
-#[derive(Debug)]
-pub struct Placed {
-    pub positions: Vec<[f32; 3]>,
-    pub indices: Option<PlacedIndices>,
-    pub clusters: Vec<ClusterRecord>,
-}
-
-#[derive(Debug)]
-pub enum PlacedIndices {
-    U16(Vec<u16>),
-    U32(Vec<u32>),
-}
-
-impl Placed {
-    /// The placed block over the stored one `g` (whose colours it shares).
-    pub fn over<'a>(&'a self, g: &Geometry<'a>) -> Geometry<'a> {
-        let indices = match &self.indices {
-            Some(PlacedIndices::U16(ix)) => Indices::U16(ix),
-            Some(PlacedIndices::U32(ix)) => Indices::U32(ix),
-            None => g.indices,
-        };
-        Geometry { positions: &self.positions, colors: g.colors, indices, clusters: &self.clusters, opaque: g.opaque }
-    }
 }
 
 #[cfg(test)]

@@ -92,6 +92,7 @@ pub fn stream(
         closed_objects: Vec::new(),
         prototypes: Prototypes::default(),
         seen: FxHashMap::default(),
+        contents: FxHashMap::default(),
         instances: Vec::new(),
         repeats: Repeats::default(),
         clean_stats: CleanStats::default(),
@@ -112,12 +113,10 @@ pub fn stream(
         }
         let first = seen;
         seen += batch.len();
-        let (uses, mut own): (Vec<_>, Vec<_>) =
+        let (uses, own): (Vec<_>, Vec<_>) =
             batch.into_iter().enumerate().map(|(i, o)| (first + i, o)).partition(|(_, o)| instancing && o.prototype.is_some());
         for (index, o) in uses {
-            if let Some(o) = times.run("clean", || s.add_use(index, o, origin, split))? {
-                own.push((index, o));
-            }
+            times.run("clean", || s.add_use(index, o, origin, split))?;
         }
         let (indices, mut own): (Vec<usize>, Vec<Object>) = own.into_iter().unzip();
         times.run("place", || crate::place::to_local(&mut own, origin));
@@ -207,8 +206,12 @@ struct Stream<'a> {
     coarse: Vec<Chunk>,
     closed_objects: Vec<Option<Aabb>>,
     prototypes: Prototypes,
-    /// The input's meshes seen so far that objects use, by the input's index.
-    seen: FxHashMap<u32, Seen>,
+    /// The meshes seen so far that objects use, by their content (positions, indices and
+    /// colours in their own frame): two glTF meshes of the same content are one prototype.
+    seen: FxHashMap<u128, Seen>,
+    /// The content of each input mesh seen, by the input's index, for the uses that come
+    /// without their mesh.
+    contents: FxHashMap<u32, u128>,
     instances: Vec<InstanceRecord>,
     repeats: Repeats,
     clean_stats: CleanStats,
@@ -217,8 +220,6 @@ struct Stream<'a> {
 
 /// A prototype while the input streams: what each of its uses needs.
 struct Seen {
-    /// Of the input's mesh: a use with another mesh under the same index is an object of its own.
-    hash: u64,
     /// The input mesh's triangles (a use that comes without it stands for as many).
     input: u64,
     /// Its index among the prototypes and its first part.
@@ -257,19 +258,21 @@ impl Stream<'_> {
         self.closed_objects.len() as u32 - 1
     }
 
-    /// A use of a mesh the input names (the input's `index`-th object): its instance and its
-    /// placed parts, the mesh cleaned and cut at its first use. Hands back an object whose mesh
-    /// is not the one its index named first, to be built as its own.
-    fn add_use(&mut self, index: usize, o: Object, origin: glam::DVec3, split: SplitOptions) -> Result<Option<Object>, BuildError> {
-        let key = o.prototype.expect("a use names its mesh");
-        let given = !(o.mesh.is_empty() && self.seen.contains_key(&key));
-        let hash = if given { mesh_hash(&o.mesh) } else { 0 };
-        if given && self.seen.get(&key).is_some_and(|s| s.hash != hash) {
-            return Ok(Some(o));
-        }
-        if !given {
-            self.report.input_triangles += self.seen[&key].input;
-        }
+    /// A use of a mesh in its own frame (the input's `index`-th object): its instance and its
+    /// placed parts, the mesh cleaned and cut at the first use of its content.
+    fn add_use(&mut self, index: usize, o: Object, origin: glam::DVec3, split: SplitOptions) -> Result<(), BuildError> {
+        let named = o.prototype.expect("a use names its mesh");
+        let key = match self.contents.get(&named) {
+            Some(&key) if o.mesh.is_empty() => {
+                self.report.input_triangles += self.seen[&key].input;
+                key
+            }
+            _ => {
+                let key = mesh_hash(&o.mesh);
+                self.contents.insert(named, key);
+                key
+            }
+        };
         if !self.seen.contains_key(&key) {
             let input = o.mesh.triangle_count() as u64;
             let (mesh, stats) = o.mesh.clone().clean().map_err(|source| BuildError::Mesh { index, name: o.name.clone(), source })?;
@@ -287,12 +290,12 @@ impl Stream<'_> {
                 self.prototypes.parts.push(Part { prototype, triangles: m.triangle_count() as u32, spill });
                 parts.push((m.bounds(), m.positions));
             }
-            self.seen.insert(key, Seen { hash, input, index: prototype, first_part, parts, kept: Kept::of(&mesh) });
+            self.seen.insert(key, Seen { input, index: prototype, first_part, parts, kept: Kept::of(&mesh) });
         }
         let s = &self.seen[&key];
         if s.kept.triangles == 0 {
             self.empty.push(o.name);
-            return Ok(None);
+            return Ok(());
         }
         // Whole units apart (see crate::place): the same translation wherever the model stands.
         let shift = o.anchor - origin;
@@ -316,7 +319,7 @@ impl Stream<'_> {
         let closed = self.prototypes.closed[prototype as usize].map(|b| place.bounds(b));
         let scale = &mut self.prototypes.scale[prototype as usize];
         *scale = scale.max(place.scale);
-        self.repeats.add(Some(key), kept.triangles);
+        self.repeats.add(Some(prototype), kept.triangles);
         let object = self.object(closed, &kept);
         self.chunks.extend(chunks.into_iter().map(|c| Chunk { object, ..c }));
         self.instances.push(InstanceRecord {
@@ -325,17 +328,18 @@ impl Stream<'_> {
             prototype,
             object,
         });
-        Ok(None)
+        Ok(())
     }
 }
 
-/// Names a mesh's content (positions, indices and colours).
-fn mesh_hash(m: &Mesh) -> u64 {
+/// Names a mesh's content (positions, indices and colours): 128 bits of xxh3, so that two
+/// meshes of one name differ in fewer than one of 2^64 models of 2^32 meshes.
+fn mesh_hash(m: &Mesh) -> u128 {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
     h.update(bytemuck::cast_slice(&m.positions));
     h.update(bytemuck::cast_slice(&m.indices));
     h.update(m.colors.as_flattened());
-    h.digest()
+    h.digest128()
 }
 
 /// Per prototype: its triangles after clean-up, its uses and their triangles (a mesh not

@@ -60,7 +60,8 @@ pub struct Built<'a> {
     open: u64,
 }
 
-/// A part of a prototype built: its levels in its frame, finest first, and its coarsest.
+/// A part of a prototype built: its levels in its frame, finest first, and what its uses leave
+/// for their parents' HLODs.
 struct PartLods {
     levels: Vec<PartLevel>,
     coarsest: Level,
@@ -175,7 +176,9 @@ impl<'a> Built<'a> {
             part_bytes: 0,
             part_triangles: 0,
             lods: vec![0..0; tree.len()],
-            levels: Vec::new(),
+            // Reserved, not touched: growing it at ten million nodes would hold the old and
+            // the new array at once, the build's peak.
+            levels: Vec::with_capacity(tree.len() * 4),
             coarse: FxHashMap::default(),
             lod_stats: LodStats::default(),
             not_coarser: 0,
@@ -313,7 +316,11 @@ impl<'a> Built<'a> {
                 };
                 out.push(PartLevel { bounds: l.mesh.bounds(), error: l.error, triangles: l.mesh.triangle_count() as u64, block });
             }
-            self.parts.insert(k, PartLods { levels: out, coarsest: levels.pop().expect("level 0") });
+            // What each use leaves for its parent's HLOD, made once for all its uses: the
+            // coarsest level simplified as an HLOD of it alone would be, where that is coarser.
+            let coarsest = levels.pop().expect("level 0");
+            let seed = times.run("hlod", || crate::hlod::build(&[&coarsest], min_error / p.scale[prototype(k)].max(1e-30)));
+            self.parts.insert(k, PartLods { levels: out, coarsest: seed.unwrap_or(coarsest) });
         }
         Ok(())
     }

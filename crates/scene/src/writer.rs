@@ -32,9 +32,7 @@ pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> En
 /// A block as one use of its mesh places it ([`crate::instance`]): what a reader of the
 /// block and its instance sees, stored as it is.
 pub fn place(e: &Encoded, place: &crate::instance::Placement) -> Encoded {
-    let g = crate::file::geometry_of(&e.bytes, &e.record);
-    let placed = place.geometry(&g);
-    let g = placed.over(&g);
+    let g = place.geometry(&crate::file::geometry_of(&e.bytes, &e.record));
     let indices: Vec<u32> = g.indices.iter().collect();
     let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec() };
     encode_with(&mesh, (indices, g.clusters.to_vec(), e.record.opaque_clusters))

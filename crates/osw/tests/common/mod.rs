@@ -119,7 +119,7 @@ pub fn check_invariants(s: &SceneFile) {
             assert!(!g.indices.is_empty(), "empty LOD {l}");
             assert!(g.positions.iter().all(|p| lod.aabb().contains_point(glam::Vec3::from_array(*p))), "vertex outside LOD {l} box");
             if lod.is_cut() {
-                check_cut(nodes, id, l, g.clusters);
+                check_cut(nodes, id, l, &g.clusters);
                 if node.kind() == NodeKind::Leaf {
                     let original: u64 = g.clusters.iter().filter(|c| c.cut.lo.error == 0.0).map(|c| c.index_count as u64 / 3).sum();
                     assert_eq!(original, node.triangles, "leaf {id}: its chunk in its cut node");
