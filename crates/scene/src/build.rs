@@ -458,6 +458,38 @@ mod tests {
         assert_eq!(nodes[1].triangles, 12);
     }
 
+    /// Two input meshes of one content are one prototype, and a later use may come without
+    /// its mesh: three uses of a box, stored once, each leaf's geometry the box moved.
+    #[test]
+    fn meshes_of_one_content_are_one_prototype_placed_per_use() {
+        let mut m = Mesh::default();
+        shapes::add_box(&mut m, Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0));
+        let at = |prototype, mesh: &Mesh, x: f64| Object {
+            prototype: Some(prototype),
+            ..Object::placed("box", mesh.clone(), glam::DVec3::ZERO, glam::DAffine3::from_translation(glam::DVec3::new(x, 0.0, 0.0)))
+        };
+        let objects = vec![at(0, &m, 0.0), at(1, &m, 5.0), at(0, &Mesh::default(), 10.0)];
+        let path = std::env::temp_dir().join(format!("osw-prototypes-{}.osw", std::process::id()));
+        let r = build_scene(objects, "boxes", Vec::new(), &BuildOptions::default(), &path, Instant::now(), &()).unwrap();
+        assert_eq!((r.prototypes, r.instances, r.unique_triangles, r.input_triangles), (1, 3, 12, 36), "{r:?}");
+        let scene = crate::SceneFile::open(&path).unwrap();
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(scene.instances().len(), 3);
+        let (o, mut xs) = (scene.origin(), Vec::new());
+        for leaf in scene.nodes().iter().filter(|n| n.kind() == NodeKind::Leaf) {
+            let g = scene.geometry(leaf.first_lod).unwrap();
+            let mut world: Vec<[f64; 3]> = g.positions.iter().map(|p| (o + Vec3::from_array(*p).as_dvec3()).to_array()).collect();
+            let x = world.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
+            let mut want: Vec<[f64; 3]> = m.positions.iter().map(|p| [p[0] as f64 + x, p[1] as f64, p[2] as f64]).collect();
+            world.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            want.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            assert_eq!(world, want, "the leaf at x {x}");
+            xs.push(x);
+        }
+        xs.sort_by(f64::total_cmp);
+        assert_eq!(xs, [0.0, 5.0, 10.0]);
+    }
+
     #[test]
     fn buckets_cover_every_leaf_once_in_depth_first_order() {
         let boxes: Vec<Aabb> = (0..50).map(|i| Aabb::new(Vec3::splat(i as f32), Vec3::splat(i as f32 + 0.5))).collect();
