@@ -291,8 +291,25 @@ impl<'a> Built<'a> {
         let p = self.prototypes;
         let prototype = |part: u32| p.parts[part as usize].prototype as usize;
         let min_error = self.min_error;
+        // Built once for all its uses, a part's chain ends in a level simplified as an HLOD of
+        // it alone would be, where that is coarser: the stand-in far uses draw and what each
+        // use leaves for its parent's HLOD.
         let chains: Vec<(u32, (Vec<Level>, LodStats))> = times.run("lod", || {
-            parts.into_par_iter().map(|(k, m)| (k, crate::lod::chain(m, min_error / p.scale[prototype(k)].max(1e-30)))).collect()
+            parts
+                .into_par_iter()
+                .map(|(k, m)| {
+                    let min_error = min_error / p.scale[prototype(k)].max(1e-30);
+                    let (mut levels, stats) = crate::lod::chain(m, min_error);
+                    let last = levels.last().expect("level 0");
+                    if let Ok(seed) = crate::hlod::build(&[last], min_error)
+                        && seed.error > last.error
+                        && !seed.mesh.is_empty()
+                    {
+                        levels.push(seed);
+                    }
+                    (k, (levels, stats))
+                })
+                .collect()
         });
         let encoded: Vec<Vec<Encoded>> = times.run("encode", || {
             chains
@@ -316,11 +333,7 @@ impl<'a> Built<'a> {
                 };
                 out.push(PartLevel { bounds: l.mesh.bounds(), error: l.error, triangles: l.mesh.triangle_count() as u64, block });
             }
-            // What each use leaves for its parent's HLOD, made once for all its uses: the
-            // coarsest level simplified as an HLOD of it alone would be, where that is coarser.
-            let coarsest = levels.pop().expect("level 0");
-            let seed = times.run("hlod", || crate::hlod::build(&[&coarsest], min_error / p.scale[prototype(k)].max(1e-30)));
-            self.parts.insert(k, PartLods { levels: out, coarsest: seed.unwrap_or(coarsest) });
+            self.parts.insert(k, PartLods { levels: out, coarsest: levels.pop().expect("level 0") });
         }
         Ok(())
     }
