@@ -72,16 +72,15 @@ impl Placement {
         if b.is_empty() {
             return b;
         }
-        let corners: Vec<[f32; 3]> = (0..8)
-            .map(|k| {
-                [
-                    if k & 1 == 0 { b.min.x } else { b.max.x },
-                    if k & 2 == 0 { b.min.y } else { b.max.y },
-                    if k & 4 == 0 { b.min.z } else { b.max.z },
-                ]
-            })
-            .collect();
-        let placed = self.points(&corners);
+        let corner = |k: usize| {
+            let c = [
+                if k & 1 == 0 { b.min.x } else { b.max.x },
+                if k & 2 == 0 { b.min.y } else { b.max.y },
+                if k & 4 == 0 { b.min.z } else { b.max.z },
+            ];
+            self.point(c)
+        };
+        let placed: [[f32; 3]; 8] = std::array::from_fn(corner);
         let out = Aabb::from_points(&placed);
         if self.axis_aligned {
             // Each placed coordinate is one of the original's, scaled and moved, rounded alike.
@@ -94,10 +93,7 @@ impl Placement {
 
     /// `mesh` placed: positions placed, winding reversed where the placement mirrors.
     pub fn mesh(&self, mesh: &Mesh) -> Mesh {
-        let mut indices = mesh.indices.clone();
-        if self.flips {
-            indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
-        }
+        let indices = if self.flips { flipped(&mesh.indices) } else { mesh.indices.clone() };
         Mesh { positions: self.points(&mesh.positions), indices, colors: mesh.colors.clone() }
     }
 
@@ -121,7 +117,8 @@ impl Placement {
         let ulp = Vec3::from_array(center).abs().max_element() * f32::EPSILON * 4.0;
         let cone = c.cone_cutoff < NO_CONE && self.similar;
         let axis = (self.affine.matrix3 * Vec3::from_array(c.cone_axis).as_dvec3()).normalize_or_zero().as_vec3();
-        let closed = self.bounds(Aabb::new(c.closed_min.into(), c.closed_max.into()));
+        let closed =
+            if cone { self.bounds(Aabb::new(c.closed_min.into(), c.closed_max.into())) } else { Aabb::new(Vec3::ZERO, Vec3::ZERO) };
         ClusterRecord {
             center,
             radius: c.radius * self.scale + ulp,
@@ -132,8 +129,8 @@ impl Placement {
             cone_cutoff: if cone { (c.cone_cutoff + 10.0 * SIMILARITY_TOLERANCE as f32).min(NO_CONE) } else { NO_CONE },
             bbox_min: bbox.min.into(),
             bbox_max: bbox.max.into(),
-            closed_min: if cone { closed.min.into() } else { [0.0; 3] },
-            closed_max: if cone { closed.max.into() } else { [0.0; 3] },
+            closed_min: closed.min.into(),
+            closed_max: closed.max.into(),
             ..*c
         }
     }

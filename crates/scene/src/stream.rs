@@ -261,21 +261,22 @@ impl Stream<'_> {
     /// A use of a mesh in its own frame (the input's `index`-th object): its instance and its
     /// placed parts, the mesh cleaned and cut at the first use of its content.
     fn add_use(&mut self, index: usize, o: Object, origin: glam::DVec3, split: SplitOptions) -> Result<(), BuildError> {
-        let named = o.prototype.expect("a use names its mesh");
+        let Object { name, mesh, placement, anchor, prototype: named } = o;
+        let named = named.expect("a use names its mesh");
         let key = match self.contents.get(&named) {
-            Some(&key) if o.mesh.is_empty() => {
+            Some(&key) if mesh.is_empty() => {
                 self.report.input_triangles += self.seen[&key].input;
                 key
             }
             _ => {
-                let key = mesh_hash(&o.mesh);
+                let key = mesh_hash(&mesh);
                 self.contents.insert(named, key);
                 key
             }
         };
         if !self.seen.contains_key(&key) {
-            let input = o.mesh.triangle_count() as u64;
-            let (mesh, stats) = o.mesh.clone().clean().map_err(|source| BuildError::Mesh { index, name: o.name.clone(), source })?;
+            let input = mesh.triangle_count() as u64;
+            let (mesh, stats) = mesh.clean().map_err(|source| BuildError::Mesh { index, name: name.clone(), source })?;
             self.clean_stats.add(stats);
             let closed = crate::cluster::Parts::of(&mesh).all_closed().then(|| mesh.bounds());
             let c = crate::chunk::split(&mesh, split);
@@ -294,12 +295,12 @@ impl Stream<'_> {
         }
         let s = &self.seen[&key];
         if s.kept.triangles == 0 {
-            self.empty.push(o.name);
+            self.empty.push(name);
             return Ok(());
         }
         // Whole units apart (see crate::place): the same translation wherever the model stands.
-        let shift = o.anchor - origin;
-        let place = Placement::new(glam::DAffine3 { matrix3: o.placement.matrix3, translation: o.placement.translation + shift });
+        let shift = anchor - origin;
+        let place = Placement::new(glam::DAffine3 { matrix3: placement.matrix3, translation: placement.translation + shift });
         let mut chunks = Vec::with_capacity(s.parts.len());
         for (k, (bounds, positions)) in s.parts.iter().enumerate() {
             // A part turned off the axes is boxed by its vertices placed.
@@ -308,7 +309,7 @@ impl Stream<'_> {
                 let points = place.points(positions);
                 let (vertex, &pos) =
                     points.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())).unwrap_or((0, &[f32::INFINITY; 3]));
-                return Err(BuildError::Mesh { index, name: o.name, source: MeshError::NonFinite { vertex, pos } });
+                return Err(BuildError::Mesh { index, name, source: MeshError::NonFinite { vertex, pos } });
             }
             let part = s.first_part + k as u32;
             let triangles = self.prototypes.parts[part as usize].triangles;

@@ -348,7 +348,8 @@ impl<'a> Built<'a> {
             // Simplification keeps a subset of the part's vertices, so the level lies in the leaf.
             let b = place.bounds(l.bounds);
             let bounds = crate::Aabb::new(b.min.max(c.bounds.min), b.max.min(c.bounds.max));
-            let record = NodeRecord { instance: c.instance, ..level_record(id, bounds, l.error * place.scale, l.triangles, c.object) };
+            let instance = if self.expand { NONE } else { c.instance };
+            let record = NodeRecord { instance, ..level_record(id, bounds, l.error * place.scale, l.triangles, c.object) };
             let block = match &l.block {
                 Ok(block) => {
                     self.shared_bytes += block.byte_len().next_multiple_of(crate::limits::BLOCK_ALIGN);
@@ -359,7 +360,6 @@ impl<'a> Built<'a> {
                     times.run("write", || w.block(placed)).map_err(|e| write_error(w, e))?
                 }
             };
-            let record = if self.expand { NodeRecord { instance: NONE, ..record } } else { record };
             self.levels.push((record, block));
         }
         self.lods[id as usize] = start..self.levels.len() as u32;
@@ -577,13 +577,10 @@ fn cut_record(id: u32, p: &Piece, object: u32) -> NodeRecord {
     let lo_error = p.cuts.iter().map(|c| c.lo.error).fold(f32::INFINITY, f32::min);
     let b = p.mesh.bounds();
     NodeRecord {
-        bbox_min: b.min.into(),
-        bbox_max: b.max.into(),
-        triangles: p.mesh.triangle_count() as u64,
         flags: FLAG_CUT,
         cut_hi: crate::clod::enclosing(&hi, f32::max),
         cut_lo_error: lo_error,
-        ..level_record(id, b, lo_error, 0, object)
+        ..level_record(id, b, lo_error, p.mesh.triangle_count() as u64, object)
     }
 }
 
