@@ -134,15 +134,15 @@ fn walks_stay_out_of_walls_and_paths_are_deterministic() {
 
 /// A two-storey building as an IFC export makes one: slabs, outer walls, a partition with a
 /// doorway 1 m wide, a straight stair of 16 steps up through a hole in the upper slab, a roof,
-/// and each storey filled by a translucent room volume (IfcSpace, alpha 0.2).
-fn write_building(path: &std::path::Path) {
+/// and each storey filled by a translucent room volume (IfcSpace, alpha 0.2). With `yard`, a
+/// door in the wall at x = 10 leads out onto a paved yard 4 m deep.
+fn write_building(path: &std::path::Path, yard: bool) {
     let mut parts: Vec<([f32; 6], f64)> = vec![
         ([0.0, -0.3, 0.0, 10.0, 0.0, 8.0], 1.0), // ground slab
         ([0.0, 2.8, 0.0, 10.0, 3.0, 5.0], 1.0),  // upper slab, less the stairwell
         ([0.0, 2.8, 5.0, 4.0, 3.0, 8.0], 1.0),
         ([0.0, 5.8, 0.0, 10.0, 6.0, 8.0], 1.0),   // roof
         ([-0.2, -0.3, -0.2, 0.0, 6.0, 8.2], 1.0), // outer walls
-        ([10.0, -0.3, -0.2, 10.2, 6.0, 8.2], 1.0),
         ([0.0, -0.3, -0.2, 10.0, 6.0, 0.0], 1.0),
         ([0.0, -0.3, 8.0, 10.0, 6.0, 8.2], 1.0),
         ([2.0, 0.0, 0.0, 2.15, 2.8, 1.0], 1.0), // a partition with a doorway at z 1..2
@@ -155,6 +155,16 @@ fn write_building(path: &std::path::Path) {
         let x = 4.0 + (16 - k) as f32 * 0.3;
         parts.push(([x, 0.0, 5.2, x + 0.3, k as f32 * 0.1875, 7.8], 1.0));
     }
+    parts.extend(match yard {
+        false => vec![([10.0, -0.3, -0.2, 10.2, 6.0, 8.2], 1.0)],
+        // The wall at x = 10 with a door at z 3..4.5, and the yard's paving.
+        true => vec![
+            ([10.0, -0.3, -0.2, 10.2, 6.0, 3.0], 1.0),
+            ([10.0, -0.3, 4.5, 10.2, 6.0, 8.2], 1.0),
+            ([10.0, 2.1, 3.0, 10.2, 6.0, 4.5], 1.0),
+            ([10.0, -0.3, 0.0, 14.0, 0.0, 8.0], 1.0),
+        ],
+    });
     let (mut bin, mut views, mut accessors, mut meshes, mut nodes) = (vec![], vec![], vec![], vec![], vec![]);
     for (k, (b, alpha)) in parts.iter().enumerate() {
         let mut m = osw_scene::mesh::Mesh::default();
@@ -177,7 +187,7 @@ fn write_building(path: &std::path::Path) {
 fn a_walk_goes_through_doorways_room_volumes_and_up_the_stairs_of_a_building() {
     let d = tempfile::tempdir().unwrap();
     let (glb, scene_path, csv) = (d.path().join("house.glb"), d.path().join("house.osw"), d.path().join("walk.csv"));
-    write_building(&glb);
+    write_building(&glb, false);
     osw_ok(&["build", s(&glb), "-o", s(&scene_path)]);
     osw_ok(&["path", "--scene", s(&scene_path), "--kind", "walk", "--frames", "600", "--seed", "3", "-o", s(&csv)]);
     let scene = SceneFile::open(&scene_path).unwrap();
@@ -197,6 +207,44 @@ fn a_walk_goes_through_doorways_room_volumes_and_up_the_stairs_of_a_building() {
     eprintln!("{} frames on the ground floor, {upper} upstairs, {climbing} on the stairs", ground.len());
     assert!(!ground.is_empty() && upper > 0 && climbing > 0, "{} on the ground floor, {upper} upstairs, {climbing} between", ground.len());
     assert!(ground.iter().any(|c| c.position.x < 2.0) && ground.iter().any(|c| c.position.x > 2.15), "never through the doorway");
+}
+
+/// A walk starts under the roof of the region it walks in, though that region reaches out of
+/// a door onto open ground (a site's roads are its buildings' ground floors' region).
+#[test]
+fn a_walk_starts_inside_though_its_region_reaches_outside() {
+    let d = tempfile::tempdir().unwrap();
+    let (glb, scene_path) = (d.path().join("yard.glb"), d.path().join("yard.osw"));
+    write_building(&glb, true);
+    osw_ok(&["build", s(&glb), "-o", s(&scene_path)]);
+    let walk = |seed: u64, frames: &str, speed: &str| {
+        let csv = d.path().join(format!("walk-{seed}-{frames}.csv"));
+        let seed = seed.to_string();
+        osw_ok(&[
+            "path",
+            "--scene",
+            s(&scene_path),
+            "--kind",
+            "walk",
+            "--frames",
+            frames,
+            "--speed",
+            speed,
+            "--seed",
+            &seed,
+            "-o",
+            s(&csv),
+        ]);
+        osw_scene::path::read(&csv).unwrap()
+    };
+    // The yard is walked: long walks go out of the door.
+    let out = (1..=8).filter(|&seed| walk(seed, "600", "0.25").iter().any(|c| c.position.x > 10.4)).count();
+    assert!(out > 0, "no walk of 600 frames goes out into the yard");
+    // Every walk starts inside (slowly: the smoothing averages the first 0.6 m).
+    for seed in 1..=24 {
+        let p = walk(seed, "2", "0.05")[0].position;
+        assert!(p.x < 10.0, "seed {seed}: the walk starts in the yard at {p}");
+    }
 }
 
 #[test]
