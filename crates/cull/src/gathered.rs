@@ -28,10 +28,32 @@ pub struct Gathered {
 }
 
 impl Gathered {
-    /// Appends to `out`, and adds to `stats`, what [`gather`] would for `node` (its id, and
-    /// its first vertex in the arena), taking every cluster that passes `tests`: copied when
-    /// the node was gathered under the same view, tests and first vertex since the view last
-    /// changed.
+    /// Appends to `out`, and adds to `stats`, what [`gather`] made for `node` (its id, and its
+    /// first vertex in the arena) under `view` and `tests` since the view last changed; false,
+    /// appending nothing, when it has not (the caller then reads the node's geometry, which
+    /// for an instance is placed at each read, and calls [`Gathered::gather`]).
+    pub fn copy(
+        &mut self,
+        view: &View,
+        tests: ClusterTests,
+        (id, base): (NodeId, u32),
+        stats: &mut ClusterStats,
+        out: &mut Vec<u32>,
+    ) -> bool {
+        if self.key.as_ref().is_none_or(|(v, t)| v != view || *t != tests) {
+            self.key = Some((view.clone(), tests));
+            self.nodes.clear();
+            self.indices.clear();
+        }
+        let Some(e) = self.nodes.get(&id).filter(|e| e.base == base) else { return false };
+        out.extend_from_slice(&self.indices[e.range.clone()]);
+        *stats = *stats + e.stats;
+        true
+    }
+
+    /// Appends to `out`, and adds to `stats`, what [`gather`] would for `node`, taking every
+    /// cluster that passes `tests`: copied when the node was gathered under the same view,
+    /// tests and first vertex since the view last changed.
     pub fn gather<I: Copy + Into<u32>>(
         &mut self,
         view: &View,
@@ -41,14 +63,7 @@ impl Gathered {
         stats: &mut ClusterStats,
         out: &mut Vec<u32>,
     ) {
-        if self.key.as_ref().is_none_or(|(v, t)| v != view || *t != tests) {
-            self.key = Some((view.clone(), tests));
-            self.nodes.clear();
-            self.indices.clear();
-        }
-        if let Some(e) = self.nodes.get(&id).filter(|e| e.base == base) {
-            out.extend_from_slice(&self.indices[e.range.clone()]);
-            *stats = *stats + e.stats;
+        if self.copy(view, tests, (id, base), stats, out) {
             return;
         }
         let (start, mut s) = (out.len(), ClusterStats::default());

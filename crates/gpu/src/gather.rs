@@ -112,8 +112,8 @@ impl Renderer {
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { ClusterTests { occlusion: false, ..self.options().cluster_tests } };
         self.indices.clear();
         for (_, id) in order {
-            let base = self.residency.ensure(&self.gpu, scene, id)?;
             let g = scene.geometry(id)?;
+            let base = self.residency.ensure(&self.gpu, id, &g)?;
             let (out, s, clusters) = (&mut self.indices, &mut stats.clusters, &g.clusters[g.opaque..]);
             match &g.indices {
                 Indices::U16(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
@@ -141,15 +141,23 @@ impl Renderer {
         let mut stats = DrawStats::default();
         self.indices.clear();
         for &id in ids {
-            let base = self.residency.ensure(&self.gpu, scene, id)?;
+            stats.nodes += 1;
+            let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
+            if let Some(base) = self.residency.resident(id)
+                && select.is_none()
+                && gathered.copy(view, tests, (id, base), s, out)
+            {
+                continue;
+            }
+            // Read once: an instance's geometry is placed at each read.
             let g = scene.geometry(id)?;
+            let base = self.residency.ensure(&self.gpu, id, &g)?;
             let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
             let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
             match &g.indices {
                 Indices::U16(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),
                 Indices::U32(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),
             }
-            stats.nodes += 1;
         }
         stats.triangles = self.indices.len() as u64 / 3;
         Ok(stats)

@@ -11,7 +11,8 @@
 use crate::device::Gpu;
 use crate::ranges::FreeRanges;
 use bytemuck::{Pod, Zeroable};
-use osw_scene::{NodeId, SceneError, SceneFile};
+use osw_scene::NodeId;
+use osw_scene::file::Geometry;
 use std::collections::HashMap;
 
 /// A vertex in the arena: 20 bytes.
@@ -51,8 +52,6 @@ pub struct ResidencyStats {
 
 #[derive(Debug, thiserror::Error)]
 pub enum ResidencyError {
-    #[error(transparent)]
-    Scene(#[from] SceneError),
     #[error("one frame's geometry needs more than the largest GPU buffer ({0} bytes)")]
     TooLarge(u64),
 }
@@ -100,14 +99,19 @@ impl Residency {
         self.frame += 1;
     }
 
-    /// Makes `id` resident (uploading it if needed) and marks it used in this epoch; returns
-    /// its first vertex in the arena.
-    pub fn ensure(&mut self, gpu: &Gpu, scene: &SceneFile, id: NodeId) -> Result<u32, ResidencyError> {
-        if let Some(r) = self.map.get_mut(&id) {
-            r.last_used = self.frame;
-            return Ok(r.base);
+    /// `id`'s first vertex in the arena, if it is resident, marking it used in this epoch.
+    pub fn resident(&mut self, id: NodeId) -> Option<u32> {
+        let r = self.map.get_mut(&id)?;
+        r.last_used = self.frame;
+        Some(r.base)
+    }
+
+    /// Makes `id`, of geometry `g` (read by the caller, who draws it next), resident, uploading
+    /// it if needed, and marks it used in this epoch; returns its first vertex in the arena.
+    pub fn ensure(&mut self, gpu: &Gpu, id: NodeId, g: &Geometry) -> Result<u32, ResidencyError> {
+        if let Some(base) = self.resident(id) {
+            return Ok(base);
         }
-        let g = scene.geometry(id)?;
         let n = g.positions.len() as u32;
         let base = self.allocate(gpu, n)?;
         let color = |i: usize| g.colors.get(i).copied().unwrap_or(osw_scene::mesh::NO_COLOR);
