@@ -4,9 +4,9 @@
 //!
 //! Walk: at eye height over the scene's floors ([`crate::nav`]), keeping a clearance from
 //! blocked floors; the walk chains cheapest paths (dearer near obstacles) between random
-//! floors of one connected region (inside, see `walk_region`; from a floor under its roof),
-//! resampled to a constant speed and smoothed where smoothing stays over free floors. It climbs stairs, goes through
-//! doorways and storeys, and through translucent room volumes.
+//! floors of one connected region (inside, see `walk_region`, from a floor under its roof),
+//! resampled to a constant speed and smoothed where smoothing stays over free floors. It
+//! climbs stairs, goes through doorways and storeys, and through translucent room volumes.
 
 use crate::camera::Camera;
 use crate::file::SceneFile;
@@ -119,8 +119,8 @@ fn paths_from(floors: &Floors, free: &[bool], clearance: &[u32], roomy: u32, fro
 /// The floors of the region of connected `free` floors to walk in, in index order: the lowest
 /// region mostly under a roof (inside a building or a level rather than around it: its ground
 /// floor, where a person comes in) of at least an eighth of the largest region (not the gap
-/// under an overhang), else the largest.
-fn walk_region(floors: &Floors, free: &[bool]) -> Vec<usize> {
+/// under an overhang), else the largest; and whether it is the region under a roof.
+fn walk_region(floors: &Floors, free: &[bool]) -> (Vec<usize>, bool) {
     let mut region = vec![u32::MAX; free.len()];
     // (floors, roofed floors, first floor, lowest height) of each region.
     let mut regions = Vec::new();
@@ -143,8 +143,8 @@ fn walk_region(floors: &Floors, free: &[bool]) -> Vec<usize> {
     }
     let largest = regions.iter().map(|r| r.0).max().unwrap_or(0);
     let inside = regions.iter().filter(|r| r.1 * 2 >= r.0 && r.0 * 8 >= largest).min_by(|a, b| a.3.total_cmp(&b.3));
-    let Some(&(_, _, first, _)) = inside.or_else(|| regions.iter().max_by_key(|r| r.0)) else { return Vec::new() };
-    (0..free.len()).filter(|&i| region[i] as usize == first).collect()
+    let Some(&(_, _, first, _)) = inside.or_else(|| regions.iter().max_by_key(|r| r.0)) else { return (Vec::new(), false) };
+    ((0..free.len()).filter(|&i| region[i] as usize == first).collect(), inside.is_some())
 }
 
 /// Clearance below which a step costs more (see `paths_from`).
@@ -155,7 +155,7 @@ fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
     let cells = |c: f32| (c / floors.grid.cell_size).ceil() as u32;
     let clearance = floors.clearance(cells(ROOMY));
     let free: Vec<bool> = clearance.iter().map(|&d| d > cells(CLEARANCE)).collect();
-    let region = walk_region(&floors, &free);
+    let (region, inside) = walk_region(&floors, &free);
     if region.len() < 2 {
         return Err(format!(
             "no free space to walk in at eye height ({} floors in {} cells of {} m, all blocked or too narrow)",
@@ -165,11 +165,11 @@ fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
         ));
     }
     let mut rng = crate::generators::rng(o.seed, 0x9a7);
-    // A walk starts under a roof where its region has one (inside, where a person comes in).
-    // A site's roads join its buildings' ground floors into one region, mostly road where the
-    // grid is too coarse for the aisles between the equipment (the 10B plant: 5.6 km in 4,096
-    // cells of 1.4 m), and a walk begun on a road looks down kilometres of facades.
-    let roofed: Vec<usize> = region.iter().copied().filter(|&i| floors.roofed[i]).collect();
+    // Inside (a region mostly under a roof), a walk starts under the roof, where a person comes
+    // in: a building's ground floors reach out of its doors onto the ground around it. Any
+    // other region starts anywhere: a forest's canopies roof some of its ground, and a walk
+    // begun under one at the forest's edge looks out of it.
+    let roofed: Vec<usize> = region.iter().copied().filter(|&i| inside && floors.roofed[i]).collect();
     let starts = if roofed.is_empty() { &region } else { &roofed };
     let mut at = starts[rng.random_range(0..starts.len())];
     let mut route = vec![floors.point(at)];
