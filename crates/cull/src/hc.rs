@@ -90,6 +90,33 @@ pub fn frustum_cull(nodes: &[NodeRecord], view: &View, tau: f64, pvs: &mut Vec<N
     stats
 }
 
+/// The LODs that the frustum holds at `tau`, nearest the eye first (by their boxes), up to
+/// `budget` triangles (at least the nearest one); sorted by id. HC's first occluders where
+/// there is no V(i-1): any geometry of the frame's LODs is a conservative occluder (what it
+/// hides, whatever hides it hides too).
+pub fn nearest_in_view(nodes: &[NodeRecord], view: &View, tau: f64, budget: u64) -> Vec<NodeId> {
+    let mut ids = Vec::new();
+    frustum_cull(nodes, view, tau, &mut ids);
+    let distance = |id: NodeId| {
+        let b = nodes[id as usize].aabb();
+        (b.min.as_dvec3() - view.eye).max(view.eye - b.max.as_dvec3()).max(glam::DVec3::ZERO).length_squared()
+    };
+    let mut by_distance: Vec<(f64, NodeId)> = ids.iter().map(|&id| (distance(id), id)).collect();
+    by_distance.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut triangles = 0;
+    let mut nearest: Vec<NodeId> = by_distance
+        .into_iter()
+        .take_while(|&(_, id)| {
+            let under = triangles < budget;
+            triangles += nodes[id as usize].triangles;
+            under
+        })
+        .map(|(_, id)| id)
+        .collect();
+    nearest.sort_unstable();
+    nearest
+}
+
 /// HC as [`hardware_cull`], taking the BVH nodes above `previous` (V(i-1): LOD and HLOD ids,
 /// sorted) as visible without a test. Same PVS for a tester whose answers are consistent (a
 /// box is visible when one inside it is) and that takes no occluders, fewer tests the more
@@ -349,6 +376,24 @@ pub(crate) mod tests {
             node(lod, 30.0, 31.0, 11, (0, 0), (0, 0)),
             node(lod, 40.0, 41.0, 12, (0, 0), (0, 0)),
         ]
+    }
+
+    #[test]
+    fn the_first_occluders_are_the_nearest_lods_in_view_up_to_the_budget() {
+        // Leaves' level 0 at x 0, 10, 20, 30, 40 (deep_scene), 100 triangles each; the eye
+        // looks down +x from x -5, then from x 45 back down -x.
+        let mut nodes = deep_scene();
+        for n in nodes.iter_mut().filter(|n| n.kind() == NodeKind::Lod) {
+            n.triangles = 100;
+        }
+        let from_low = view_from(DVec3::new(-5.0, 0.5, 0.5), DVec3::new(50.0, 0.5, 0.5));
+        assert_eq!(nearest_in_view(&nodes, &from_low, 0.0, 150), vec![7, 8], "the budget is passed by the last taken");
+        assert_eq!(nearest_in_view(&nodes, &from_low, 0.0, 1), vec![7], "at least the nearest");
+        let from_high = view_from(DVec3::new(45.0, 0.5, 0.5), DVec3::new(-50.0, 0.5, 0.5));
+        assert_eq!(nearest_in_view(&nodes, &from_high, 0.0, 300), vec![9, 13, 14], "nearest first, sorted by id");
+        assert_eq!(nearest_in_view(&nodes, &from_high, 0.0, u64::MAX).len(), 5, "everything in view");
+        let away = view_from(DVec3::new(-5.0, 0.5, 0.5), DVec3::new(-50.0, 0.5, 0.5));
+        assert!(nearest_in_view(&nodes, &away, 0.0, 150).is_empty(), "nothing in view");
     }
 
     pub(crate) fn view_from(eye: DVec3, target: DVec3) -> View {

@@ -2,6 +2,7 @@
 //! buffer OR left, in three timed passes: the traversal, the hybrid's second look at small
 //! boxes, and the retest of the additions drawn as occluders.
 
+use osw_cull::hc::nearest_in_view;
 use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid};
 use osw_cull::retest::retest_additions;
 use osw_cull::{HcStats, View, VisibilityTester, frustum_cull, hardware_cull_seen};
@@ -255,7 +256,7 @@ fn traverse(
     let nearest;
     let previous = match previous.is_empty() && opts.test == HcTest::Hybrid {
         true => {
-            nearest = nearest_in_view(nodes, view, tau);
+            nearest = nearest_in_view(nodes, view, tau, FIRST_OCCLUDER_TRIANGLES);
             r.draw_opaque(scene, view, &nearest, opts.writes, false)?;
             t.drawn.extend_from_slice(&nearest);
             &nearest[..]
@@ -293,34 +294,8 @@ fn traverse(
 
 /// Triangles of the first occluders of a frame without V(i-1) (about a frame's worth on the
 /// plant walks at 1024x1024). Drawing everything the frustum holds instead, as the retest
-/// would, took 26 s for the first frame of the 10B instanced plant's walk.
+/// would, took 13.5 to 23.8 s for the first frame of the 10B instanced plant's walk.
 const FIRST_OCCLUDER_TRIANGLES: u64 = 1 << 16;
-
-/// The LODs that the frustum holds at `tau`, nearest the eye first (by their boxes), up to
-/// [`FIRST_OCCLUDER_TRIANGLES`]; sorted by id. Any geometry of the frame's LODs is a
-/// conservative occluder: what it hides, whatever hides it hides too.
-fn nearest_in_view(nodes: &[osw_scene::NodeRecord], view: &View, tau: f64) -> Vec<NodeId> {
-    let mut ids = Vec::new();
-    frustum_cull(nodes, view, tau, &mut ids);
-    let distance = |id: NodeId| {
-        let b = nodes[id as usize].aabb();
-        (b.min.as_dvec3() - view.eye).max(view.eye - b.max.as_dvec3()).max(glam::DVec3::ZERO).length_squared()
-    };
-    let mut by_distance: Vec<(f64, NodeId)> = ids.iter().map(|&id| (distance(id), id)).collect();
-    by_distance.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    let mut triangles = 0;
-    let mut nearest: Vec<NodeId> = by_distance
-        .into_iter()
-        .take_while(|&(_, id)| {
-            let under = triangles < FIRST_OCCLUDER_TRIANGLES;
-            triangles += nodes[id as usize].triangles;
-            under
-        })
-        .map(|(_, id)| id)
-        .collect();
-    nearest.sort_unstable();
-    nearest
-}
 
 /// Boxes a pass tested and dropped as hidden, and of those the ones only adaptive culling
 /// dropped.
