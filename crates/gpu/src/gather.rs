@@ -152,7 +152,6 @@ impl Renderer {
             // Read once: an instance's geometry is placed at each read.
             let g = scene.geometry(id)?;
             let base = self.residency.ensure(&self.gpu, id, &g)?;
-            let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
             let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
             match &g.indices {
                 Indices::U16(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),

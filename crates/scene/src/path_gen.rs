@@ -169,7 +169,7 @@ fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
     // in: a building's ground floors reach out of its doors onto the ground around it. Any
     // other region starts anywhere: a forest's canopies roof some of its ground, and a walk
     // begun under one at the forest's edge looks out of it.
-    let roofed: Vec<usize> = region.iter().copied().filter(|&i| inside && floors.roofed[i]).collect();
+    let roofed: Vec<usize> = if inside { region.iter().copied().filter(|&i| floors.roofed[i]).collect() } else { Vec::new() };
     let starts = if roofed.is_empty() { &region } else { &roofed };
     let mut at = starts[rng.random_range(0..starts.len())];
     let mut route = vec![floors.point(at)];
