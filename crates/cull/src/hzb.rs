@@ -54,8 +54,9 @@ pub fn select_occluders(nodes: &[NodeRecord], bvh_count: u32, view: &View, count
 /// an odd last row or column read twice. Row by row, so that the compiler sees plain slices
 /// (HC builds a pyramid of a million texels at least once a frame: 2.5-3% of the switch's CPU
 /// as an iterator clamping every read, 1.1% so).
-fn reduce(w: usize, h: usize, d: &[f32]) -> Vec<f32> {
-    let mut next = Vec::with_capacity(w.div_ceil(2) * h.div_ceil(2));
+fn reduce(w: usize, h: usize, d: &[f32], next: &mut Vec<f32>) {
+    next.clear();
+    next.reserve(w.div_ceil(2) * h.div_ceil(2));
     for y in (0..h).step_by(2) {
         let (r0, r1) = (&d[y * w..][..w], &d[(y + 1).min(h - 1) * w..][..w]);
         next.extend(r0.chunks_exact(2).zip(r1.chunks_exact(2)).map(|(a, b)| a[0].min(a[1]).min(b[0].min(b[1]))));
@@ -63,10 +64,10 @@ fn reduce(w: usize, h: usize, d: &[f32]) -> Vec<f32> {
             next.push(r0[w - 1].min(r1[w - 1]));
         }
     }
-    next
 }
 
 /// Farthest-depth pyramid; level 0 is the depth buffer (row 0 at the top).
+#[derive(Default)]
 pub struct Pyramid {
     levels: Vec<(u32, u32, Vec<f32>)>,
 }
@@ -74,13 +75,31 @@ pub struct Pyramid {
 impl Pyramid {
     /// Builds the pyramid from a `width` x `height` reversed-Z depth image.
     pub fn new(width: u32, height: u32, depth: Vec<f32>) -> Pyramid {
+        let mut pyramid = Pyramid::default();
+        let Ok(()) = pyramid.rebuild(width, height, |d| {
+            *d = depth;
+            Ok::<(), std::convert::Infallible>(())
+        });
+        pyramid
+    }
+
+    /// Builds the pyramid again, in this one's storage, from the `width` x `height` reversed-Z
+    /// depth image that `fill` writes into level 0 (given empty). A 1024x1024 pyramid is 5.6 MB,
+    /// which a fresh allocation faults in page by page: measured, page faults took about 8% of
+    /// a frame's CPU on the 10B instanced plant's walk when every pyramid was new.
+    pub fn rebuild<E>(&mut self, width: u32, height: u32, fill: impl FnOnce(&mut Vec<f32>) -> Result<(), E>) -> Result<(), E> {
+        let mut storage = std::mem::take(&mut self.levels).into_iter().map(|(_, _, d)| d);
+        let mut depth = storage.next().unwrap_or_default();
+        depth.clear();
+        fill(&mut depth)?;
         assert_eq!(depth.len(), (width * height) as usize, "depth image size");
-        let mut levels = vec![(width, height, depth)];
-        while let Some((w, h, d)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
-            let next = reduce(*w as usize, *h as usize, d);
-            levels.push((w.div_ceil(2), h.div_ceil(2), next));
+        self.levels.push((width, height, depth));
+        while let Some(&(w, h, ref d)) = self.levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
+            let mut next = storage.next().unwrap_or_default();
+            reduce(w as usize, h as usize, d, &mut next);
+            self.levels.push((w.div_ceil(2), h.div_ceil(2), next));
         }
-        Pyramid { levels }
+        Ok(())
     }
 
     /// The level where the level-0 pixel rectangle [x0, x1] x [y0, y1] spans at most
@@ -392,9 +411,19 @@ mod tests {
                 (rng >> 8) as f32 / (1 << 24) as f32
             })
             .collect();
-        let p = Pyramid::new(w, h, depth.clone());
-        assert_eq!(p.levels.last().map(|l| (l.0, l.1)), Some((1, 1)));
-        let depth = &depth;
+        // Built new, and again in the storage of a larger pyramid of another shape.
+        let mut reused = Pyramid::new(64, 9, vec![0.0; 64 * 9]);
+        let Ok(()) = reused.rebuild(w, h, |d| {
+            d.extend_from_slice(&depth);
+            Ok::<(), std::convert::Infallible>(())
+        });
+        for p in [Pyramid::new(w, h, depth.clone()), reused] {
+            assert_eq!(p.levels.last().map(|l| (l.0, l.1)), Some((1, 1)));
+            holds_the_farthest_of_each_block(&p, w, h, &depth);
+        }
+    }
+
+    fn holds_the_farthest_of_each_block(p: &Pyramid, w: u32, h: u32, depth: &[f32]) {
         for (l, (lw, lh, d)) in p.levels.iter().enumerate() {
             for (y, x) in (0..*lh).flat_map(|y| (0..*lw).map(move |x| (y, x))) {
                 let block = |v: u32, n: u32| (v << l)..((v + 1) << l).min(n);

@@ -157,6 +157,8 @@ pub struct Renderer {
     /// Each node's indices as last gathered, for passes of the same view.
     pub(crate) gathered: Gathered,
     gpu_boxes: Vec<GpuBox>,
+    /// The storage of the last CPU depth pyramid given back.
+    spare_pyramid: Option<osw_cull::hzb::Pyramid>,
 }
 
 fn storage(gpu: &Gpu, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -254,6 +256,7 @@ impl Renderer {
             indices: Vec::new(),
             gathered: Gathered::default(),
             gpu_boxes: Vec::new(),
+            spare_pyramid: None,
             gpu,
         })
     }
@@ -286,6 +289,20 @@ impl Renderer {
     /// The depth attachment as it is now, rows top first.
     pub fn read_depth(&self) -> Result<Vec<f32>, RenderError> {
         Ok(self.target.read_depth(&self.gpu)?)
+    }
+
+    /// The farthest-depth pyramid of the depth buffer read back, built in the storage of the
+    /// last one given back ([`Renderer::give_back`]).
+    pub fn depth_pyramid(&mut self) -> Result<osw_cull::hzb::Pyramid, RenderError> {
+        let mut p = self.spare_pyramid.take().unwrap_or_default();
+        let (w, h) = (self.target.width, self.target.height);
+        p.rebuild(w, h, |d| self.target.read_depth_into(&self.gpu, d))?;
+        Ok(p)
+    }
+
+    /// A pyramid no longer needed: the next [`Renderer::depth_pyramid`] is built in its storage.
+    pub fn give_back(&mut self, p: osw_cull::hzb::Pyramid) {
+        self.spare_pyramid = Some(p);
     }
 
     /// Draws the gathered indices in one call; counts them into `stats.triangles`, and their

@@ -60,18 +60,26 @@ impl Target {
 
     /// The colour attachment as tightly packed RGBA8 rows, top row first.
     pub fn read_color(&self, gpu: &Gpu) -> Result<Vec<u8>, GpuError> {
-        self.read(gpu, &self.color_tex)
+        let mut out = Vec::new();
+        self.read(gpu, &self.color_tex, &mut out).map(|()| out)
     }
 
     /// The item attachment as (id + 1, triangle) pairs, row by row.
     pub fn read_item(&self, gpu: &Gpu) -> Result<Vec<[u32; 2]>, GpuError> {
-        self.read(gpu, &self.item_tex)
+        let mut out = Vec::new();
+        self.read(gpu, &self.item_tex, &mut out).map(|()| out)
     }
 
     /// The depth attachment (reversed Z), row by row: the readback the `hzb` baseline makes
     /// (Peng 2014 sec. 5.3; occlusion switch avoids it).
     pub fn read_depth(&self, gpu: &Gpu) -> Result<Vec<f32>, GpuError> {
-        self.read(gpu, &self.depth_tex)
+        let mut out = Vec::new();
+        self.read_depth_into(gpu, &mut out).map(|()| out)
+    }
+
+    /// [`Target::read_depth`] into `out`'s storage (cleared first).
+    pub fn read_depth_into(&self, gpu: &Gpu, out: &mut Vec<f32>) -> Result<(), GpuError> {
+        self.read(gpu, &self.depth_tex, out)
     }
 
     /// Records a copy of the depth attachment into `buffer` from offset 0, rows padded as
@@ -92,8 +100,9 @@ impl Target {
         );
     }
 
-    /// Texture `tex` as tightly packed texels of type `T` (RGBA8 as bytes), row by row.
-    fn read<T: bytemuck::Pod>(&self, gpu: &Gpu, tex: &wgpu::Texture) -> Result<Vec<T>, GpuError> {
+    /// Texture `tex` into `out` (cleared first) as tightly packed texels of type `T` (RGBA8 as
+    /// bytes), row by row.
+    fn read<T: bytemuck::Pod>(&self, gpu: &Gpu, tex: &wgpu::Texture, out: &mut Vec<T>) -> Result<(), GpuError> {
         let aspect = if tex.format() == DEPTH { wgpu::TextureAspect::DepthOnly } else { wgpu::TextureAspect::All };
         let texel = tex.format().block_copy_size(Some(aspect)).unwrap_or(4);
         let row = padded_row(self.width * texel);
@@ -110,10 +119,10 @@ impl Target {
         gpu.queue.submit([enc.finish()]);
         let tight = (self.width * texel) as usize;
         crate::readback::read(gpu, &self.staging, size, |b| {
-            let mut out = Vec::with_capacity(tight / std::mem::size_of::<T>() * self.height as usize);
+            out.clear();
+            out.reserve(tight / std::mem::size_of::<T>() * self.height as usize);
             // Mapped rows start 256-byte aligned.
             b.chunks(row as usize).for_each(|r| out.extend_from_slice(bytemuck::cast_slice(&r[..tight])));
-            out
         })
     }
 }

@@ -162,6 +162,9 @@ impl Switch {
             pvs.sort_unstable();
             HcPass { stats, ..HcPass::default() }
         };
+        if let Some(p) = hc.pyramid {
+            r.give_back(p);
+        }
         let (hc, times) = (hc.stats, hc.times);
         (f.hc_traversal_ms, f.hc_second_look_ms, f.hc_retest_ms) = (times.traversal_ms, times.second_look_ms, times.retest_ms);
         // A frame without occluders (the first) culls nothing, whatever culling would save.

@@ -256,6 +256,8 @@ impl ModeState {
                 // drawn anew.
                 if writes == Pass::Color && hc.stats.pixel_stops == 0 {
                     reused = Some((hc.drawn, hc.pyramid));
+                } else if let Some(p) = hc.pyramid {
+                    r.give_back(p);
                 }
                 hc.stats
             }

@@ -110,7 +110,8 @@ impl VisibilityTester for HybridTester<'_> {
             return Ok(false);
         }
         self.r.draw_opaque(self.scene, view, lods, self.writes, false)?;
-        self.pyramid = Pyramid::new(view.width, view.height, self.r.read_depth()?);
+        self.r.give_back(std::mem::take(&mut self.pyramid));
+        self.pyramid = self.r.depth_pyramid()?;
         self.drawn.extend_from_slice(lods);
         Ok(true)
     }
@@ -267,7 +268,7 @@ fn traverse(
         seen.clear();
         t.stats = frustum_cull(nodes, view, tau, pvs);
     } else if opts.test == HcTest::Hybrid {
-        let pyramid = Pyramid::new(view.width, view.height, r.read_depth()?);
+        let pyramid = r.depth_pyramid()?;
         let (min, writes) = (opts.new_occluders_min, opts.writes);
         let mut tester = HybridTester { r, scene, pyramid, min, writes, drawn: std::mem::take(&mut t.drawn) };
         t.stats = hardware_cull_seen(nodes, view, tau, previous, seen, &mut tester, pvs)?;

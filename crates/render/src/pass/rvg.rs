@@ -64,15 +64,19 @@ pub fn rvg_over(
     let opaque = if r.options().cluster_tests.occlusion {
         let pyramid = match begun.pyramid {
             Some(p) => p,
-            None => Pyramid::new(view.width, view.height, r.read_depth()?),
+            None => r.depth_pyramid()?,
         };
         let drawn = |id: NodeId, k: usize, h: &ClusterHistory| {
             begun.hc.binary_search(&id).is_ok() || (begun.or.binary_search(&id).is_ok() && h.was_visible(id, k))
         };
         // The visible clusters drawn before count whole: the triangle tests ran where they were drawn.
         let (rest, before) = draw_rest(r, scene, view, pvs, &pyramid, drawn, history)?;
+        r.give_back(pyramid);
         DrawStats { triangles: rest.triangles + before, ..rest }
     } else {
+        if let Some(p) = begun.pyramid {
+            r.give_back(p);
+        }
         *history = ClusterHistory::default();
         let drawn = |id: &NodeId| begun.or.binary_search(id).is_ok() || begun.hc.binary_search(id).is_ok();
         let new: Vec<NodeId> = pvs.iter().copied().filter(|id| !drawn(id)).collect();
@@ -98,8 +102,9 @@ fn visible_clusters(
     let tests = r.options().cluster_tests;
     let mut first = r.gather(scene, view, pvs, tests, Some(&mut |id, k, _| history.was_visible(id, k)))?;
     r.submit(view, Pass::Color, Layer::Opaque, true, &mut first)?;
-    let pyramid = Pyramid::new(view.width, view.height, r.read_depth()?);
+    let pyramid = r.depth_pyramid()?;
     let (second, _) = draw_rest(r, scene, view, pvs, &pyramid, |id, k, h| h.was_visible(id, k), history)?;
+    r.give_back(pyramid);
     // Both gathers count every cluster of the nodes; the triangle tests ran on what each drew.
     let clusters = ClusterStats {
         backface_culled: first.clusters.backface_culled + second.clusters.backface_culled,
