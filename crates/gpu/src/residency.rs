@@ -32,6 +32,8 @@ const VERTEX_BYTES: u64 = std::mem::size_of::<ArenaVertex>() as u64;
 const MIN_CAPACITY: u32 = 1 << 16;
 
 struct Resident {
+    /// Where in the scene file's blob the geometry it holds a copy of lies.
+    block: u64,
     /// First vertex in the arena.
     base: u32,
     vertices: u32,
@@ -48,6 +50,10 @@ pub struct ResidencyStats {
     /// indices) read from the file: the rest of the file was never read.
     pub distinct: u64,
     pub distinct_bytes: u64,
+    /// Uploads of a block already resident for another node (another use of a mesh stored
+    /// once, placed on the CPU): what per-instance transforms on the GPU would not store again.
+    pub repeat_uploads: u64,
+    pub repeat_bytes: u64,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -58,6 +64,9 @@ pub enum ResidencyError {
 
 pub struct Residency {
     map: HashMap<NodeId, Resident>,
+    /// Resident nodes per geometry block (by its place in the blob: every use of a mesh stored
+    /// once has its own block record, all at the same place).
+    copies: HashMap<u64, u32>,
     /// Per node id: uploaded at least once.
     ever: Vec<bool>,
     arena: Option<wgpu::Buffer>,
@@ -77,6 +86,7 @@ impl Residency {
     pub fn new(budget: u64) -> Residency {
         Residency {
             map: HashMap::new(),
+            copies: HashMap::new(),
             ever: Vec::new(),
             arena: None,
             capacity: 0,
@@ -106,9 +116,10 @@ impl Residency {
         Some(r.base)
     }
 
-    /// Makes `id`, of geometry `g` (read by the caller, who draws it next), resident, uploading
-    /// it if needed, and marks it used in this epoch; returns its first vertex in the arena.
-    pub fn ensure(&mut self, gpu: &Gpu, id: NodeId, g: &Geometry) -> Result<u32, ResidencyError> {
+    /// Makes `id`, whose geometry block lies at `block` in the blob, as `g` (read by the caller,
+    /// who draws it next), resident, uploading it if needed, and marks it used in this epoch; returns its first
+    /// vertex in the arena.
+    pub fn ensure(&mut self, gpu: &Gpu, (id, block): (NodeId, u64), g: &Geometry) -> Result<u32, ResidencyError> {
         if let Some(base) = self.resident(id) {
             return Ok(base);
         }
@@ -126,6 +137,12 @@ impl Residency {
         self.bytes += bytes;
         self.stats.uploads += 1;
         self.stats.upload_bytes += bytes;
+        let copies = self.copies.entry(block).or_default();
+        if *copies > 0 {
+            self.stats.repeat_uploads += 1;
+            self.stats.repeat_bytes += bytes;
+        }
+        *copies += 1;
         if self.ever.len() <= id as usize {
             self.ever.resize(id as usize + 1, false);
         }
@@ -133,7 +150,7 @@ impl Residency {
             self.stats.distinct += 1;
             self.stats.distinct_bytes += g.positions.len() as u64 * 12 + g.indices.bytes().len() as u64;
         }
-        self.map.insert(id, Resident { base, vertices: n, last_used: self.frame });
+        self.map.insert(id, Resident { block, base, vertices: n, last_used: self.frame });
         Ok(base)
     }
 
@@ -205,6 +222,12 @@ impl Residency {
 
     fn evict(&mut self, id: NodeId) {
         let r = self.map.remove(&id).expect("resident");
+        if let Some(c) = self.copies.get_mut(&r.block) {
+            *c -= 1;
+            if *c == 0 {
+                self.copies.remove(&r.block);
+            }
+        }
         self.free.give(r.base, r.vertices);
         self.bytes -= r.vertices as u64 * VERTEX_BYTES;
         self.stats.evictions += 1;

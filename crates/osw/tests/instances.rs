@@ -48,4 +48,13 @@ fn every_mode_draws_the_instanced_plant_like_vfc_and_like_its_copies() {
         let frame = |r: &Path| std::fs::read(osw_render::output::frame_path(r, i)).unwrap();
         assert!(frame(&run.join("prev-hybrid")) == frame(&copies), "frame {i} differs from the copies'");
     }
+    // The same nodes drawn upload the same vertices; the stored-once plant says which of them
+    // were a mesh already on the GPU for another use, the copies have no such meshes.
+    let summary = |r: &Path| -> serde_json::Value { serde_json::from_slice(&read(r, "summary.json")).unwrap() };
+    let (sk, se) = (summary(&run.join("prev-hybrid")), summary(&copies));
+    assert_eq!((n(&sk, "evictions"), n(&se, "evictions")), (0, 0));
+    assert_eq!(n(&sk, "upload_bytes"), n(&se, "upload_bytes"));
+    assert_eq!(n(&se, "upload_repeat_bytes"), 0);
+    let repeats = n(&sk, "upload_repeat_bytes");
+    assert!(repeats > 0 && repeats < n(&sk, "upload_bytes"), "{repeats} of {} bytes uploaded again", n(&sk, "upload_bytes"));
 }
