@@ -181,7 +181,7 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
     // already serve every frame alone, and the display must see the loss before a returns.
     // The restart is timed the same way: by node a's first HC after its last, not by the frame
     // this test had read when it restarted the node (in one run under load the loss was seen
-    // from frame 143, after a restart read "at 120", while node a was still away).
+    // from frame 143, after a restart read "at 120").
     let a_back = rows.iter().filter(|r| r.frame > a_last && r.hc_node == 0).map(|r| r.frame).min().expect("node a never came back");
     assert!(
         first >= killed_at.unwrap() && first < a_back,
