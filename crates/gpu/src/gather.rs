@@ -113,7 +113,7 @@ impl Renderer {
         self.indices.clear();
         for (_, id) in order {
             let g = scene.geometry(id)?;
-            let base = self.residency.ensure(&self.gpu, (id, scene.blocks()[scene.node(id).block as usize].offset), &g)?;
+            let base = self.residency.ensure(&self.gpu, (id, scene.block_at(id)), &g)?;
             let (out, s, clusters) = (&mut self.indices, &mut stats.clusters, &g.clusters[g.opaque..]);
             match &g.indices {
                 Indices::U16(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
@@ -151,7 +151,7 @@ impl Renderer {
             }
             // Read once: an instance's geometry is placed at each read.
             let g = scene.geometry(id)?;
-            let base = self.residency.ensure(&self.gpu, (id, scene.blocks()[scene.node(id).block as usize].offset), &g)?;
+            let base = self.residency.ensure(&self.gpu, (id, scene.block_at(id)), &g)?;
             let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
             match &g.indices {
                 Indices::U16(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),

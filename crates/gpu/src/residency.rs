@@ -50,9 +50,9 @@ pub struct ResidencyStats {
     /// indices) read from the file: the rest of the file was never read.
     pub distinct: u64,
     pub distinct_bytes: u64,
-    /// Uploads of a block already resident for another node (another use of a mesh stored
-    /// once, placed on the CPU): what per-instance transforms on the GPU would not store again.
-    pub repeat_uploads: u64,
+    /// Bytes uploaded of blocks already resident for another node (another use of a mesh
+    /// stored once, placed on the CPU): what per-instance transforms on the GPU would not store
+    /// again.
     pub repeat_bytes: u64,
 }
 
@@ -116,9 +116,9 @@ impl Residency {
         Some(r.base)
     }
 
-    /// Makes `id`, whose geometry block lies at `block` in the blob, as `g` (read by the caller,
-    /// who draws it next), resident, uploading it if needed, and marks it used in this epoch; returns its first
-    /// vertex in the arena.
+    /// Makes `id`, whose geometry block lies at `block` in the scene's blob, as `g` (read by the
+    /// caller, who draws it next), resident, uploading it if needed, and marks it used in this
+    /// epoch; returns its first vertex in the arena.
     pub fn ensure(&mut self, gpu: &Gpu, (id, block): (NodeId, u64), g: &Geometry) -> Result<u32, ResidencyError> {
         if let Some(base) = self.resident(id) {
             return Ok(base);
@@ -139,7 +139,6 @@ impl Residency {
         self.stats.upload_bytes += bytes;
         let copies = self.copies.entry(block).or_default();
         if *copies > 0 {
-            self.stats.repeat_uploads += 1;
             self.stats.repeat_bytes += bytes;
         }
         *copies += 1;

@@ -172,6 +172,12 @@ impl SceneFile {
         Ok(Placement::new(self.instances()[instance as usize].affine()).geometry(&g))
     }
 
+    /// Where LOD node `lod`'s geometry block lies in the blob: the same place for every use of a
+    /// mesh stored once.
+    pub fn block_at(&self, lod: NodeId) -> u64 {
+        self.blocks()[self.node(lod).block as usize].offset
+    }
+
     /// The geometry of LOD node `lod` as stored: in its mesh's own frame for an instance's node.
     pub fn stored_geometry(&self, lod: NodeId) -> Result<Geometry<'_>, SceneError> {
         let node = self
