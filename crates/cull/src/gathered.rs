@@ -12,10 +12,8 @@ use osw_scene::format::ClusterRecord;
 use std::collections::HashMap;
 use std::ops::Range;
 
-/// One node's gathered indices: where its vertices were, which of `Gathered::indices` it
-/// made, and its counts.
+/// One node's gathered indices, within its mesh (`Gathered::indices`), and its counts.
 struct Entry {
-    base: u32,
     range: Range<usize>,
     stats: ClusterStats,
 }
@@ -28,8 +26,8 @@ pub struct Gathered {
 }
 
 impl Gathered {
-    /// Appends to `out`, and adds to `stats`, what [`gather`] made for `node` (its id, and its
-    /// first vertex in the arena) under `view` and `tests` since the view last changed; false,
+    /// Appends to `out`, and adds to `stats`, what [`gather`] made for `node` (its id, and what
+    /// its vertex indices are offset by) under `view` and `tests` since the view last changed; false,
     /// appending nothing, when it has not (the caller then reads the node's geometry, which
     /// for an instance is placed at each read, and calls [`Gathered::gather`]).
     pub fn copy(
@@ -45,15 +43,15 @@ impl Gathered {
             self.nodes.clear();
             self.indices.clear();
         }
-        let Some(e) = self.nodes.get(&id).filter(|e| e.base == base) else { return false };
-        out.extend_from_slice(&self.indices[e.range.clone()]);
+        let Some(e) = self.nodes.get(&id) else { return false };
+        out.extend(self.indices[e.range.clone()].iter().map(|&i| i + base));
         *stats = *stats + e.stats;
         true
     }
 
     /// Appends to `out`, and adds to `stats`, what [`gather`] would for `node`, taking every
-    /// cluster that passes `tests`: copied when the node was gathered under the same view,
-    /// tests and first vertex since the view last changed.
+    /// cluster that passes `tests`: copied when the node was gathered under the same view and
+    /// tests since the view last changed.
     pub fn gather<I: Copy + Into<u32>>(
         &mut self,
         view: &View,
@@ -69,8 +67,8 @@ impl Gathered {
         let (start, mut s) = (out.len(), ClusterStats::default());
         gather(view, tests, geometry, &mut s, |_, _| true, base, out);
         let from = self.indices.len();
-        self.indices.extend_from_slice(&out[start..]);
-        self.nodes.insert(id, Entry { base, range: from..self.indices.len(), stats: s });
+        self.indices.extend(out[start..].iter().map(|&i| i - base));
+        self.nodes.insert(id, Entry { range: from..self.indices.len(), stats: s });
         *stats = *stats + s;
     }
 }

@@ -39,8 +39,11 @@ pub struct Gpu {
 pub const WANTED: wgpu::Features = wgpu::Features::SHADER_EARLY_DEPTH_TEST.union(wgpu::Features::PRIMITIVE_INDEX);
 
 /// Features used where the adapter has them: pipeline statistics count a pass's fragments
-/// (`RenderOptions::count_fragments`), timestamps time a pass on the GPU (`RenderOptions::time_gpu`).
-pub const OPTIONAL: wgpu::Features = wgpu::Features::PIPELINE_STATISTICS_QUERY.union(wgpu::Features::TIMESTAMP_QUERY);
+/// (`RenderOptions::count_fragments`), timestamps time a pass on the GPU (`RenderOptions::time_gpu`),
+/// 64-bit floats place an instance's vertices exactly as its placed copy would be
+/// (`crate::uses`).
+pub const OPTIONAL: wgpu::Features =
+    wgpu::Features::PIPELINE_STATISTICS_QUERY.union(wgpu::Features::TIMESTAMP_QUERY).union(wgpu::Features::SHADER_F64);
 
 impl Gpu {
     /// Opens an adapter: `name` picks the first whose name contains it (case-insensitive);

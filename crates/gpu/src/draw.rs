@@ -1,11 +1,13 @@
 //! Drawing LOD nodes: one draw per pass over the vertex arena (see [`crate::residency`]), each
-//! vertex carrying its node's id, which picks the node's object from a per-node table. Passes:
+//! index naming a node's slot in the pass's use table and a vertex of its mesh
+//! ([`crate::uses`]); the node picks its object from a per-node table. Passes:
 //! colour + depth (RVG), depth only (OR's occluders), item ids + depth (exact visibility). All
 //! use the same vertex shader, so a node covers the same pixels at the same depth in every
 //! pass. A block's translucent clusters are a second layer: blended over the colour (or written
 //! over the item ids), depth tested but never written, and never drawn in the depth pass.
 
 use crate::target::{COLOR, DEPTH, ITEM};
+use crate::uses::Rows;
 use bytemuck::{Pod, Zeroable};
 
 /// What a draw writes.
@@ -34,18 +36,18 @@ pub struct ViewUniform {
     pub view_proj: [[f32; 4]; 4],
     pub offset: [f32; 4],
     /// x: the pass's tint, RGB in the low three bytes and 255 in the high one, or 0: each
-    /// object in its own colour.
-    pub tint: [u32; 4],
+    /// object in its own colour; y: the pass's [`crate::uses::Uses::shift`].
+    pub draw: [u32; 4],
 }
 
 impl ViewUniform {
     pub fn new(view: &osw_cull::View) -> ViewUniform {
-        ViewUniform { view_proj: view.view_proj().to_cols_array_2d(), offset: view.offset().extend(0.0).to_array(), tint: [0; 4] }
+        ViewUniform { view_proj: view.view_proj().to_cols_array_2d(), offset: view.offset().extend(0.0).to_array(), draw: [0; 4] }
     }
 }
 
 impl Pass {
-    /// The [`ViewUniform::tint`] of this pass.
+    /// The tint of this pass ([`ViewUniform::draw`]'s x).
     pub fn tint(self) -> u32 {
         match self {
             Pass::Tinted([r, g, b]) => u32::from_le_bytes([r, g, b, 255]),
@@ -74,30 +76,35 @@ pub fn depth_state(write: bool, compare: wgpu::CompareFunction) -> wgpu::DepthSt
 }
 
 impl DrawPipelines {
-    pub fn new(device: &wgpu::Device) -> DrawPipelines {
-        let src = include_str!("shaders/draw.wgsl");
-        let module = crate::shaders::module(device, "draw.wgsl", "", src);
+    /// The pipelines whose vertex shader places instances with `rows`.
+    pub fn new(device: &wgpu::Device, rows: Rows) -> DrawPipelines {
+        let place = match rows {
+            Rows::Exact => include_str!("shaders/place64.wgsl"),
+            Rows::Single => include_str!("shaders/place32.wgsl"),
+        };
+        let src = format!("{}\n{place}", include_str!("shaders/draw.wgsl"));
+        let module = crate::shaders::module(device, "draw.wgsl", "", &src);
         let item_body = format!("{src}\n{}", include_str!("shaders/item.frag.wgsl"));
         let item_module = crate::shaders::module(device, "item.frag.wgsl", "enable primitive_index;\n", &item_body);
         let entry = |binding, ty, vis| wgpu::BindGroupLayoutEntry { binding, visibility: vis, ty, count: None };
         let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let read = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("draw"),
+            // The view, the objects per node, the pass's use table, the vertex arena.
             entries: &[
                 entry(
                     0,
                     wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
                     vf,
                 ),
-                entry(
-                    1,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    vf,
-                ),
+                entry(1, read, vf),
+                entry(2, read, wgpu::ShaderStages::VERTEX),
+                entry(3, read, wgpu::ShaderStages::VERTEX),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -105,18 +112,13 @@ impl DrawPipelines {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let vbuf = [Some(wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<crate::residency::ArenaVertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32, 2 => Unorm8x4],
-        })];
         let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>, layer: Layer| {
             let blend = (layer == Layer::Translucent && fs.is_some_and(|(_, f)| f == COLOR)).then_some(wgpu::BlendState::ALPHA_BLENDING);
             let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend, write_mask: wgpu::ColorWrites::ALL })]);
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&pl),
-                vertex: wgpu::VertexState { module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &vbuf },
+                vertex: wgpu::VertexState { module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
                 // No back-face culling: imported models are not reliably closed or wound.
                 primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
                 depth_stencil: Some(depth_state(layer == Layer::Opaque, wgpu::CompareFunction::Greater)),

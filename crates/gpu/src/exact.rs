@@ -125,7 +125,8 @@ impl Renderer {
 
     /// Draws in colour the triangles of the item pass (its indices `pass`) that `triangles`
     /// (ascending) name, in the pass's order, so that depth ties resolve as they did; returns
-    /// the milliseconds from submit to done. When they hold every visible triangle, every
+    /// the milliseconds from submit to done (the use table is still the item pass's: nothing
+    /// was gathered since). When they hold every visible triangle, every
     /// pixel keeps the triangle that won it: the image is the item pass's.
     fn draw_of_item_pass(&mut self, view: &View, pass: &[u32], triangles: impl Iterator<Item = u32>) -> Result<f64, RenderError> {
         self.indices.clear();

@@ -1,6 +1,8 @@
 //! A pass's index list: the opaque or translucent clusters of its nodes, read from the mapped
-//! scene and offset to their vertices in the arena, less what the cluster and triangle tests
-//! drop (osw_cull::cluster). Drawing is this step and [`Renderer::submit`]; RVG's two-pass
+//! scene and offset to each node's slot in the pass's use table ([`crate::uses`]), less what
+//! the cluster and triangle tests drop (osw_cull::cluster). The tests run on a node's geometry
+//! as placed in the scene (an instance's placed on the CPU at each read); the GPU draws its
+//! mesh as stored, placed by the use table. Drawing is this step and [`Renderer::submit`]; RVG's two-pass
 //! cluster occlusion culling (osw_render::pass::rvg) calls the two itself.
 
 use crate::draw::{Layer, Pass};
@@ -72,7 +74,9 @@ impl Renderer {
         match drawn {
             // More geometry than the largest GPU buffer holds (a frame at full detail of a
             // billion triangles): the list in halves, each drawn and submitted in turn.
-            Err(RenderError::Residency(ResidencyError::TooLarge(_)) | RenderError::TooManyTriangles(..)) if ids.len() > 1 => {
+            Err(RenderError::Residency(ResidencyError::TooLarge(_)) | RenderError::TooManyTriangles(..) | RenderError::TooManyNodes(_))
+                if ids.len() > 1 =>
+            {
                 let (a, b) = ids.split_at(ids.len() / 2);
                 // Nothing of the failed attempt was submitted, and everything submitted before
                 // it precedes any upload on the queue: all of it may make room now.
@@ -104,31 +108,59 @@ impl Renderer {
             .filter(|&&id| scene.has_translucent(id))
             .map(|&id| (view.relative(scene.node(id).aabb().center()).length_squared(), id))
             .collect();
-        let mut stats = DrawStats::default();
         if order.is_empty() && !clear {
-            return Ok(stats);
+            return Ok(DrawStats::default());
         }
         order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let ids: Vec<NodeId> = order.into_iter().map(|(_, id)| id).collect();
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { ClusterTests { occlusion: false, ..self.options().cluster_tests } };
+        // `gathered` counts nodes and clusters, `drawn` the draws.
+        let (mut gathered, mut drawn, mut clear) = (DrawStats::default(), DrawStats::default(), clear);
         self.indices.clear();
-        for (_, id) in order {
+        self.uses.begin(scene, &ids);
+        for &id in &ids {
+            let arena = self.arena_base(scene, id)?;
+            let base = match self.uses.push(scene, view, id, arena) {
+                Ok(base) => base,
+                Err(_) => {
+                    drawn = drawn + self.submitted(view, pass, std::mem::take(&mut clear))?;
+                    self.indices.clear();
+                    self.uses.list.clear();
+                    self.uses.push(scene, view, id, arena)?
+                }
+            };
             let g = scene.geometry(id)?;
-            let base = self.residency.ensure(&self.gpu, (id, scene.block_at(id)), &g)?;
-            let (out, s, clusters) = (&mut self.indices, &mut stats.clusters, &g.clusters[g.opaque..]);
+            let (out, s, clusters) = (&mut self.indices, &mut gathered.clusters, &g.clusters[g.opaque..]);
             match &g.indices {
                 Indices::U16(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
                 Indices::U32(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
             }
-            stats.nodes += 1;
+            gathered.nodes += 1;
         }
-        self.submit(view, pass, Layer::Translucent, clear, &mut stats)?;
-        Ok(stats)
+        drawn = drawn + self.submitted(view, pass, clear)?;
+        Ok(DrawStats { nodes: gathered.nodes, clusters: gathered.clusters, ..drawn })
+    }
+
+    /// [`Renderer::submit`] of the translucent layer gathered so far: its draw's counts.
+    fn submitted(&mut self, view: &View, pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+        let mut drawn = DrawStats::default();
+        self.submit(view, pass, Layer::Translucent, clear, &mut drawn)?;
+        Ok(drawn)
+    }
+
+    /// The first vertex in the arena of LOD node `id`'s mesh, uploaded if it is not resident.
+    fn arena_base(&mut self, scene: &SceneFile, id: NodeId) -> Result<u32, RenderError> {
+        let key = (id, scene.block_at(id));
+        match self.residency.resident(key) {
+            Some(base) => Ok(base),
+            None => Ok(self.residency.upload(&self.gpu, key, &scene.stored_geometry(id)?)?),
+        }
     }
 
     /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`
     /// and `select(node, cluster index, cluster)` (all, through the indices kept for this view,
-    /// when `None`), less the triangles `tests` drop, making the nodes resident; returns their
-    /// counts.
+    /// when `None`), less the triangles `tests` drop, making the nodes' meshes resident and
+    /// listing the nodes in `self.uses`; returns their counts.
     pub fn gather(
         &mut self,
         scene: &SceneFile,
@@ -140,18 +172,17 @@ impl Renderer {
         debug_assert_eq!(scene.nodes().len(), self.nodes, "a renderer serves the scene it was made for");
         let mut stats = DrawStats::default();
         self.indices.clear();
+        self.uses.begin(scene, ids);
         for &id in ids {
             stats.nodes += 1;
+            let arena = self.arena_base(scene, id)?;
+            let base = self.uses.push(scene, view, id, arena)?;
             let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
-            if let Some(base) = self.residency.resident(id)
-                && select.is_none()
-                && gathered.copy(view, tests, (id, base), s, out)
-            {
+            if select.is_none() && gathered.copy(view, tests, (id, base), s, out) {
                 continue;
             }
             // Read once: an instance's geometry is placed at each read.
             let g = scene.geometry(id)?;
-            let base = self.residency.ensure(&self.gpu, (id, scene.block_at(id)), &g)?;
             let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
             match &g.indices {
                 Indices::U16(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),

@@ -2,7 +2,8 @@
 //!
 //! - [`device`]: adapter choice and device set-up, with a clear error when there is no driver.
 //! - [`residency`]: geometry uploaded on first use from the mapped scene into one vertex arena,
-//!   under an LRU budget.
+//!   each mesh once however many nodes use it, under an LRU budget.
+//! - [`uses`]: a pass's nodes, each with its mesh in the arena and its instance's placement.
 //! - [`target`]: the offscreen colour, depth and item-buffer attachments and their readback.
 //! - [`draw`]: drawing a set of LOD nodes (colour for RVG, depth only for OR, item ids for
 //!   exact visibility).
@@ -28,6 +29,7 @@ pub mod residency;
 pub mod shaders;
 pub mod target;
 pub mod testers;
+pub mod uses;
 
 pub use device::{Gpu, GpuError};
 pub use renderer::{RenderOptions, Renderer};

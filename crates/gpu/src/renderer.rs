@@ -8,6 +8,7 @@ use crate::draw::{DrawPipelines, Layer, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
 use crate::residency::{Residency, ResidencyError};
 use crate::target::Target;
+use crate::uses::{Rows, Uses};
 use osw_cull::cluster::{ClusterStats, ClusterTests};
 use osw_cull::gathered::Gathered;
 use osw_cull::{View, Visibility};
@@ -25,6 +26,8 @@ pub enum RenderError {
     Size(u32, u32),
     #[error("{0} triangles in one pass, more than the largest GPU buffer holds ({1} bytes)")]
     TooManyTriangles(u64, u64),
+    #[error(transparent)]
+    TooManyNodes(#[from] crate::uses::TooManyNodes),
 }
 
 /// How the GPU tests boxes against the occluders (measured: docs/measurements/2026-12-01-scene-and-renderer.md).
@@ -118,6 +121,9 @@ pub struct RenderOptions {
     /// drawn: one draw in flight, so that the CPU gathers the next frame while the GPU draws
     /// this one (the display). Read-backs still wait for everything before them.
     pub overlap: bool,
+    /// Place instances with f32 rows ([`Rows::Single`]) also where the adapter has 64-bit
+    /// floats: what an adapter without them draws.
+    pub single_rows: bool,
 }
 
 /// The device resources of one scene at one image size: geometry resident on the GPU, the
@@ -138,7 +144,9 @@ pub struct Renderer {
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
     view_buf: wgpu::Buffer,
-    draw_group: wgpu::BindGroup,
+    objects_buf: wgpu::Buffer,
+    /// The pass's use table on the GPU ([`crate::uses`]).
+    uses_buf: wgpu::Buffer,
     /// The pass's indices into the vertex arena, gathered from the nodes' (see `draw`).
     index_buf: wgpu::Buffer,
     boxes_buf: wgpu::Buffer,
@@ -152,8 +160,9 @@ pub struct Renderer {
     fragment_query: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
     /// The same for a pass's two timestamps.
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
-    /// The pass's index list, as gathered ([`crate::gather`]).
+    /// The pass's index list, as gathered ([`crate::gather`]), and the nodes its indices name.
     pub(crate) indices: Vec<u32>,
+    pub uses: Uses,
     /// Each node's indices as last gathered, for passes of the same view.
     pub(crate) gathered: Gathered,
     gpu_boxes: Vec<GpuBox>,
@@ -163,6 +172,13 @@ pub struct Renderer {
 
 fn storage(gpu: &Gpu, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
     gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+}
+
+/// A bind group of `bufs`, whole, at bindings 0, 1, ...
+fn bind(gpu: &Gpu, layout: &wgpu::BindGroupLayout, bufs: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> =
+        bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
 }
 
 impl Renderer {
@@ -179,7 +195,9 @@ impl Renderer {
             return Err(RenderError::Size(width, height));
         }
         use wgpu::BufferUsages as U;
-        let draw = DrawPipelines::new(&gpu.device);
+        let exact = gpu.features.contains(wgpu::Features::SHADER_F64) && !options.single_rows;
+        let rows = if exact { Rows::Exact } else { Rows::Single };
+        let draw = DrawPipelines::new(&gpu.device, rows);
         let boxtest = BoxTestPipelines::new(&gpu.device);
         let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);
         // Each node's object, for its colour: static, indexed by node id.
@@ -191,13 +209,8 @@ impl Renderer {
         let boxes_buf = storage(&gpu, "boxes", n * 32, U::STORAGE | U::COPY_DST);
         let results_buf = storage(&gpu, "box results", n * 4, U::STORAGE | U::COPY_SRC | U::COPY_DST);
         let results_staging = crate::readback::staging(&gpu, "box results readback", n * 4);
-        let bind = |layout: &wgpu::BindGroupLayout, bufs: &[&wgpu::Buffer]| {
-            let entries: Vec<wgpu::BindGroupEntry> =
-                bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
-        };
-        let draw_group = bind(&draw.layout, &[&view_buf, &objects_buf]);
-        let box_group = bind(&boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
+        let uses_buf = storage(&gpu, "pass uses", 64, U::STORAGE | U::COPY_DST);
+        let box_group = bind(&gpu, &boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
         let target = Target::new(&gpu, width, height);
         let pyramid = Pyramid::new(&gpu, &target, &view_buf, &boxes_buf, &results_buf);
         let queries = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -247,13 +260,15 @@ impl Renderer {
             draw,
             boxtest,
             view_buf,
-            draw_group,
+            objects_buf,
+            uses_buf,
             index_buf,
             boxes_buf,
             results_buf,
             results_staging,
             box_group,
             indices: Vec::new(),
+            uses: Uses::new(rows),
             gathered: Gathered::default(),
             gpu_boxes: Vec::new(),
             spare_pyramid: None,
@@ -321,10 +336,17 @@ impl Renderer {
             let size = bytes.next_power_of_two().min(max);
             self.index_buf = storage(&self.gpu, "pass indices", size, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST);
         }
+        let use_bytes = std::mem::size_of_val(self.uses.list.as_slice()) as u64;
+        if use_bytes > self.uses_buf.size() {
+            let size = use_bytes.next_power_of_two();
+            self.uses_buf = storage(&self.gpu, "pass uses", size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
+        }
         let q = &self.gpu.queue;
-        q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform { tint: [pass.tint(), 0, 0, 0], ..ViewUniform::new(view) }));
+        let draw = [pass.tint(), self.uses.shift, 0, 0];
+        q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform { draw, ..ViewUniform::new(view) }));
         if bytes > 0 {
             q.write_buffer(&self.index_buf, 0, bytemuck::cast_slice(&self.indices));
+            q.write_buffer(&self.uses_buf, 0, bytemuck::cast_slice(&self.uses.list));
         }
         let mut enc = self.gpu.device.create_command_encoder(&Default::default());
         let query = self.fragment_query.as_ref().filter(|_| self.options.count_fragments);
@@ -370,9 +392,10 @@ impl Renderer {
                 rp.begin_pipeline_statistics_query(set, 0);
             }
             if let (Some(arena), true) = (self.residency.arena(), bytes > 0) {
+                // Made for each draw: the arena and the use table may have grown since the last.
+                let group = bind(&self.gpu, &self.draw.layout, &[&self.view_buf, &self.objects_buf, &self.uses_buf, arena]);
                 rp.set_pipeline(self.draw.pipeline(pass, layer));
-                rp.set_bind_group(0, &self.draw_group, &[]);
-                rp.set_vertex_buffer(0, arena.slice(..));
+                rp.set_bind_group(0, &group, &[]);
                 rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);
                 rp.draw_indexed(0..self.indices.len() as u32, 0, 0..1);
             }

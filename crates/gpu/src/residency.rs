@@ -1,7 +1,9 @@
-//! Geometry residency: a LOD node's vertices are copied into one vertex arena the first time
-//! the node is drawn, straight from the mapped scene file, each vertex tagged with its node's
-//! id, and dropped least-recently-used first when the arena passes the budget. Geometry never
-//! drawn is never read from the file or uploaded.
+//! Geometry residency: a mesh's vertices are copied into one vertex arena the first time a
+//! node that uses it is drawn, straight from the mapped scene file, and dropped
+//! least-recently-used first when the arena passes the budget. A mesh stored once in the file
+//! (every use of an instanced part names the same block) is stored once here too: its uses
+//! differ only in their rows of the pass's use table ([`crate::uses`]). Geometry never drawn is
+//! never read from the file or uploaded.
 //!
 //! One arena, so that a pass is one draw call over all its nodes: lavapipe spends about 10-15 µs
 //! on each draw call (measured: 3,300 one-triangle draws take as long as vfc's frame of
@@ -15,13 +17,12 @@ use osw_scene::NodeId;
 use osw_scene::file::Geometry;
 use std::collections::HashMap;
 
-/// A vertex in the arena: 20 bytes.
+/// A vertex in the arena (`Vertex` in shaders/draw.wgsl): 16 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ArenaVertex {
+    /// In the mesh's frame: scene-local, or an instanced part's own.
     pub position: [f32; 3],
-    /// The LOD node the vertex belongs to (the shaders' per-node data).
-    pub node: u32,
     /// The model's colour, or alpha 0 for the object's hashed colour.
     pub color: [u8; 4],
 }
@@ -32,8 +33,6 @@ const VERTEX_BYTES: u64 = std::mem::size_of::<ArenaVertex>() as u64;
 const MIN_CAPACITY: u32 = 1 << 16;
 
 struct Resident {
-    /// Where in the scene file's blob the geometry it holds a copy of lies.
-    block: u64,
     /// First vertex in the arena.
     base: u32,
     vertices: u32,
@@ -46,14 +45,13 @@ pub struct ResidencyStats {
     pub uploads: u64,
     pub upload_bytes: u64,
     pub evictions: u64,
-    /// Distinct LOD nodes ever drawn, and the bytes of their geometry blocks (vertices and
-    /// indices) read from the file: the rest of the file was never read.
+    /// Distinct LOD nodes ever drawn, and the bytes of the distinct geometry blocks (vertices
+    /// and indices) they read from the file: the rest of the file was never read.
     pub distinct: u64,
     pub distinct_bytes: u64,
-    /// Bytes uploaded of blocks already resident for another node (another use of a mesh
-    /// stored once, placed on the CPU): what per-instance transforms on the GPU would not store
-    /// again.
-    pub repeat_bytes: u64,
+    /// The vertex bytes of the nodes whose first draw found their mesh on the GPU already,
+    /// uploaded for another of its uses: what storing each use on its own would have added.
+    pub shared_bytes: u64,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -63,12 +61,13 @@ pub enum ResidencyError {
 }
 
 pub struct Residency {
-    map: HashMap<NodeId, Resident>,
-    /// Resident nodes per geometry block (by its place in the blob: every use of a mesh stored
-    /// once has its own block record, all at the same place).
-    copies: HashMap<u64, u32>,
-    /// Per node id: uploaded at least once.
+    /// Resident meshes by where their geometry block lies in the scene's blob: every use of a
+    /// mesh stored once has its own block record, all at the same place.
+    map: HashMap<u64, Resident>,
+    /// Per node id: drawn at least once.
     ever: Vec<bool>,
+    /// Blocks ever read from the file.
+    read: std::collections::HashSet<u64>,
     arena: Option<wgpu::Buffer>,
     /// Arena size in vertices, and its free ranges.
     capacity: u32,
@@ -86,8 +85,8 @@ impl Residency {
     pub fn new(budget: u64) -> Residency {
         Residency {
             map: HashMap::new(),
-            copies: HashMap::new(),
             ever: Vec::new(),
+            read: Default::default(),
             arena: None,
             capacity: 0,
             free: FreeRanges::default(),
@@ -109,25 +108,28 @@ impl Residency {
         self.frame += 1;
     }
 
-    /// `id`'s first vertex in the arena, if it is resident, marking it used in this epoch.
-    pub fn resident(&mut self, id: NodeId) -> Option<u32> {
-        let r = self.map.get_mut(&id)?;
+    /// The first vertex in the arena of LOD node `id`'s mesh, whose geometry block lies at
+    /// `block` in the scene's blob, if it is resident, marking it used in this epoch.
+    pub fn resident(&mut self, (id, block): (NodeId, u64)) -> Option<u32> {
+        let r = self.map.get_mut(&block)?;
         r.last_used = self.frame;
-        Some(r.base)
+        let (base, bytes) = (r.base, r.vertices as u64 * VERTEX_BYTES);
+        if self.first_draw(id) {
+            self.stats.shared_bytes += bytes;
+        }
+        Some(base)
     }
 
-    /// Makes `id`, whose geometry block lies at `block` in the scene's blob, as `g` (read by the
-    /// caller, who draws it next), resident, uploading it if needed, and marks it used in this
-    /// epoch; returns its first vertex in the arena.
-    pub fn ensure(&mut self, gpu: &Gpu, (id, block): (NodeId, u64), g: &Geometry) -> Result<u32, ResidencyError> {
-        if let Some(base) = self.resident(id) {
-            return Ok(base);
-        }
+    /// Uploads the mesh of `id` at `block`, not resident ([`Residency::resident`]), `g` its
+    /// geometry as stored, and marks it used in this epoch; returns its first vertex in the
+    /// arena.
+    pub fn upload(&mut self, gpu: &Gpu, (id, block): (NodeId, u64), g: &Geometry) -> Result<u32, ResidencyError> {
+        debug_assert!(!self.map.contains_key(&block), "uploaded once");
         let n = g.positions.len() as u32;
         let base = self.allocate(gpu, n)?;
         let color = |i: usize| g.colors.get(i).copied().unwrap_or(osw_scene::mesh::NO_COLOR);
         let vertices: Vec<ArenaVertex> =
-            g.positions.iter().enumerate().map(|(i, &position)| ArenaVertex { position, node: id, color: color(i) }).collect();
+            g.positions.iter().enumerate().map(|(i, &position)| ArenaVertex { position, color: color(i) }).collect();
         if let Some(arena) = &self.arena
             && n > 0
         {
@@ -137,20 +139,22 @@ impl Residency {
         self.bytes += bytes;
         self.stats.uploads += 1;
         self.stats.upload_bytes += bytes;
-        let copies = self.copies.entry(block).or_default();
-        if *copies > 0 {
-            self.stats.repeat_bytes += bytes;
+        self.first_draw(id);
+        if self.read.insert(block) {
+            self.stats.distinct_bytes += g.positions.len() as u64 * 12 + g.indices.bytes().len() as u64;
         }
-        *copies += 1;
+        self.map.insert(block, Resident { base, vertices: n, last_used: self.frame });
+        Ok(base)
+    }
+
+    /// Counts node `id` drawn; true the first time.
+    fn first_draw(&mut self, id: NodeId) -> bool {
         if self.ever.len() <= id as usize {
             self.ever.resize(id as usize + 1, false);
         }
-        if !std::mem::replace(&mut self.ever[id as usize], true) {
-            self.stats.distinct += 1;
-            self.stats.distinct_bytes += g.positions.len() as u64 * 12 + g.indices.bytes().len() as u64;
-        }
-        self.map.insert(id, Resident { block, base, vertices: n, last_used: self.frame });
-        Ok(base)
+        let first = !std::mem::replace(&mut self.ever[id as usize], true);
+        self.stats.distinct += first as u64;
+        first
     }
 
     /// Room for `n` vertices: a free range; else, over the budget, the least recently used
@@ -175,7 +179,8 @@ impl Residency {
 
     /// Doubles the arena (at least by `n` vertices), copying what it holds.
     fn grow(&mut self, gpu: &Gpu, n: u32) -> Result<(), ResidencyError> {
-        let max = gpu.device.limits().max_buffer_size.min(self.max_arena_bytes) / VERTEX_BYTES;
+        let limits = gpu.device.limits();
+        let max = limits.max_buffer_size.min(limits.max_storage_buffer_binding_size).min(self.max_arena_bytes) / VERTEX_BYTES;
         let want = (self.capacity as u64 * 2).max(self.capacity as u64 + n as u64).max(MIN_CAPACITY as u64);
         let capacity = want.min(max).min(u32::MAX as u64);
         if capacity < self.capacity as u64 + n as u64 {
@@ -184,7 +189,7 @@ impl Residency {
         let arena = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("vertex arena"),
             size: capacity * VERTEX_BYTES,
-            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
         if let Some(old) = self.arena.replace(arena) {
@@ -197,14 +202,14 @@ impl Residency {
         Ok(())
     }
 
-    /// Evicts least recently used nodes not used in this epoch until `n` vertices fit, and
+    /// Evicts least recently used meshes not used in this epoch until `n` vertices fit, and
     /// then on until an eighth of the arena is freed: finding the oldest sorts every resident
     /// node, which a pass that fills the arena block by block must not do for each block.
     fn evict_for(&mut self, n: u32) -> Option<u32> {
         let (mut freed, enough) = (0u64, (self.capacity / 8).max(n) as u64);
-        for id in self.unused_oldest_first() {
-            freed += self.map[&id].vertices as u64;
-            self.evict(id);
+        for block in self.unused_oldest_first() {
+            freed += self.map[&block].vertices as u64;
+            self.evict(block);
             if freed >= enough && self.free.fits(n) {
                 break;
             }
@@ -212,36 +217,30 @@ impl Residency {
         self.free.take(n)
     }
 
-    fn unused_oldest_first(&self) -> Vec<NodeId> {
-        let mut old: Vec<(u64, NodeId)> =
-            self.map.iter().filter(|(_, r)| r.last_used < self.frame).map(|(&id, r)| (r.last_used, id)).collect();
+    fn unused_oldest_first(&self) -> Vec<u64> {
+        let mut old: Vec<(u64, u64)> =
+            self.map.iter().filter(|(_, r)| r.last_used < self.frame).map(|(&block, r)| (r.last_used, block)).collect();
         old.sort_unstable();
-        old.into_iter().map(|(_, id)| id).collect()
+        old.into_iter().map(|(_, block)| block).collect()
     }
 
-    fn evict(&mut self, id: NodeId) {
-        let r = self.map.remove(&id).expect("resident");
-        if let Some(c) = self.copies.get_mut(&r.block) {
-            *c -= 1;
-            if *c == 0 {
-                self.copies.remove(&r.block);
-            }
-        }
+    fn evict(&mut self, block: u64) {
+        let r = self.map.remove(&block).expect("resident");
         self.free.give(r.base, r.vertices);
         self.bytes -= r.vertices as u64 * VERTEX_BYTES;
         self.stats.evictions += 1;
     }
 
-    /// Drops least-recently-used nodes not used in this epoch until under budget.
+    /// Drops least-recently-used meshes not used in this epoch until under budget.
     pub fn trim(&mut self) {
         if self.bytes <= self.budget {
             return;
         }
-        for id in self.unused_oldest_first() {
+        for block in self.unused_oldest_first() {
             if self.bytes <= self.budget {
                 break;
             }
-            self.evict(id);
+            self.evict(block);
         }
     }
 }

@@ -116,12 +116,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             d.geometry_never_loaded_fraction * 100.0
         );
     }
-    if let Some(d) = s.render().filter(|d| d.upload_repeat_bytes > 0) {
+    if let Some(d) = s.render().filter(|d| d.upload_shared_bytes > 0) {
         out!(
-            "stored again: {:.1} of the {:.1} MB uploaded were meshes already on the GPU for another of their uses \
-             (each use is placed on the CPU and stored on its own)",
-            d.upload_repeat_bytes as f64 / 1e6,
-            d.upload_bytes as f64 / 1e6
+            "stored once: {:.1} MB uploaded; nodes drew {:.1} MB more from meshes already on the GPU for another of their uses",
+            d.upload_bytes as f64 / 1e6,
+            d.upload_shared_bytes as f64 / 1e6
         );
     }
     if let Some((or, rvg)) = s.render().and_then(|d| d.or_gpu_ms_median.zip(d.rvg_gpu_ms_median)) {

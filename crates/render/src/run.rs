@@ -87,7 +87,7 @@ pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &
             adapter: r.gpu.info.name.clone(),
             uploads: stats.uploads,
             upload_bytes: stats.upload_bytes,
-            upload_repeat_bytes: stats.repeat_bytes,
+            upload_shared_bytes: stats.shared_bytes,
             evictions: stats.evictions,
             blocks_never_loaded: header.block_count as u64 - stats.distinct,
             blocks_total: header.block_count as u64,

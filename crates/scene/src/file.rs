@@ -173,9 +173,9 @@ impl SceneFile {
     }
 
     /// Where LOD node `lod`'s geometry block lies in the blob: the same place for every use of a
-    /// mesh stored once.
+    /// mesh stored once (u64::MAX for a node without a block).
     pub fn block_at(&self, lod: NodeId) -> u64 {
-        self.blocks()[self.node(lod).block as usize].offset
+        self.blocks().get(self.node(lod).block as usize).map_or(u64::MAX, |b| b.offset)
     }
 
     /// The geometry of LOD node `lod` as stored: in its mesh's own frame for an instance's node.

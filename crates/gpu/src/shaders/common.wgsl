@@ -5,8 +5,8 @@
 struct ViewUniform {
     view_proj: mat4x4<f32>,
     offset: vec4<f32>,
-    // x: the draw pass's tint (draw.wgsl).
-    tint: vec4<u32>,
+    // x: the draw pass's tint, y: its use table's shift (draw.wgsl).
+    draw: vec4<u32>,
 }
 
 // A camera-relative box (32 bytes, GpuBox on the CPU).

@@ -1,10 +1,32 @@
 // Draws LOD nodes: colour (RVG), depth only (OR) and, with item.frag.wgsl appended, item ids.
-// Positions are scene-local; view.offset makes them camera-relative (precision far
-// from the origin), view.view_proj is reversed Z with an infinite far plane.
+// Vertices are pulled: a pass index is (slot << view.draw.y) | vertex, the node's slot in the
+// pass's use table and the vertex within its mesh in the arena (gpu/src/uses.rs). Positions
+// are scene-local, made camera-relative by view.offset (precision far from the origin), or an
+// instanced part's own, placed by its use's rows (`place`, from place64.wgsl or place32.wgsl,
+// appended); view.view_proj is reversed Z with an infinite far plane.
+
+// The mesh vertex in the arena (ArenaVertex).
+struct Vertex {
+    position: vec3<f32>,
+    // The model's colour (RGBA8), alpha 0 where it has none.
+    color: u32,
+}
+
+// One node of the pass (gpu/src/uses.rs).
+struct Use {
+    node: u32,
+    base: u32,
+    placed: u32,
+    pad0: u32,
+    pad1: vec4<u32>,
+    rows: Rows,
+}
 
 // Each node's object (for its colour), indexed by node id.
 @group(0) @binding(0) var<uniform> view: ViewUniform;
 @group(0) @binding(1) var<storage, read> objects: array<u32>;
+@group(0) @binding(2) var<storage, read> uses: array<Use>;
+@group(0) @binding(3) var<storage, read> arena: array<Vertex>;
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -18,14 +40,20 @@ struct VertexOut {
 }
 
 @vertex
-fn vs_main(@location(0) position: vec3<f32>, @location(1) node: u32, @location(2) color: vec4<f32>) -> VertexOut {
-    let rel = position + view.offset.xyz;
+fn vs_main(@builtin(vertex_index) index: u32) -> VertexOut {
+    let shift = view.draw.y;
+    let u = uses[index >> shift];
+    let v = arena[u.base + (index & ((1u << shift) - 1u))];
+    var rel = v.position + view.offset.xyz;
+    if (u.placed != 0u) {
+        rel = place(u.rows, v.position);
+    }
     var out: VertexOut;
     out.clip = view.view_proj * vec4<f32>(rel, 1.0);
     out.rel = rel;
-    out.node = node;
-    out.color = color;
-    let h = hash(objects[node]);
+    out.node = u.node;
+    out.color = unpack4x8unorm(v.color);
+    let h = hash(objects[u.node]);
     out.base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
     return out;
 }
@@ -44,8 +72,8 @@ fn shade(in: VertexOut) -> vec3<f32> {
     if (in.color.a > 0.0) {
         base = in.color.rgb;
     }
-    if (view.tint.x != 0u) {
-        base = unpack4x8unorm(view.tint.x).rgb;
+    if (view.draw.x != 0u) {
+        base = unpack4x8unorm(view.draw.x).rgb;
     }
     let light = 0.35 + 0.65 * abs(dot(n, normalize(vec3<f32>(0.4, 0.8, 0.3))));
     return base * light;

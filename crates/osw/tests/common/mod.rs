@@ -288,3 +288,14 @@ pub fn write_glb(path: &Path, mut doc: serde_json::Value, bin: &[u8]) {
     glb.extend(bin);
     std::fs::write(path, glb).unwrap();
 }
+
+/// The largest fraction of differing pixels over the first `frames` frames of two runs.
+pub fn differing(a: &Path, b: &Path, frames: u64) -> f64 {
+    use osw_render::output::{frame_path, read_png};
+    (0..frames)
+        .map(|i| {
+            let ((_, _, pa), (_, _, pb)) = (read_png(&frame_path(a, i)).unwrap(), read_png(&frame_path(b, i)).unwrap());
+            osw_render::compare::image_error(&pa, &pb).differing_fraction
+        })
+        .fold(0.0, f64::max)
+}

@@ -79,10 +79,10 @@ pub struct RenderSummary {
     pub adapter: String,
     pub uploads: u64,
     pub upload_bytes: u64,
-    /// Of those, the bytes of blocks uploaded again for another use of the same mesh
-    /// (`ResidencyStats::repeat_bytes`).
+    /// The vertex bytes of nodes drawn from a mesh already on the GPU for another of its uses
+    /// (`ResidencyStats::shared_bytes`): what storing each use on its own would have added.
     #[serde(default)]
-    pub upload_repeat_bytes: u64,
+    pub upload_shared_bytes: u64,
     pub evictions: u64,
     /// What the run left out: geometry blocks (LOD/HLOD nodes) never drawn, so never read
     /// from the file nor uploaded, and their share of the scene's geometry.
