@@ -181,7 +181,9 @@ pub fn gather<I: Copy + Into<u32>>(
             continue;
         }
         for t in ix.chunks_exact(3) {
-            let tri = [0, 1, 2].map(|v| positions[t[v].into() as usize]);
+            // Written out: `[0, 1, 2].map(..)` was left a call per triangle where this loop is
+            // inlined into a larger caller (measured: 5% of vfc's frame).
+            let tri = [positions[t[0].into() as usize], positions[t[1].into() as usize], positions[t[2].into() as usize]];
             if backface && triangles.faces_away(tri) {
                 stats.backface_culled += 1;
             } else if small && triangles.covers_no_pixel(tri) {

@@ -12,8 +12,9 @@ use osw_scene::format::ClusterRecord;
 use std::collections::HashMap;
 use std::ops::Range;
 
-/// One node's gathered indices, within its mesh (`Gathered::indices`), and its counts.
+/// One node's gathered indices (`Gathered::indices`), what they were offset by, and its counts.
 struct Entry {
+    base: u32,
     range: Range<usize>,
     stats: ClusterStats,
 }
@@ -44,7 +45,11 @@ impl Gathered {
             self.indices.clear();
         }
         let Some(e) = self.nodes.get(&id) else { return false };
-        out.extend(self.indices[e.range.clone()].iter().map(|&i| i + base));
+        let indices = &self.indices[e.range.clone()];
+        match base.wrapping_sub(e.base) {
+            0 => out.extend_from_slice(indices),
+            by => out.extend(indices.iter().map(|&i| i.wrapping_add(by))),
+        }
         *stats = *stats + e.stats;
         true
     }
@@ -67,8 +72,8 @@ impl Gathered {
         let (start, mut s) = (out.len(), ClusterStats::default());
         gather(view, tests, geometry, &mut s, |_, _| true, base, out);
         let from = self.indices.len();
-        self.indices.extend(out[start..].iter().map(|&i| i - base));
-        self.nodes.insert(id, Entry { range: from..self.indices.len(), stats: s });
+        self.indices.extend_from_slice(&out[start..]);
+        self.nodes.insert(id, Entry { base, range: from..self.indices.len(), stats: s });
         *stats = *stats + s;
     }
 }

@@ -147,6 +147,8 @@ pub struct Renderer {
     objects_buf: wgpu::Buffer,
     /// The pass's use table on the GPU ([`crate::uses`]).
     uses_buf: wgpu::Buffer,
+    /// The draw pipelines' bind group, and the arena and use table it binds.
+    draw_group: Option<(wgpu::BindGroup, wgpu::Buffer, wgpu::Buffer)>,
     /// The pass's indices into the vertex arena, gathered from the nodes' (see `draw`).
     index_buf: wgpu::Buffer,
     boxes_buf: wgpu::Buffer,
@@ -262,6 +264,7 @@ impl Renderer {
             view_buf,
             objects_buf,
             uses_buf,
+            draw_group: None,
             index_buf,
             boxes_buf,
             results_buf,
@@ -392,10 +395,13 @@ impl Renderer {
                 rp.begin_pipeline_statistics_query(set, 0);
             }
             if let (Some(arena), true) = (self.residency.arena(), bytes > 0) {
-                // Made for each draw: the arena and the use table may have grown since the last.
-                let group = bind(&self.gpu, &self.draw.layout, &[&self.view_buf, &self.objects_buf, &self.uses_buf, arena]);
+                // Made again where the arena or the use table grew since the last draw.
+                let buffers = [&self.view_buf, &self.objects_buf, &self.uses_buf, arena];
+                if self.draw_group.as_ref().is_none_or(|(_, a, u)| a != arena || u != &self.uses_buf) {
+                    self.draw_group = Some((bind(&self.gpu, &self.draw.layout, &buffers), arena.clone(), self.uses_buf.clone()));
+                }
                 rp.set_pipeline(self.draw.pipeline(pass, layer));
-                rp.set_bind_group(0, &group, &[]);
+                rp.set_bind_group(0, self.draw_group.as_ref().map(|(g, _, _)| g), &[]);
                 rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);
                 rp.draw_indexed(0..self.indices.len() as u32, 0, 0..1);
             }

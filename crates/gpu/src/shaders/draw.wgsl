@@ -42,18 +42,20 @@ struct VertexOut {
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> VertexOut {
     let shift = view.draw.y;
-    let u = uses[index >> shift];
-    let v = arena[u.base + (index & ((1u << shift) - 1u))];
+    // Field by field: a unique node's vertex reads 8 bytes of its use, not 128.
+    let slot = index >> shift;
+    let node = uses[slot].node;
+    let v = arena[uses[slot].base + (index & ((1u << shift) - 1u))];
     var rel = v.position + view.offset.xyz;
-    if (u.placed != 0u) {
-        rel = place(u.rows, v.position);
+    if (uses[slot].placed != 0u) {
+        rel = place(uses[slot].rows, v.position);
     }
     var out: VertexOut;
     out.clip = view.view_proj * vec4<f32>(rel, 1.0);
     out.rel = rel;
-    out.node = u.node;
+    out.node = node;
     out.color = unpack4x8unorm(v.color);
-    let h = hash(objects[u.node]);
+    let h = hash(objects[node]);
     out.base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
     return out;
 }
