@@ -197,8 +197,7 @@ impl Renderer {
             return Err(RenderError::Size(width, height));
         }
         use wgpu::BufferUsages as U;
-        let exact = gpu.features.contains(wgpu::Features::SHADER_F64) && !options.single_rows;
-        let rows = if exact { Rows::Exact } else { Rows::Single };
+        let rows = if options.single_rows { Rows::Single } else { Rows::of(&gpu) };
         let draw = DrawPipelines::new(&gpu.device, rows);
         let boxtest = BoxTestPipelines::new(&gpu.device);
         let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);

@@ -37,6 +37,13 @@ pub enum Rows {
     Single,
 }
 
+impl Rows {
+    /// The rows `gpu` can place with: exact where it has 64-bit floats in shaders.
+    pub fn of(gpu: &crate::Gpu) -> Rows {
+        if gpu.features.contains(wgpu::Features::SHADER_F64) { Rows::Exact } else { Rows::Single }
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 #[error("{0} nodes in one pass, more than its indices can name (at most {1} with meshes of {2} vertices)")]
 pub struct TooManyNodes(pub usize, pub usize, pub u32);

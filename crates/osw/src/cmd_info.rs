@@ -25,6 +25,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let i = &g.info;
             out!("adapter: {} ({:?}, {:?}, driver {} {})", i.name, i.device_type, i.backend, i.driver, i.driver_info);
             out!("device_type: {:?}", i.device_type);
+            out!(
+                "instances: {}",
+                match osw_gpu::uses::Rows::of(&g) {
+                    osw_gpu::uses::Rows::Exact => "placed on the GPU in f64, as the build places a copy (64-bit floats in shaders)",
+                    osw_gpu::uses::Rows::Single => {
+                        "placed on the GPU in f32, within a rounding of the build's placement (no 64-bit floats in shaders)"
+                    }
+                }
+            );
         }
         Err(e) if a.scene.is_some() => out!("adapter: none ({e})"),
         Err(e) => return Err(e.into()),
