@@ -56,8 +56,8 @@ pub struct Uses {
     pub list: Vec<Use>,
     /// The largest mesh of the pass, vertices.
     vertices: u32,
-    /// Most nodes in one pass, or fewer than its indices can name (tests make a pass overflow
-    /// without a billion triangles).
+    /// At most this many nodes in one pass, below what its indices can name: tests make a pass
+    /// overflow without a billion triangles.
     pub max_nodes: usize,
 }
 
