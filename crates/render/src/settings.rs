@@ -54,13 +54,16 @@ impl AgreedArgs {
 }
 
 impl Agreed {
-    /// What a hello says: each setting as its flag and value, with the image size.
+    /// What a hello says: each setting as its flag and value, with the image size and the
+    /// build's shaders (every binary of one build says the same: a node or display left from
+    /// another build is refused by name).
     pub fn said(&self, size: (u32, u32)) -> Vec<(String, String)> {
         [
             ("--size", format!("{}x{}", size.0, size.1)),
             ("--adaptive", self.adaptive.to_string()),
             ("--always-cull", self.always_cull.to_string()),
             ("--cluster-tests", self.cluster_tests.to_string()),
+            ("shaders (build every binary)", format!("{:016x}", osw_gpu::shaders::FINGERPRINT)),
         ]
         .map(|(k, v)| (k.to_owned(), v))
         .into()

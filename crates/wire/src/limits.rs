@@ -18,7 +18,7 @@ pub const KEYFRAME_PART_BYTES: usize = MAX_FRAME_BYTES as usize - 32;
 pub const MAX_NAME_BYTES: usize = 64;
 pub const MAX_TOKEN_BYTES: usize = 256;
 
-/// Most settings a hello carries (osw says 4), each flag and value within MAX_NAME_BYTES.
+/// Most settings a hello carries (osw says 5), each flag and value within MAX_NAME_BYTES.
 pub const MAX_SETTINGS: usize = 32;
 
 /// Longest wait of a node or the display for the next frame's messages, and of the display
