@@ -48,7 +48,6 @@ impl Rows {
 #[error("{0} nodes in one pass, more than its indices can name (at most {1} with meshes of {2} vertices)")]
 pub struct TooManyNodes(pub usize, pub usize, pub u32);
 
-#[derive(Clone)]
 pub struct Uses {
     pub rows: Rows,
     /// Bits of a pass index that name the vertex within its mesh.
