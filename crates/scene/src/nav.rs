@@ -15,7 +15,8 @@
 //! (a stair's riser), and keeps a clearance from blocked floors, measured in cells over the
 //! floors it could walk.
 
-use crate::file::{SceneError, SceneFile};
+use crate::build::Progress;
+use crate::file::SceneFile;
 use crate::format::NodeKind;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -54,14 +55,17 @@ pub struct Floors {
 }
 
 impl Floors {
-    /// The floors of `scene`'s full-detail opaque triangles.
-    pub fn of(scene: &SceneFile) -> Result<Floors, SceneError> {
+    /// The floors of `scene`'s full-detail opaque triangles, read twice (stages `floors` and
+    /// `blocked` of `progress`, counted in leaves); an error names a bad block or a Ctrl-C.
+    pub fn of(scene: &SceneFile, progress: &dyn Progress) -> Result<Floors, String> {
         let root = scene.node(scene.root()).aabb();
         // At most 4096 cells a side (16M cells); at least 0.2 m so a small scene is not over-resolved.
         let cell_size = (root.extent().x.max(root.extent().z) / 4096.0).max(0.2);
         let (nx, nz) = (((root.extent().x / cell_size) as usize + 1).max(1), ((root.extent().z / cell_size) as usize + 1).max(1));
         let grid = Grid { min: root.min, cell_size, nx, nz };
-        let mut found: Vec<(u32, f32)> = leaves_in_parallel(scene, |p, found: &mut Vec<(u32, f32)>| {
+        let leaves: Vec<u32> = (0..scene.bvh_count()).filter(|&id| scene.node(id).kind() == NodeKind::Leaf).collect();
+        progress.stage("floors", leaves.len() as u64);
+        let mut found: Vec<(u32, f32)> = leaves_in_parallel(scene, &leaves, progress, |p, found: &mut Vec<(u32, f32)>| {
             let n = (p[1] - p[0]).cross(p[2] - p[0]);
             if n.y.abs() >= FLAT * n.length() {
                 grid.for_each_centre_in(p, |c, h| found.push((c as u32, h)));
@@ -92,7 +96,8 @@ impl Floors {
         let blocked: Vec<AtomicBool> = (0..f.height.len()).map(|_| AtomicBool::new(false)).collect();
         let roofed: Vec<AtomicBool> = (0..f.height.len()).map(|_| AtomicBool::new(false)).collect();
         let Floors { grid, start, height, .. } = &f;
-        leaves_in_parallel(scene, |p, _: &mut ()| {
+        progress.stage("blocked", leaves.len() as u64);
+        leaves_in_parallel(scene, &leaves, progress, |p, _: &mut ()| {
             let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
             let reaches = |i: usize, (y0, y1): (f32, f32)| y1 >= height[i] + SLAB_LOW && y0 <= height[i] + SLAB_HIGH;
             let one_cell = grid.cells_under(lo, hi).nth(1).is_none();
@@ -282,15 +287,23 @@ fn heights_in(p: [Vec3; 3], lo: Vec2, hi: Vec2) -> Option<(f32, f32)> {
     Some(poly.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| (l.min(v.y), h.max(v.y))))
 }
 
-/// Calls `f` with the corners of every opaque triangle of every leaf at full detail, the
-/// leaves spread over threads (a billion triangles are read twice to find floors): the calls
-/// on one run of leaves share one `T`, and the `T`s come back in the leaves' order.
-fn leaves_in_parallel<T: Default + Send>(scene: &SceneFile, f: impl Fn([Vec3; 3], &mut T) + Sync) -> Result<Vec<T>, SceneError> {
-    (0..scene.bvh_count())
-        .into_par_iter()
-        .filter(|&id| scene.node(id).kind() == NodeKind::Leaf)
-        .try_fold(T::default, |mut acc, id| {
-            let g = scene.geometry(scene.node(id).first_lod)?;
+/// Calls `f` with the corners of every opaque triangle of `leaves` at full detail, the leaves
+/// spread over threads (a billion triangles are read twice to find floors): the calls on one
+/// run of leaves share one `T`, and the `T`s come back in the leaves' order.
+fn leaves_in_parallel<T: Default + Send>(
+    scene: &SceneFile,
+    leaves: &[u32],
+    progress: &dyn Progress,
+    f: impl Fn([Vec3; 3], &mut T) + Sync,
+) -> Result<Vec<T>, String> {
+    leaves
+        .par_iter()
+        .try_fold(T::default, |mut acc, &id| {
+            progress.advance(1);
+            if progress.cancelled() {
+                return Err("cancelled".to_string());
+            }
+            let g = scene.geometry(scene.node(id).first_lod).map_err(|e| e.to_string())?;
             // A cut node also holds simplified groups: only the original triangles count.
             for c in g.clusters[..g.opaque].iter().filter(|c| c.cut.lo.error == 0.0) {
                 for t in (c.first_index..c.first_index + c.index_count).step_by(3) {

@@ -58,7 +58,7 @@ impl Default for PathOptions {
 pub const CLEARANCE: f32 = 0.2;
 
 /// Makes a path through `scene`.
-pub fn generate(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
+pub fn generate(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::build::Progress) -> Result<Vec<Camera>, String> {
     if o.frames == 0 {
         return Err("a path needs at least one frame".into());
     }
@@ -85,7 +85,7 @@ pub fn generate(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, Strin
                 Camera::look_along(origin + eye, target - eye, o.fovy_deg)
             })
             .collect(),
-        PathKind::Walk => walk(scene, o)?,
+        PathKind::Walk => walk(scene, o, progress)?,
     };
     cams.into_iter().map(Camera::validated).collect()
 }
@@ -150,8 +150,8 @@ fn walk_region(floors: &Floors, free: &[bool]) -> (Vec<usize>, bool) {
 /// Clearance below which a step costs more (see `paths_from`).
 const ROOMY: f32 = 2.0;
 
-fn walk(scene: &SceneFile, o: &PathOptions) -> Result<Vec<Camera>, String> {
-    let floors = Floors::of(scene).map_err(|e| e.to_string())?;
+fn walk(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::build::Progress) -> Result<Vec<Camera>, String> {
+    let floors = Floors::of(scene, progress)?;
     let cells = |c: f32| (c / floors.grid.cell_size).ceil() as u32;
     let clearance = floors.clearance(cells(ROOMY));
     let free: Vec<bool> = clearance.iter().map(|&d| d > cells(CLEARANCE)).collect();
