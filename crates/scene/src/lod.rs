@@ -50,7 +50,7 @@ pub fn chain(mesh: Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
     loop {
         let prev = levels.last().expect("level 0");
         let target = ((prev.mesh.indices.len() as f32 * LOD_TARGET_RATIO) as usize / 3 * 3).max(3);
-        let most = prev.mesh.indices.len() as f32 * LOD_MIN_REDUCTION;
+        let pays = |indices: &[u32]| !indices.is_empty() && indices.len() as f32 <= prev.mesh.indices.len() as f32 * LOD_MIN_REDUCTION;
         let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&prev.mesh.positions), 12, 0).expect("12-byte vertices");
         // Pruning removes whole disconnected parts at an error of their radius: what a cloud
         // of small parts (bolts, grating) needs, but it also removes a 6 m column at 3 m where
@@ -69,13 +69,12 @@ pub fn chain(mesh: Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
             (indices, rel)
         };
         let (mut indices, mut rel) = simplify(meshopt::SimplifyOptions::LockBorder | meshopt::SimplifyOptions::Prune);
-        if indices.is_empty() || indices.len() as f32 > most {
+        if !pays(&indices) {
             stats.not_paying += 1;
             break;
         }
         let (collapsed, collapsed_rel) = simplify(meshopt::SimplifyOptions::LockBorder);
-        if !collapsed.is_empty() && collapsed.len() as f32 <= most && collapsed_rel * (collapsed.len() as f32) < rel * indices.len() as f32
-        {
+        if pays(&collapsed) && collapsed_rel * (collapsed.len() as f32) < rel * indices.len() as f32 {
             (indices, rel) = (collapsed, collapsed_rel);
         }
         let error = prev.error + (rel * scale).max(min_error);

@@ -301,7 +301,7 @@ fn leaves_in_parallel<T: Default + Send>(
         .try_fold(T::default, |mut acc, &id| {
             progress.advance(1);
             if progress.cancelled() {
-                return Err("cancelled".to_string());
+                return Err("stopped (Ctrl-C) before the walk was made".to_string());
             }
             let g = scene.geometry(scene.node(id).first_lod).map_err(|e| e.to_string())?;
             // A cut node also holds simplified groups: only the original triangles count.
