@@ -45,6 +45,20 @@ pub const WANTED: wgpu::Features = wgpu::Features::SHADER_EARLY_DEPTH_TEST.union
 pub const OPTIONAL: wgpu::Features =
     wgpu::Features::PIPELINE_STATISTICS_QUERY.union(wgpu::Features::TIMESTAMP_QUERY).union(wgpu::Features::SHADER_F64);
 
+/// A software adapter (lavapipe) mallocs each draw's vertex and binning memory and frees it
+/// when the draw is done; glibc then hands the freed top of its heaps back to the kernel, and
+/// the next draw takes every page again as a zeroed page fault. Heaps are kept instead (their
+/// peak stays resident, as it would be on a GPU). The 10B instanced plant's walk in the switch,
+/// 100 frames: 1.16M page faults in its three processes, 0.37M with the heaps kept, and the
+/// display's CPU a frame 85.6 -> 70.1 ms (docs/measurements/2026-12-04-instances.md).
+fn keep_freed_heap() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt sets one of glibc's malloc parameters; every value of this one is valid.
+    unsafe {
+        libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX);
+    }
+}
+
 impl Gpu {
     /// Opens an adapter: `name` picks the first whose name contains it (case-insensitive);
     /// `None` prefers a hardware adapter and falls back to a software one.
@@ -82,6 +96,9 @@ impl Gpu {
             None => adapters.into_iter().min_by_key(rank).ok_or(GpuError::NoAdapter)?,
         };
         let info = adapter.get_info();
+        if info.device_type == wgpu::DeviceType::Cpu {
+            keep_freed_heap();
+        }
         let features = adapter.features() & (WANTED | OPTIONAL);
         if !features.contains(WANTED) {
             return Err(GpuError::Missing { adapter: info.name.clone(), what: format!("{:?}", WANTED - features) });

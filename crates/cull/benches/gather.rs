@@ -1,0 +1,55 @@
+//! A pass's gather on the CPU: the cluster tests and the triangle tests of every object of a
+//! 200K-triangle plant, seen from inside it (triangles of every size on screen, most of them
+//! covering no pixel centre, as in a walk through the large plants).
+//! Run: `cargo bench -p osw-cull --bench gather`.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::DVec3;
+use osw_cull::View;
+use osw_cull::cluster::{ClusterStats, ClusterTests, gather};
+use osw_scene::Camera;
+use osw_scene::generators::{GenKind, generate};
+
+fn bench(c: &mut Criterion) {
+    let meshes: Vec<_> = generate(GenKind::Plant, 200_000, 1)
+        .objects
+        .into_iter()
+        .map(|o| {
+            let (indices, clusters, _) = osw_scene::cluster::clusterize(&o.mesh, None);
+            (o.mesh.positions, indices, clusters)
+        })
+        .collect();
+    let bounds = osw_scene::aabb::Aabb::from_points(meshes.iter().flat_map(|m| m.0.iter()));
+    let tests = ClusterTests { occlusion: false, ..ClusterTests::ALL };
+    let centre = bounds.center().as_dvec3();
+    let e = bounds.extent().as_dvec3();
+    // From inside the plant, and from far enough that most triangles cover no pixel centre.
+    for (name, eye) in
+        [("inside", centre + DVec3::new(0.0, 1.0 - 0.5 * e.y, -0.45 * e.z)), ("far", centre + DVec3::new(0.3, 0.5, -1.0) * e.length())]
+    {
+        let view = View::new(&Camera::look_at(eye, centre, 60.0), DVec3::ZERO, 1024, 1024, 0.01);
+        let (mut out, mut s) = (Vec::new(), ClusterStats::default());
+        for m in &meshes {
+            gather(&view, tests, (&m.0, &m.1, &m.2), &mut s, |_, _| true, 0, &mut out);
+        }
+        println!(
+            "gather from {name}: {} clusters, {} triangles kept, {} facing away, {} covering no pixel",
+            s.clusters,
+            out.len() / 3,
+            s.backface_culled,
+            s.small_culled
+        );
+        c.bench_function(&format!("gather from {name}, every test but occlusion"), |b| {
+            b.iter(|| {
+                out.clear();
+                for m in &meshes {
+                    gather(&view, tests, (&m.0, &m.1, &m.2), &mut s, |_, _| true, 0, &mut out);
+                }
+                out.len()
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
