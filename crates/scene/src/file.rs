@@ -165,11 +165,17 @@ impl SceneFile {
     /// scene of ten billion placed triangles holds no more than what is read at once.
     pub fn geometry(&self, lod: NodeId) -> Result<Geometry<'_>, SceneError> {
         let g = self.stored_geometry(lod)?;
+        Ok(match self.placement(lod) {
+            Some(p) => p.geometry(&g),
+            None => g,
+        })
+    }
+
+    /// Where node `lod`'s stored geometry goes in the scene's frame: `None` unless it is an
+    /// instance's node.
+    pub fn placement(&self, lod: NodeId) -> Option<Placement> {
         let instance = self.node(lod).instance;
-        if instance == NONE {
-            return Ok(g);
-        }
-        Ok(Placement::new(self.instances()[instance as usize].affine()).geometry(&g))
+        (instance != NONE).then(|| Placement::new(self.instances()[instance as usize].affine()))
     }
 
     /// Where LOD node `lod`'s geometry block lies in the blob: the same place for every use of a

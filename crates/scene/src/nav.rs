@@ -100,18 +100,18 @@ impl Floors {
         leaves_in_parallel(scene, &leaves, progress, |p, _: &mut ()| {
             let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
             let reaches = |i: usize, (y0, y1): (f32, f32)| y1 >= height[i] + SLAB_LOW && y0 <= height[i] + SLAB_HIGH;
-            let one_cell = grid.cells_under(lo, hi).nth(1).is_none();
-            for c in grid.cells_under(lo, hi) {
+            let cells = grid.cells_under(lo, hi);
+            for (c, corner) in grid.each(cells) {
                 let floors = start[c] as usize..start[c + 1] as usize;
                 if !floors.clone().any(|i| !blocked[i].load(Ordering::Relaxed) && reaches(i, (lo.y, hi.y))) {
                     continue;
                 }
                 // A triangle over several cells, within each cell's column (a roof sloping over
                 // a whole storey, or a rafter's side, blocks only where it comes down).
-                let ys = match one_cell {
+                let ys = match cells.is_one() {
                     true => (lo.y, hi.y),
                     // Within the triangle's own heights: a clipped corner may round past them.
-                    false => match heights_in(p, grid.cell_min(c), grid.cell_min(c) + grid.cell_size) {
+                    false => match heights_in(p, corner, corner + grid.cell_size) {
                         Some((y0, y1)) => (y0.max(lo.y), y1.min(hi.y)),
                         None => continue,
                     },
@@ -216,6 +216,21 @@ impl Floors {
     }
 }
 
+/// The cells `x0..=x1` by `z0..=z1` of a grid, as [`Grid::cells_under`] finds them.
+#[derive(Clone, Copy)]
+struct Cells {
+    x0: usize,
+    x1: usize,
+    z0: usize,
+    z1: usize,
+}
+
+impl Cells {
+    fn is_one(&self) -> bool {
+        self.x0 == self.x1 && self.z0 == self.z1
+    }
+}
+
 impl Grid {
     /// The centre of cell `c`, in xz.
     pub fn centre(&self, c: usize) -> Vec2 {
@@ -224,19 +239,30 @@ impl Grid {
 
     /// The corner of cell `c` with the least x and z.
     pub fn cell_min(&self, c: usize) -> Vec2 {
-        Vec2::new(self.min.x, self.min.z) + Vec2::new((c % self.nx) as f32, (c / self.nx) as f32) * self.cell_size
+        self.corner(c % self.nx, c / self.nx)
+    }
+
+    /// The corner with the least x and z of the cell in column `x`, row `z`.
+    fn corner(&self, x: usize, z: usize) -> Vec2 {
+        Vec2::new(self.min.x, self.min.z) + Vec2::new(x as f32, z as f32) * self.cell_size
     }
 
     /// The cells whose columns the box `lo..hi` overlaps or touches (in xz): a wall's face on
     /// the border of two cells blocks both.
-    fn cells_under(&self, lo: Vec3, hi: Vec3) -> impl Iterator<Item = usize> + use<> {
+    fn cells_under(&self, lo: Vec3, hi: Vec3) -> Cells {
         let eps = self.cell_size * 1e-3;
         let (lo, hi) = (lo - eps, hi + eps);
         let to = |v: f32, m: f32, n: usize| (((v - m) / self.cell_size).max(0.0) as usize).min(n - 1);
         let (x0, x1) = (to(lo.x, self.min.x, self.nx), to(hi.x, self.min.x, self.nx));
         let (z0, z1) = (to(lo.z, self.min.z, self.nz), to(hi.z, self.min.z, self.nz));
-        let nx = self.nx;
-        (z0..=z1).flat_map(move |z| (x0..=x1).map(move |x| z * nx + x))
+        Cells { x0, x1, z0, z1 }
+    }
+
+    /// Each of `cells` as (cell, its corner with the least x and z); the corner is found
+    /// without dividing by the grid's width (a walk of the 1B plant calls this for each
+    /// of its triangles, three times).
+    fn each(&self, cells: Cells) -> impl Iterator<Item = (usize, Vec2)> + '_ {
+        (cells.z0..=cells.z1).flat_map(move |z| (cells.x0..=cells.x1).map(move |x| (z * self.nx + x, self.corner(x, z))))
     }
 
     /// Calls `f(cell, height)` for every cell whose centre lies in triangle `p` seen from
@@ -248,8 +274,8 @@ impl Grid {
         if area == 0.0 {
             return;
         }
-        for c in self.cells_under(lo, hi) {
-            let centre = self.centre(c);
+        for (c, corner) in self.each(self.cells_under(lo, hi)) {
+            let centre = corner + 0.5 * self.cell_size;
             // Barycentric coordinates of the centre.
             let w1 = (centre - q[0]).perp_dot(q[2] - q[0]) / area;
             let w2 = (q[1] - q[0]).perp_dot(centre - q[0]) / area;
@@ -264,27 +290,33 @@ impl Grid {
 /// The heights of triangle `p` within the column over the xz rectangle `lo..hi` (None when it
 /// misses it): the triangle clipped to the column (Sutherland-Hodgman).
 fn heights_in(p: [Vec3; 3], lo: Vec2, hi: Vec2) -> Option<(f32, f32)> {
-    let mut poly: Vec<Vec3> = p.to_vec();
-    let mut next = Vec::with_capacity(8);
+    // On the stack, as this runs for every cell a large triangle covers. A triangle clipped by
+    // four planes keeps at most seven corners; each plane at most doubles them whatever
+    // rounding does (3 * 2^4).
+    let (mut poly, mut n) = ([Vec3::ZERO; 48], 3);
+    poly[..3].copy_from_slice(&p);
+    let mut next = [Vec3::ZERO; 48];
     // Each side of the column as (axis, bound, keep the side above it).
     for (axis, bound, above) in [(0, lo.x, true), (0, hi.x, false), (2, lo.y, true), (2, hi.y, false)] {
         let inside = |v: &Vec3| if above { v[axis] >= bound } else { v[axis] <= bound };
-        next.clear();
-        for (k, a) in poly.iter().enumerate() {
-            let b = poly[(k + 1) % poly.len()];
-            if inside(a) {
-                next.push(*a);
+        let mut m = 0;
+        for k in 0..n {
+            let (a, b) = (poly[k], poly[(k + 1) % n]);
+            if inside(&a) {
+                next[m] = a;
+                m += 1;
             }
-            if inside(a) != inside(&b) {
-                next.push(a.lerp(b, (bound - a[axis]) / (b[axis] - a[axis])));
+            if inside(&a) != inside(&b) {
+                next[m] = a.lerp(b, (bound - a[axis]) / (b[axis] - a[axis]));
+                m += 1;
             }
         }
-        std::mem::swap(&mut poly, &mut next);
-        if poly.is_empty() {
+        (poly, n) = (next, m);
+        if n == 0 {
             return None;
         }
     }
-    Some(poly.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| (l.min(v.y), h.max(v.y))))
+    Some(poly[..n].iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| (l.min(v.y), h.max(v.y))))
 }
 
 /// Calls `f` with the corners of every opaque triangle of `leaves` at full detail, the leaves
@@ -303,11 +335,17 @@ fn leaves_in_parallel<T: Default + Send>(
             if progress.cancelled() {
                 return Err("stopped (Ctrl-C) before the walk was made".to_string());
             }
-            let g = scene.geometry(scene.node(id).first_lod).map_err(|e| e.to_string())?;
+            let lod = scene.node(id).first_lod;
+            let g = scene.stored_geometry(lod).map_err(|e| e.to_string())?;
+            // Only an instance's corners are placed: its clusters' cuts and opacity are its
+            // mesh's, and a floor is found whichever way it is wound (placing the clusters too
+            // was a fifth of the walk's time on the 1B instanced plant).
+            let placed = scene.placement(lod).map(|p| p.points(&g.positions));
+            let positions = placed.as_deref().unwrap_or(&g.positions);
             // A cut node also holds simplified groups: only the original triangles count.
             for c in g.clusters[..g.opaque].iter().filter(|c| c.cut.lo.error == 0.0) {
                 for t in (c.first_index..c.first_index + c.index_count).step_by(3) {
-                    f([0, 1, 2].map(|k| Vec3::from_array(g.positions[g.indices.get(t as usize + k) as usize])), &mut acc);
+                    f([0, 1, 2].map(|k| Vec3::from_array(positions[g.indices.get(t as usize + k) as usize])), &mut acc);
                 }
             }
             Ok(acc)
