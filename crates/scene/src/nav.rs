@@ -258,9 +258,9 @@ impl Grid {
         Cells { x0, x1, z0, z1 }
     }
 
-    /// Each of `cells` as (cell, its corner with the least x and z); the corner is found
-    /// without dividing by the grid's width (a walk of the 1B plant calls this for each
-    /// of its triangles, three times).
+    /// Each of `cells` as (cell, its corner with the least x and z), found without dividing
+    /// by the grid's width: a walk visits the cells of every triangle of the scene, up to
+    /// twice.
     fn each(&self, cells: Cells) -> impl Iterator<Item = (usize, Vec2)> + '_ {
         (cells.z0..=cells.z1).flat_map(move |z| (cells.x0..=cells.x1).map(move |x| (z * self.nx + x, self.corner(x, z))))
     }
