@@ -63,17 +63,18 @@ out, taus, modes = sys.argv[1], sys.argv[2].split(","), sys.argv[3].split(",")
 load = lambda p: json.load(open(f"{out}/{p}"))
 rows = ["| lod | tau | vfc triangles | PSNR median (dB) | popping px mean % | " + " | ".join(f"{m} ms" for m in modes) + " |",
         "| --- " * (5 + len(modes)) + "|"]
-for lod in ("chains", "clusters"):
-    for tau in taus:
-        c, v = load(f"cmp-{lod}-tau{tau}/compare.json"), load(f"{lod}-vfc-tau{tau}/summary.json")
-        ms = " | ".join(f"{load(f'{lod}-{m}-tau{tau}/summary.json')['frame_ms_median']:.1f}" for m in modes)
-        rows.append(f"| {lod} | {tau} | {v['triangles_drawn_mean']:,.0f} | {c['psnr_db_median'] or float('inf'):.1f} | {100 * c['popping_a']['fraction_mean']:.4f} | {ms} |")
-# The same comparison free of what tau means to each representation (their errors are bounds of
-# different tightness): at each of the chains' PSNRs, the hierarchy's triangles and popping
-# interpolated along its own points (linear in dB; "-" outside the taus measured).
+# vfc's (PSNR against tau 0, triangles drawn, popping) of one representation at one tau.
 def point(lod, tau):
     c, v = load(f"cmp-{lod}-tau{tau}/compare.json"), load(f"{lod}-vfc-tau{tau}/summary.json")
     return c["psnr_db_median"] or float("inf"), v["triangles_drawn_mean"], c["popping_a"]["fraction_mean"]
+for lod in ("chains", "clusters"):
+    for tau in taus:
+        db, tris, pop = point(lod, tau)
+        ms = " | ".join(f"{load(f'{lod}-{m}-tau{tau}/summary.json')['frame_ms_median']:.1f}" for m in modes)
+        rows.append(f"| {lod} | {tau} | {tris:,.0f} | {db:.1f} | {100 * pop:.4f} | {ms} |")
+# The same comparison free of what tau means to each representation (their errors are bounds of
+# different tightness): at each of the chains' PSNRs, the hierarchy's triangles and popping
+# interpolated along its own points (linear in dB; "-" outside the taus measured).
 curve = sorted(point("clusters", t) for t in taus)
 equal = ["| chains' tau | PSNR (dB) | chains' triangles | hierarchy's triangles | ratio | chains' popping % | hierarchy's popping % | ratio |", "| --- " * 8 + "|"]
 for tau in taus:
