@@ -182,8 +182,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     );
     if report.lod == "clusters" {
         out!(
-            "cluster hierarchy: {} simplified groups, up to {} levels, {} cut nodes",
+            "cluster hierarchy: {} simplified groups in {} pieces, up to {} levels, {} cut nodes",
             report.simplified_groups,
+            report.simplified_pieces,
             report.cluster_levels_max,
             report.cut_nodes
         );

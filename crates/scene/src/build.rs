@@ -144,10 +144,11 @@ pub struct BuildReport {
     pub lod_levels_max: u64,
     /// `chains` or `clusters`.
     pub lod: String,
-    /// Levels of simplification of the deepest cluster hierarchy, and the simplified groups
-    /// (0 with chains).
+    /// Levels of simplification of the deepest cluster hierarchy, the simplified groups and
+    /// the pieces their clusters leave in, one per chunk each lies in (0 with chains).
     pub cluster_levels_max: u64,
     pub simplified_groups: u64,
+    pub simplified_pieces: u64,
     /// Cut nodes: BVH nodes' parts of the cluster hierarchies.
     pub cut_nodes: u64,
     pub hlod_nodes: u64,
@@ -256,7 +257,7 @@ pub fn build(
 
     progress.stage("bvh", 1);
     let boxes: Vec<Aabb> = s.chunks.iter().map(|c| c.bounds).collect();
-    let tree = times.run("bvh", || crate::bvh::build(&boxes));
+    let mut tree = times.run("bvh", || crate::bvh::build(&boxes));
     drop(boxes);
     let lod_ids_max = 2 * tree.len() as u64 + s.chunks.len() as u64 * crate::limits::LOD_MAX_LEVELS as u64;
     if lod_ids_max > crate::limits::MAX_NODES as u64 {
@@ -267,12 +268,14 @@ pub fn build(
     report.buckets = buckets.len() as u64;
     report.bucket_triangles = buckets.iter().map(|b| b.iter().map(|&r| subtree_triangles[r as usize]).sum::<u64>()).max().unwrap_or(0);
 
-    report.simplified_groups = s.coarse.len() as u64;
     let owners = match opts.lod {
         // Chains lock every chunk border: an HLOD over part of an object meets the rest of it.
-        Lod::Chains => crate::owner::Owners { owned: Vec::new(), open: vec![false; tree.len()] },
-        Lod::Clusters => times.run("bvh", || crate::owner::owners(&tree, &s.chunks, &s.coarse, s.closed_objects.len())),
+        Lod::Chains => crate::owner::Owners { owned: Vec::new(), open: vec![false; tree.len()], bounds: Vec::new() },
+        Lod::Clusters => times.run("bvh", || crate::owner::owners(&tree, &s.chunks, (&s.coarse, &s.coarse_chunk), s.closed_objects.len())),
     };
+    for (n, &b) in tree.iter_mut().zip(&owners.bounds) {
+        n.bounds = b;
+    }
 
     let mut writer = SceneWriter::create(out).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
     let mut built =

@@ -15,9 +15,8 @@
 //! the spheres of the groups its clusters were made from, and its error their largest, with a
 //! margin for rounding (the projection grows with both).
 //!
-//! The original triangles leave in chunks of whole level-0 groups (the BVH's leaves); each
-//! simplified group leaves as one piece, which the build gives to the lowest BVH node that
-//! holds it.
+//! The original triangles leave in chunks of whole level-0 groups (the BVH's leaves); the
+//! simplified clusters leave in pieces, which the build gives to BVH nodes ([`crate::owner`]).
 
 use crate::aabb::Aabb;
 use crate::format::{Cut, ErrorBound};
@@ -72,14 +71,22 @@ impl Piece {
 #[derive(Debug, Default)]
 pub struct Hierarchy {
     pub chunks: Vec<Piece>,
+    /// The simplified clusters, in pieces of one chunk each, and that chunk (in `chunks`).
     pub coarse: Vec<Piece>,
+    pub home: Vec<u32>,
+    /// Simplified groups.
+    pub groups: u64,
     /// Levels of simplification (0 when the object was too small for any).
     pub levels: u32,
 }
 
-/// A group as built: its bounds made monotone, its depth, its triangles (the object's
-/// vertices), its cuts and each triangle's cut.
-type Group = (ErrorBound, i32, Vec<u32>, Vec<Cut>, Vec<u32>);
+/// A group as built: its bounds made monotone, its depth, and its clusters (triangles of the
+/// object's vertices, each cluster with its cut).
+struct Group {
+    bound: ErrorBound,
+    depth: i32,
+    clusters: Vec<(Vec<u32>, Cut)>,
+}
 
 /// Triangles of one of clod_build's clusters (at most as many vertices).
 const CLOD_TRIANGLES: usize = 128;
@@ -100,6 +107,8 @@ pub fn build(mesh: &Mesh, chunk_triangles: u32) -> Hierarchy {
         return Hierarchy {
             chunks: vec![Piece { mesh: mesh.clone(), cuts: vec![cut], cut_of: vec![0; n] }],
             coarse: Vec::new(),
+            home: Vec::new(),
+            groups: 0,
             levels: 0,
         };
     }
@@ -135,39 +144,58 @@ pub fn build(mesh: &Mesh, chunk_triangles: u32) -> Hierarchy {
             error: if s.error >= f32::MAX { f32::INFINITY } else { s.error.max(min_error) },
         };
         for c in clusters.iter().filter(|c| c.refined >= 0) {
-            own = enclose(own, &groups[c.refined as usize].0);
+            own = enclose(own, &groups[c.refined as usize].bound);
         }
-        let (mut indices, mut cuts, mut cut_of) = (Vec::new(), Vec::new(), Vec::new());
-        for c in clusters {
-            let lo = if c.refined < 0 { ErrorBound { error: 0.0, ..own } } else { groups[c.refined as usize].0 };
-            let cut = Cut { hi: own, lo };
-            let k = cuts.iter().position(|x| *x == cut).unwrap_or_else(|| {
-                cuts.push(cut);
-                cuts.len() - 1
-            });
-            indices.extend_from_slice(c.indices);
-            cut_of.extend(std::iter::repeat_n(k as u32, c.indices.len() / 3));
-        }
-        groups.push((own, group.depth, indices, cuts, cut_of));
+        let lo = |refined: i32| if refined < 0 { ErrorBound { error: 0.0, ..own } } else { groups[refined as usize].bound };
+        let clusters = clusters.iter().map(|c| (c.indices.to_vec(), Cut { hi: own, lo: lo(c.refined) })).collect();
+        groups.push(Group { bound: own, depth: group.depth, clusters });
         groups.len() as i32 - 1
     });
-    let levels = groups.iter().map(|g| g.1).max().unwrap_or(0) as u32;
-    // A piece of groups: their triangles out of the object's vertices, their cuts together.
-    let piece = |members: &mut dyn Iterator<Item = &Group>| {
-        let (mut indices, mut cuts, mut cut_of) = (Vec::new(), Vec::new(), Vec::new());
-        for g in members {
-            let first = cuts.len() as u32;
-            indices.extend_from_slice(&g.2);
-            cuts.extend_from_slice(&g.3);
-            cut_of.extend(g.4.iter().map(|c| c + first));
+    let levels = groups.iter().map(|g| g.depth).max().unwrap_or(0) as u32;
+    // A piece of clusters: their triangles out of the object's vertices, their cuts together.
+    let piece = |members: &mut dyn Iterator<Item = &(Vec<u32>, Cut)>| {
+        let (mut indices, mut cuts, mut cut_of) = (Vec::new(), Vec::<Cut>::new(), Vec::new());
+        for (triangles, cut) in members {
+            let k = cuts.iter().position(|x| x == cut).unwrap_or_else(|| {
+                cuts.push(*cut);
+                cuts.len() - 1
+            });
+            indices.extend_from_slice(triangles);
+            cut_of.extend(std::iter::repeat_n(k as u32, triangles.len() / 3));
         }
         Piece { mesh: mesh.sub_mesh(&indices), cuts, cut_of }
     };
-    let (original, coarse): (Vec<&Group>, Vec<&Group>) = groups.iter().partition(|g| g.1 == 0);
-    let boxes: Vec<(Aabb, usize)> = original.iter().map(|g| (group_box(mesh, &g.2), g.2.len() / 3)).collect();
-    let chunks =
-        chunks(&boxes, chunk_triangles as usize).into_iter().map(|members| piece(&mut members.into_iter().map(|k| original[k]))).collect();
-    Hierarchy { chunks, coarse: coarse.into_iter().map(|g| piece(&mut std::iter::once(g))).collect(), levels }
+    let (original, coarse_groups): (Vec<&Group>, Vec<&Group>) = groups.iter().partition(|g| g.depth == 0);
+    let boxes: Vec<(Aabb, usize)> = original
+        .iter()
+        .map(|g| (group_box(mesh, g.clusters.iter().flat_map(|c| &c.0)), g.clusters.iter().map(|c| c.0.len() / 3).sum()))
+        .collect();
+    let members = chunks(&boxes, chunk_triangles as usize);
+    // The chunk each original vertex lies in (a vertex on a border: one of them).
+    let mut home = vec![0u32; mesh.positions.len()];
+    for (k, m) in members.iter().enumerate() {
+        for (triangles, _) in m.iter().flat_map(|&g| &original[g].clusters) {
+            triangles.iter().for_each(|&i| home[i as usize] = k as u32);
+        }
+    }
+    let chunks = members.into_iter().map(|m| piece(&mut m.into_iter().flat_map(|k| &original[k].clusters))).collect();
+    // A simplified cluster spans what it was made from, often several chunks, so no leaf's
+    // box holds it and the build would give it to a node high above them, where HC's box tests
+    // seldom cull. It leaves in pieces instead, one per chunk its triangles lie in (by their
+    // first vertex), which the build gives to that chunk's leaf or the lowest node above it
+    // whose box holds it.
+    // On the 20M plant: a floor's slab tiles, never simplified, were clustered anew at every
+    // level, each time across more of the floor.
+    let (mut coarse, mut coarse_home) = (Vec::new(), Vec::new());
+    for (triangles, cut) in coarse_groups.iter().flat_map(|g| &g.clusters) {
+        let mut by_chunk: Vec<&[u32]> = triangles.chunks_exact(3).collect();
+        by_chunk.sort_by_key(|t| home[t[0] as usize]);
+        for part in by_chunk.chunk_by(|a, b| home[a[0] as usize] == home[b[0] as usize]) {
+            coarse.push(piece(&mut std::iter::once(&(part.concat(), *cut))));
+            coarse_home.push(home[part[0][0] as usize]);
+        }
+    }
+    Hierarchy { chunks, coarse, home: coarse_home, groups: coarse_groups.len() as u64, levels }
 }
 
 /// `a` grown to enclose `b`'s sphere, with the larger error, rounded outwards (f32 centres and
@@ -192,8 +220,8 @@ pub fn enclosing(bounds: &[ErrorBound], fold: fn(f32, f32) -> f32) -> ErrorBound
     bounds.iter().fold(seed, |a, s| ErrorBound { error: fold(a.error, s.error), ..enclose(a, s) })
 }
 
-fn group_box(mesh: &Mesh, indices: &[u32]) -> Aabb {
-    Aabb::from_points(indices.iter().map(|&i| &mesh.positions[i as usize]))
+fn group_box<'a>(mesh: &Mesh, indices: impl Iterator<Item = &'a u32>) -> Aabb {
+    Aabb::from_points(indices.map(|&i| &mesh.positions[i as usize]))
 }
 
 /// Groups (box, triangles) put together in chunks of at most `most` triangles by halving at

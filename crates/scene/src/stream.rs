@@ -60,8 +60,10 @@ pub struct Part {
 /// What the stream left for the rest of the build.
 pub struct Streamed {
     pub chunks: Vec<Chunk>,
-    /// The simplified groups of the objects' cluster hierarchies (none for LOD chains).
+    /// The pieces of the simplified clusters of the objects' cluster hierarchies (none for LOD
+    /// chains), and the chunk each lies in.
     pub coarse: Vec<Chunk>,
+    pub coarse_chunk: Vec<u32>,
     pub spill: Sealed,
     /// Per object: its box when it is closed and wound outwards (see [`crate::cluster`]).
     pub closed_objects: Vec<Option<Aabb>>,
@@ -89,6 +91,7 @@ pub fn stream(
         report,
         chunks: Vec::new(),
         coarse: Vec::new(),
+        coarse_chunk: Vec::new(),
         closed_objects: Vec::new(),
         prototypes: Prototypes::default(),
         seen: FxHashMap::default(),
@@ -131,12 +134,10 @@ pub fn stream(
                     let chunks = (!o.mesh.is_empty()).then(|| match opts.lod {
                         Lod::Chains => {
                             let c = crate::chunk::split(&o.mesh, split);
-                            (c.meshes.into_iter().map(Piece::always).collect(), Vec::new(), c.loose_splits, 0)
+                            let chunks = c.meshes.into_iter().map(Piece::always).collect();
+                            (crate::clod::Hierarchy { chunks, ..Default::default() }, c.loose_splits)
                         }
-                        Lod::Clusters => {
-                            let h = crate::clod::build(&o.mesh, split.max_triangles);
-                            (h.chunks, h.coarse, 0, h.levels)
-                        }
+                        Lod::Clusters => (crate::clod::build(&o.mesh, split.max_triangles), 0),
                     });
                     let kept = Kept::of(&o.mesh);
                     (o.name, o.prototype, kept, stats, closed, chunks)
@@ -146,15 +147,19 @@ pub fn stream(
         times.run("spill", || -> Result<(), BuildError> {
             for (name, prototype, kept, stats, closed, split) in split {
                 s.clean_stats.add(stats);
-                let Some((pieces, simplified, loose_splits, levels)) = split else {
+                let Some((h, loose_splits)) = split else {
                     s.empty.push(name);
                     continue;
                 };
                 s.repeats.add(prototype, kept.triangles);
                 let object = s.object(closed, &kept);
                 s.report.loose_splits += loose_splits as u64;
-                s.report.cluster_levels_max = s.report.cluster_levels_max.max(levels as u64);
-                for (coarse, pieces) in [(false, &pieces), (true, &simplified)] {
+                s.report.cluster_levels_max = s.report.cluster_levels_max.max(h.levels as u64);
+                s.report.simplified_groups += h.groups;
+                s.report.simplified_pieces += h.coarse.len() as u64;
+                let first = s.chunks.len() as u32;
+                s.coarse_chunk.extend(h.home.iter().map(|&k| first + k));
+                for (coarse, pieces) in [(false, &h.chunks), (true, &h.coarse)] {
                     for p in pieces {
                         let at = s.spill.append(p).map_err(|e| BuildError::temp(s.spill.path(), e))?;
                         let c = Chunk::own(p.mesh.bounds(), object, p.mesh.triangle_count() as u32, at);
@@ -166,7 +171,7 @@ pub fn stream(
         })?;
         progress.advance(s.report.input_triangles - before);
     }
-    let Stream { spill, report, chunks, coarse, closed_objects, prototypes, instances, repeats, clean_stats, empty, .. } = s;
+    let Stream { spill, report, chunks, coarse, coarse_chunk, closed_objects, prototypes, instances, repeats, clean_stats, empty, .. } = s;
     report.objects = closed_objects.len() as u64;
     report.chunks = chunks.len() as u64;
     report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
@@ -195,7 +200,7 @@ pub fn stream(
     }
     report.temp_bytes = spill.bytes();
     let spill = spill.seal().map_err(|e| BuildError::temp(out, e))?;
-    Ok(Streamed { chunks, coarse, spill, closed_objects, origin, prototypes, instances })
+    Ok(Streamed { chunks, coarse, coarse_chunk, spill, closed_objects, origin, prototypes, instances })
 }
 
 /// What the stream gathers, object by object.
@@ -204,6 +209,7 @@ struct Stream<'a> {
     report: &'a mut BuildReport,
     chunks: Vec<Chunk>,
     coarse: Vec<Chunk>,
+    coarse_chunk: Vec<u32>,
     closed_objects: Vec<Option<Aabb>>,
     prototypes: Prototypes,
     /// The meshes seen so far that objects use, by their content (positions, indices and
