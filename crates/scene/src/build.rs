@@ -257,7 +257,7 @@ pub fn build(
 
     progress.stage("bvh", 1);
     let boxes: Vec<Aabb> = s.chunks.iter().map(|c| c.bounds).collect();
-    let mut tree = times.run("bvh", || crate::bvh::build(&boxes));
+    let tree = times.run("bvh", || crate::bvh::build(&boxes));
     drop(boxes);
     let lod_ids_max = 2 * tree.len() as u64 + s.chunks.len() as u64 * crate::limits::LOD_MAX_LEVELS as u64;
     if lod_ids_max > crate::limits::MAX_NODES as u64 {
@@ -270,12 +270,9 @@ pub fn build(
 
     let owners = match opts.lod {
         // Chains lock every chunk border: an HLOD over part of an object meets the rest of it.
-        Lod::Chains => crate::owner::Owners { owned: Vec::new(), open: vec![false; tree.len()], bounds: Vec::new() },
+        Lod::Chains => crate::owner::Owners { owned: Vec::new(), open: vec![false; tree.len()] },
         Lod::Clusters => times.run("bvh", || crate::owner::owners(&tree, &s.chunks, (&s.coarse, &s.coarse_chunk), s.closed_objects.len())),
     };
-    for (n, &b) in tree.iter_mut().zip(&owners.bounds) {
-        n.bounds = b;
-    }
 
     let mut writer = SceneWriter::create(out).map_err(|e| BuildError::Write { path: out.display().to_string(), error: e })?;
     let mut built =

@@ -167,18 +167,20 @@ impl Mesh {
     /// The mesh made of `indices` into this mesh's vertices, with only the used vertices (and
     /// their colours), in first-use order.
     pub fn sub_mesh(&self, indices: &[u32]) -> Mesh {
-        let mut map = vec![u32::MAX; self.positions.len()];
+        // A hash map, not one slot per vertex: a large object's hierarchy leaves in tens of
+        // thousands of small pieces, and a map over all its vertices each time cost more than
+        // the rest of its build.
+        let mut map = rustc_hash::FxHashMap::with_capacity_and_hasher(indices.len().min(self.positions.len()), Default::default());
         let mut out = Mesh { indices: Vec::with_capacity(indices.len()), ..Mesh::default() };
         for &i in indices {
-            let slot = &mut map[i as usize];
-            if *slot == u32::MAX {
-                *slot = out.positions.len() as u32;
+            let slot = *map.entry(i).or_insert_with(|| {
                 out.positions.push(self.positions[i as usize]);
                 if let Some(c) = self.colors.get(i as usize) {
                     out.colors.push(*c);
                 }
-            }
-            out.indices.push(*slot);
+                out.positions.len() as u32 - 1
+            });
+            out.indices.push(slot);
         }
         out
     }

@@ -1,16 +1,18 @@
 //! Where a cluster hierarchy's simplified clusters go in the BVH: each piece of one (what of
 //! it lies in one chunk, see [`crate::clod`]) to its chunk's leaf or the lowest node above it
-//! whose box holds it once grown a little ([`SLACK`]), so that V(i) stays a set of node ids; the
-//! boxes are grown to what their nodes own, so a node's box bounds everything it draws (HC's
-//! occlusion tests stay conservative). A piece's vertices are vertices of its object's
-//! original triangles, so the object's lowest common ancestor holds it.
+//! whose box holds it, so that V(i) stays a set of node ids and a node's box bounds everything
+//! it draws (HC's occlusion tests stay conservative). A piece's vertices are vertices of its
+//! object's original triangles, so the object's lowest common ancestor holds it.
+//!
+//! Up from the chunk, not down from the ancestor: boxes overlap, and the first child found to
+//! hold a piece is often a node whose box holds it only by spanning empty space (a wall along
+//! the whole site beside a block of bays), below which no box does.
 //!
 //! A node's HLOD stands for its whole subtree, so it may only be built where no object under
 //! the node reaches outside it: otherwise a coarse cluster of that object, owned above, and the
 //! HLOD could both be drawn over the same surface, or a cluster owned below, which the HLOD
 //! does not hold, not at all.
 
-use crate::aabb::Aabb;
 use crate::bvh::BvhNode;
 use crate::stream::Chunk;
 
@@ -20,15 +22,7 @@ pub struct Owners {
     pub owned: Vec<Vec<u32>>,
     /// Per BVH node, whether an object under it has triangles outside it.
     pub open: Vec<bool>,
-    /// Per BVH node, its box grown to hold the simplified clusters it and its subtree own.
-    pub bounds: Vec<Aabb>,
 }
-
-/// How much a node's box may grow, in surface area, to own a simplified piece that crosses its
-/// border. A piece lies in one chunk but its triangles reach into the next; held only by a node
-/// that contains it, it would sit wherever a split plane of the BVH crosses it, often near the
-/// root, where HC's box tests seldom cull. A box grown a little keeps it at its chunk's leaf.
-const SLACK: f32 = 0.25;
 
 /// The owners of `coarse` in `tree`, whose leaves are `chunks`; the coarse pieces come with
 /// the chunk each lies in.
@@ -68,79 +62,69 @@ pub fn owners(tree: &[BvhNode], chunks: &[Chunk], (coarse, home): (&[Chunk], &[u
             n = parent(n);
         }
     }
-    // From the piece's chunk up: its object's ancestor holds it (see the top).
     let mut owned = vec![Vec::new(); tree.len()];
-    let mut grown: Vec<Aabb> = tree.iter().map(|n| n.bounds).collect();
     for (k, (piece, &chunk)) in coarse.iter().zip(home).enumerate() {
-        let mut n = leaf_of[chunk as usize];
         let top = top[piece.object as usize].expect("an object with simplified clusters has leaves");
-        while n != top && grown[n as usize].union(piece.bounds).half_area() > (1.0 + SLACK) * tree[n as usize].bounds.half_area() {
+        let mut n = leaf_of[chunk as usize];
+        while n != top && !tree[n as usize].bounds.contains(&piece.bounds) {
             n = parent(n);
         }
-        grown[n as usize] = grown[n as usize].union(piece.bounds);
         owned[n as usize].push(k as u32);
     }
-    // Breadth-first ids: children after their parent, so each box is grown after its children's.
-    for id in (1..tree.len()).rev() {
-        let p = parent(id as u32) as usize;
-        grown[p] = grown[p].union(grown[id]);
-    }
-    Owners { owned, open, bounds: grown }
+    Owners { owned, open }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aabb::Aabb;
     use glam::Vec3;
 
-    /// Four unit boxes along x, one chunk each, of the objects `of`; the owners of `coarse`
-    /// (box, object, chunk) and each chunk's leaf.
-    fn four(of: [u32; 4], coarse: &[(Aabb, u32, u32)]) -> (Vec<BvhNode>, Owners, Vec<usize>) {
-        let boxes: Vec<Aabb> = (0..4).map(|i| unit(i as f32 * 2.0, i as f32 * 2.0 + 1.0)).collect();
-        let tree = crate::bvh::build(&boxes);
+    /// The BVH over chunks `(box, object)` and the owners of `coarse` (box, object, chunk), with
+    /// each chunk's leaf.
+    fn owners_of(chunks: &[(Aabb, u32)], coarse: &[(Aabb, u32, u32)]) -> (Vec<BvhNode>, Owners, Vec<usize>) {
+        let tree = crate::bvh::build(&chunks.iter().map(|c| c.0).collect::<Vec<_>>());
         let d = tempfile::tempdir().unwrap();
         let mut spill = crate::spill::Spill::create(&d.path().join("s.osw")).unwrap();
         let r = spill.append(&crate::clod::Piece::default()).unwrap();
         let at = |b: Aabb, object: u32| Chunk::own(b, object, 1, r);
-        let chunks: Vec<Chunk> = boxes.iter().zip(of).map(|(&b, o)| at(b, o)).collect();
+        let leaves: Vec<Chunk> = chunks.iter().map(|&(b, o)| at(b, o)).collect();
         let (pieces, home): (Vec<Chunk>, Vec<u32>) = coarse.iter().map(|&(b, o, c)| (at(b, o), c)).unzip();
-        let o = owners(&tree, &chunks, (&pieces, &home), 3);
-        let leaves = (0..4).map(|item| tree.iter().position(|n| n.item == Some(item)).unwrap()).collect();
-        (tree, o, leaves)
+        let o = owners(&tree, &leaves, (&pieces, &home), 3);
+        let leaf = (0..chunks.len() as u32).map(|item| tree.iter().position(|n| n.item == Some(item)).unwrap()).collect();
+        (tree, o, leaf)
     }
 
+    /// A unit box from x to `to`.
     fn unit(x: f32, to: f32) -> Aabb {
         Aabb::new(Vec3::new(x, 0.0, 0.0), Vec3::new(to, 1.0, 1.0))
     }
 
+    /// Four unit boxes along x, of the objects `of`.
+    fn four(of: [u32; 4]) -> Vec<(Aabb, u32)> {
+        (0..4).map(|i| (unit(i as f32 * 2.0, i as f32 * 2.0 + 1.0), of[i])).collect()
+    }
+
     #[test]
-    fn a_piece_goes_to_the_lowest_node_holding_it_and_spanning_objects_open_their_nodes() {
+    fn a_piece_goes_to_the_lowest_node_above_its_chunk_holding_it_and_spanning_objects_open_their_nodes() {
         // Object 0 has the first two boxes, object 1 the last two.
-        let (tree, o, leaf) = four([0, 0, 1, 1], &[(unit(0.0, 1.0), 0, 0), (unit(0.0, 3.0), 0, 1), (unit(6.0, 7.0), 1, 3)]);
+        let coarse = [(unit(0.0, 1.0), 0, 0), (unit(0.0, 3.0), 0, 1), (unit(6.0, 7.0), 1, 3)];
+        let (tree, o, leaf) = owners_of(&four([0, 0, 1, 1]), &coarse);
         assert_eq!(o.owned[leaf[0]], vec![0]);
         assert_eq!(o.owned[leaf[3]], vec![2]);
         let holder = tree[leaf[0]].parent.unwrap() as usize;
         assert_eq!(o.owned[holder], vec![1], "both halves of object 0");
         assert!(o.open[leaf[0]] && o.open[leaf[1]] && !o.open[holder] && !o.open[0]);
-        assert!(o.bounds.iter().zip(&tree).all(|(b, n)| *b == n.bounds), "nothing crosses a border");
     }
 
     #[test]
-    fn a_piece_just_over_its_chunks_border_grows_the_boxes_above_it() {
-        // Object 0 has the outer boxes. A piece of it a tenth over box 0's border goes to box
-        // 0 (its box and those above grown to hold it); one over the first two boxes to the
-        // node above them, open, and one over three to the object's ancestor, the root.
-        let pieces = [(unit(0.0, 1.1), 0, 0), (unit(0.0, 3.0), 0, 0), (unit(0.0, 5.0), 0, 0)];
-        let (tree, o, leaf) = four([0, 1, 2, 0], &pieces);
-        assert_eq!(o.owned[leaf[0]], vec![0]);
-        assert_eq!(o.owned[tree[leaf[0]].parent.unwrap() as usize], vec![1]);
-        assert_eq!(o.owned[0], vec![2]);
-        assert_eq!(o.bounds[leaf[0]], unit(0.0, 1.1));
-        let mut n = leaf[0];
-        while let Some(p) = tree[n].parent {
-            assert!(o.bounds[p as usize].contains(&o.bounds[n]) && o.open[n], "node {n}");
-            n = p as usize;
-        }
-        assert!(!o.open[leaf[1]] && !o.open[leaf[2]] && !o.open[0]);
+    fn a_piece_goes_up_from_its_chunk_not_down_a_box_that_holds_it_by_spanning_empty_space() {
+        // Object 0's chunks lie at both ends of a long wall of object 1: the wall's leaf holds
+        // each of object 0's pieces too, but only their own chunks' leaves hold them closely.
+        let mut chunks = four([0, 2, 2, 0]);
+        chunks.push((Aabb::new(Vec3::new(0.0, 0.0, -1.0), Vec3::new(7.0, 1.0, 1.0)), 1));
+        let coarse = [(unit(0.0, 1.0), 0, 0), (unit(6.0, 7.0), 0, 3)];
+        let (_, o, leaf) = owners_of(&chunks, &coarse);
+        assert_eq!((&o.owned[leaf[0]], &o.owned[leaf[3]]), (&vec![0], &vec![1]));
     }
 }

@@ -24,9 +24,11 @@ pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
     encode_with(mesh, crate::cluster::clusterize(mesh, object))
 }
 
-/// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut.
+/// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut. The
+/// pieces a node gathers share the vertices on their borders: stored once.
 pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> Encoded {
-    encode_with(&piece.mesh, crate::cluster::clusterize_cut(&piece.mesh, object, &piece.cuts, &piece.cut_of))
+    let mesh = piece.mesh.welded();
+    encode_with(&mesh, crate::cluster::clusterize_cut(&mesh, object, &piece.cuts, &piece.cut_of))
 }
 
 /// A block as one use of its mesh places it ([`crate::instance`]): what a reader of the
