@@ -180,12 +180,9 @@ pub fn build(mesh: &Mesh, chunk_triangles: u32) -> Hierarchy {
     }
     let chunks = members.into_iter().map(|m| piece(&mut m.into_iter().flat_map(|k| &original[k].clusters))).collect();
     // A simplified cluster spans what it was made from, often several chunks, so no leaf's
-    // box holds it and the build would give it to a node high above them, where HC's box tests
-    // seldom cull. It leaves in pieces instead, one per chunk its triangles lie in (by their
+    // box holds it whole. It leaves in pieces, one per chunk its triangles lie in (by their
     // first vertex), which the build gives to that chunk's leaf or the lowest node above it
-    // whose box holds it.
-    // On the 20M plant: a floor's slab tiles, never simplified, were clustered anew at every
-    // level, each time across more of the floor.
+    // whose box holds it (crate::owner): low in the BVH, where HC's box tests cull it.
     let (mut coarse, mut coarse_home) = (Vec::new(), Vec::new());
     for (triangles, cut) in coarse_groups.iter().flat_map(|g| &g.clusters) {
         let mut by_chunk: Vec<&[u32]> = triangles.chunks_exact(3).collect();
