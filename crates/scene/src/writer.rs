@@ -20,12 +20,18 @@ pub struct Encoded {
 /// The bytes of one block: positions, colours if any, then the indices in cluster order (u16
 /// when every index fits, else u32), padding to 4 bytes and the clusters. `object`: the box of
 /// the block's object when that is closed (see [`crate::cluster::clusterize`]).
+///
+/// Vertices of bit-identical position and colour are stored once: osw draws neither normals
+/// nor texture coordinates, so the seams a model splits its vertices at are not needed
+/// (openarena's levels: 39.6 → 30.9 MB), and a cluster hierarchy's node gathers pieces that
+/// share their borders and the original corners of simplified triangles (the 20M plant:
+/// 696.2 → 608.3 MB). Connected parts are joined by position already ([`crate::cluster`]).
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
-    encode_with(mesh, crate::cluster::clusterize(mesh, object))
+    let mesh = mesh.welded();
+    encode_with(&mesh, crate::cluster::clusterize(&mesh, object))
 }
 
-/// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut. The
-/// pieces a node gathers share the vertices on their borders: stored once.
+/// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut.
 pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> Encoded {
     let mesh = piece.mesh.welded();
     encode_with(&mesh, crate::cluster::clusterize_cut(&mesh, object, &piece.cuts, &piece.cut_of))
