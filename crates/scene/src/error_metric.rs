@@ -41,14 +41,15 @@ pub fn projected_error_px(error: f32, b: &Aabb, eye: DVec3, focal_px: f64) -> f6
 /// projected error says. The weight only refines (conservative), and it grows with the radius
 /// and with nearness, as the distance does: a sphere that encloses another with an error at
 /// least as large still projects to at least as many pixels from every eye, so a cut stays
-/// consistent. On the 20M plant's walk, at the static chains' tau 0.5 PSNR, vfc draws 0.65x
-/// their triangles with a weight of 16 and pops 1.33x as much (8: 0.68x, 1.73x; without:
-/// 0.79x, 2.23x); on the isosurface's orbit, one object filling the view, 0.76x either way.
-/// Projecting from nearer than the nearest point (the centre less 4 radii) did about as well,
-/// but never simplifies a group within 3 radii of the eye, and with 8 radii the isosurface
-/// never got coarser than the chains' tau 0.5 image.
+/// consistent. On the 20M plant's walk, at the static chains' tau 0.5 and 1 PSNRs, vfc draws
+/// 0.68x / 0.53x their triangles with a weight of 8 (without: 0.79x / 0.68x); on the
+/// isosurface's orbit, one object filling the view, 0.76x either way. Projecting from nearer
+/// than the nearest point (the centre less 4 radii) did as well on both, but left a group
+/// within 3 radii of the eye never simplified, and with 8 radii the isosurface never coarser
+/// than the chains' tau 0.5 image. A weight of 16 did better on the plant, but a small
+/// isosurface seen from its orbit then drew its original at tau 1.
 /// docs/measurements/2026-12-03-cluster-hierarchy.md, "How much a group's size on screen counts"
-pub const SIZE_WEIGHT: f64 = 16.0;
+pub const SIZE_WEIGHT: f64 = 8.0;
 
 impl ErrorBound {
     /// The most pixels `error` covers anywhere in the sphere, measured from its nearest point
