@@ -51,13 +51,29 @@ fn check_tau_one(dir: &Path, scene: &Path, path: &Path, label: &str) {
     );
 }
 
+/// `path` with every camera moved back along its view by one side of the isosurface's cube (64
+/// units): from the orbit's own distance the isosurface, 150K triangles over 256x256 pixels,
+/// is refined to its original at tau 1 on most frames (a group large on screen is refined
+/// further than its error says, osw_scene::error_metric::SIZE_WEIGHT), which would leave
+/// tau 1's checks testing the original again.
+fn farther(path: &Path) -> std::path::PathBuf {
+    let mut cameras = osw_scene::path::read(path).unwrap();
+    cameras.iter_mut().for_each(|c| c.position -= c.forward() * 64.0);
+    let out = path.with_extension("farther.csv");
+    osw_scene::path::write(&out, &cameras).unwrap();
+    out
+}
+
 #[test]
 fn every_mode_draws_the_hierarchy_like_vfc_on_the_generators() {
     let d = tempfile::tempdir().unwrap();
     for kind in ["isosurface", "plant", "city", "teapots", "forest"] {
         let scene = build_gen_lod(d.path(), kind, 150_000, 4, "clusters");
         check_invariants(&SceneFile::open(&scene).unwrap());
-        let path = camera_path(&scene, if kind == "isosurface" { "orbit" } else { "walk" }, 16);
+        let path = match kind {
+            "isosurface" => farther(&camera_path(&scene, "orbit", 16)),
+            _ => camera_path(&scene, "walk", 16),
+        };
         check_conservative(d.path(), &scene, &path, kind);
         check_tau_one(d.path(), &scene, &path, kind);
     }
