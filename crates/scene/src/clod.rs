@@ -88,8 +88,30 @@ struct Group {
     clusters: Vec<(Vec<u32>, Cut)>,
 }
 
-/// Triangles of one of clod_build's clusters (at most as many vertices).
-const CLOD_TRIANGLES: usize = 128;
+/// The groups a cut switches: triangles of one of clod_build's clusters (at most as many
+/// vertices), and clusters a group aims at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GroupShape {
+    cluster_triangles: usize,
+    clusters: usize,
+}
+
+/// Groups of 16 clusters of 128 triangles (meshoptimizer's defaults: 32 triangles, 16
+/// clusters). On the 20M plant against those: the build 1.7x as fast, 0.77x the bytes, less
+/// popping at tau 1. docs/measurements/2026-12-03-cluster-hierarchy.md
+const GROUPS: GroupShape = GroupShape { cluster_triangles: 128, clusters: 16 };
+
+/// Groups of an object of at least [`LARGE_OBJECT`] triangles: 32 clusters of 256 (the most
+/// clod_build takes). Each group locks its border while it is simplified; in an object that
+/// fills the view from near (paper 004's isosurface, 2.4M triangles) groups four times as
+/// large lock less of it and reach the same image with fewer triangles (at the static chains'
+/// tau 0.5 PSNR 0.70x their triangles, against 0.75x with [`GROUPS`] and 0.81x with groups of
+/// 64-triangle clusters). On the plant's small objects they cost triangles at every PSNR.
+/// docs/measurements/2026-12-03-cluster-hierarchy.md, "Larger groups for a large object"
+const LARGE_GROUPS: GroupShape = GroupShape { cluster_triangles: 256, clusters: 32 };
+
+/// Triangles from which an object is built with [`LARGE_GROUPS`].
+const LARGE_OBJECT: usize = 1 << 20;
 
 /// Objects of at most this many triangles are one cluster already: drawn as they are.
 const MIN_TRIANGLES: usize = crate::cluster::MAX_TRIANGLES;
@@ -97,6 +119,11 @@ const MIN_TRIANGLES: usize = crate::cluster::MAX_TRIANGLES;
 /// The hierarchy of `mesh` (scene-local, cleaned), its original triangles in chunks of at most
 /// `chunk_triangles` (whole groups; one group may exceed it).
 pub fn build(mesh: &Mesh, chunk_triangles: u32) -> Hierarchy {
+    build_with(mesh, chunk_triangles, if mesh.triangle_count() >= LARGE_OBJECT { LARGE_GROUPS } else { GROUPS })
+}
+
+/// [`build`] with groups of `shape`.
+fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy {
     let bounds = mesh.bounds();
     // The smallest error a simplified group reports: tau 0 draws the original everywhere.
     let min_error = (bounds.extent().length() * crate::limits::MIN_RELATIVE_ERROR).max(f32::MIN_POSITIVE);
@@ -113,12 +140,11 @@ pub fn build(mesh: &Mesh, chunk_triangles: u32) -> Hierarchy {
         };
     }
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte vertices");
-    // Groups of 16 clusters of 128 triangles, each level aiming at 0.4x the triangles of the
-    // one below (meshoptimizer's defaults: 32 and 0.5). On the 20M plant against those: the
-    // build 1.7x as fast, 0.77x the bytes, less popping at tau 1; clusters are made again for
-    // drawing anyway (crate::cluster), so these only size the groups a cut switches.
-    // docs/measurements/2026-12-03-cluster-hierarchy.md
-    let mut config = meshopt::clod_default_config(CLOD_TRIANGLES);
+    // Each level aiming at 0.4x the triangles of the one below (meshoptimizer's default: 0.5;
+    // measured with the group shape). Clusters are made again for drawing anyway
+    // (crate::cluster), so the shape only sizes the groups a cut switches.
+    let mut config = meshopt::clod_default_config(shape.cluster_triangles);
+    config.partition_size = shape.clusters;
     config.simplify_ratio = 0.4;
     // Clusters by position alone: meshoptimizer's flexible clusterizer spent half the build.
     config.cluster_spatial = true;
@@ -257,8 +283,13 @@ mod tests {
     use crate::generators::shapes;
 
     fn sphere() -> Mesh {
+        sphere_of(64)
+    }
+
+    /// A sphere of radius 10 in `rings` rings of 2 x `rings` segments.
+    fn sphere_of(rings: u32) -> Mesh {
         let mut m = Mesh::default();
-        shapes::lathe(&mut m, Vec3::ZERO, &shapes::sphere_profile(10.0, 64), 128);
+        shapes::lathe(&mut m, Vec3::ZERO, &shapes::sphere_profile(10.0, rings), 2 * rings);
         m.welded()
     }
 
@@ -286,7 +317,7 @@ mod tests {
         assert_eq!(original, m.triangle_count());
         assert!(h.chunks.iter().all(|p| p.cuts.iter().all(|c| c.lo.error == 0.0 && c.hi.error > 0.0)));
         // Chunks of whole groups (clod_build's groups are about 16 x 128 triangles).
-        assert!(h.chunks.len() >= m.triangle_count() / (16 * CLOD_TRIANGLES), "{} chunks", h.chunks.len());
+        assert!(h.chunks.len() >= m.triangle_count() / (GROUPS.clusters * GROUPS.cluster_triangles), "{} chunks", h.chunks.len());
         // Each lo bound is some group's hi bound, enclosed by it with an error no larger.
         let his: Vec<ErrorBound> = triangles(&h).iter().map(|t| t.1.hi).collect();
         for (_, cut) in triangles(&h).iter().filter(|t| t.1.lo.error > 0.0) {
@@ -326,42 +357,44 @@ mod tests {
     fn every_cut_of_a_closed_surface_is_closed() {
         // A hole or a crack leaves an edge without its reverse; a layer drawn twice, an edge
         // used twice: every directed edge of the cut (by position) must appear once with its
-        // reverse once, at every tau and eye.
-        let m = sphere();
-        let h = build(&m, 1024);
-        let all = triangles(&h);
-        let key = |p: [f32; 3]| p.map(f32::to_bits);
-        for (eye, tau) in [
-            (DVec3::new(0.0, 0.0, 12.0), 1.0),
-            (DVec3::new(0.0, 0.0, 30.0), 4.0),
-            (DVec3::splat(300.0), 8.0),
-            (DVec3::new(11.0, 0.0, 0.0), 0.5),
-            (DVec3::splat(1e5), 1.0),
-        ] {
-            let v = crate::error_metric::LodView { eye, focal_px: 1000.0, tau };
-            let drawn: Vec<_> = all.iter().filter(|t| v.takes(&t.1)).collect();
-            let mut edges: std::collections::HashMap<_, i32> = std::collections::HashMap::new();
-            for (t, _) in &drawn {
-                for k in 0..3 {
-                    *edges.entry((key(t[k]), key(t[(k + 1) % 3]))).or_default() += 1;
+        // reverse once, at every tau and eye, with either group shape (an object's size
+        // picks one; the large groups on a finer sphere, so that its cuts simplify too).
+        for (m, shape) in [(sphere(), GROUPS), (sphere_of(128), LARGE_GROUPS)] {
+            let h = build_with(&m, 1024, shape);
+            let all = triangles(&h);
+            let key = |p: [f32; 3]| p.map(f32::to_bits);
+            for (eye, tau) in [
+                (DVec3::new(0.0, 0.0, 12.0), 1.0),
+                (DVec3::new(0.0, 0.0, 40.0), 4.0),
+                (DVec3::splat(300.0), 8.0),
+                (DVec3::new(11.0, 0.0, 0.0), 0.5),
+                (DVec3::splat(1e5), 1.0),
+            ] {
+                let v = crate::error_metric::LodView { eye, focal_px: 1000.0, tau };
+                let drawn: Vec<_> = all.iter().filter(|t| v.takes(&t.1)).collect();
+                let mut edges: std::collections::HashMap<_, i32> = std::collections::HashMap::new();
+                for (t, _) in &drawn {
+                    for k in 0..3 {
+                        *edges.entry((key(t[k]), key(t[(k + 1) % 3]))).or_default() += 1;
+                    }
                 }
+                for (&(a, b), &n) in &edges {
+                    assert_eq!(
+                        (n, edges.get(&(b, a)).copied()),
+                        (1, Some(1)),
+                        "eye {eye} tau {tau}: an edge drawn {n} times, its reverse {:?}",
+                        edges.get(&(b, a))
+                    );
+                }
+                // 2 units from the surface at tau 1 the first level's error still projects to
+                // more than a pixel: only there may the cut be the original everywhere.
+                let near = eye.length() < 20.0 && tau <= 1.0;
+                assert!(drawn.len() < m.triangle_count() || near, "eye {eye} tau {tau}: {} triangles", drawn.len());
             }
-            for (&(a, b), &n) in &edges {
-                assert_eq!(
-                    (n, edges.get(&(b, a)).copied()),
-                    (1, Some(1)),
-                    "eye {eye} tau {tau}: an edge drawn {n} times, its reverse {:?}",
-                    edges.get(&(b, a))
-                );
-            }
-            // 2 units from the surface at tau 1 the first level's error still projects to
-            // more than a pixel: only there may the cut be the original everywhere.
-            let near = eye.length() < 20.0 && tau <= 1.0;
-            assert!(drawn.len() < m.triangle_count() || near, "eye {eye} tau {tau}: {} triangles", drawn.len());
+            let v = crate::error_metric::LodView { eye: DVec3::splat(1e9), focal_px: 1000.0, tau: 1.0 };
+            let far = all.iter().filter(|t| v.takes(&t.1)).count();
+            assert!(far * 20 < m.triangle_count(), "far away the coarsest groups: {far} triangles");
         }
-        let v = crate::error_metric::LodView { eye: DVec3::splat(1e9), focal_px: 1000.0, tau: 1.0 };
-        let far = all.iter().filter(|t| v.takes(&t.1)).count();
-        assert!(far * 20 < m.triangle_count(), "far away the coarsest groups: {far} triangles");
     }
 
     #[test]
