@@ -90,7 +90,7 @@ struct Group {
 
 /// The groups a cut switches: triangles of one of clod_build's clusters (at most as many
 /// vertices), and clusters a group aims at.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 struct GroupShape {
     cluster_triangles: usize,
     clusters: usize,
