@@ -2,12 +2,13 @@
 //! peer's messages, and the [`Roles`] they change. Waits are bounded (`--frame-timeout`).
 
 use crate::link::{CameraGate, Event, MAX_CAMERAS};
+use crate::peer_queue::PeerQueue;
 use crate::roles::{self, Display, Forget, Roles};
 use osw_cull::delta::Assembly;
 use osw_scene::NodeId;
 use osw_wire::messages::{CameraPacket, Message, Role};
 use osw_wire::{Frame, WireError};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -31,7 +32,7 @@ pub struct Inbox {
     display: Option<Link>,
     /// Cameras by frame, with their arrival times.
     cameras: BTreeMap<u64, (CameraPacket, u64)>,
-    peer_queue: VecDeque<(Message, u64)>,
+    peer_queue: PeerQueue,
     /// The parts of a rejoin's keyframe so far, and its frame.
     rejoin: Option<(u64, Assembly)>,
     /// Cameras dropped here (the oldest, when more than MAX_CAMERAS are held); the gate
@@ -50,7 +51,7 @@ impl Inbox {
             peer: None,
             display: None,
             cameras: BTreeMap::new(),
-            peer_queue: VecDeque::new(),
+            peer_queue: PeerQueue::default(),
             rejoin: None,
             old_cameras_dropped: 0,
         }
@@ -98,7 +99,7 @@ impl Inbox {
                 self.roles.on(roles::Event::PeerRejoins { next: r.next })
             }
             Event::FromPeer(m, at) => {
-                self.peer_queue.push_back((m, at));
+                self.peer_queue.push(m, at);
                 Forget::default()
             }
             Event::FromDisplay(m, _) => {
@@ -111,12 +112,14 @@ impl Inbox {
                 match role {
                     Role::Node => {
                         self.peer = link;
+                        self.peer_queue.connected();
                         self.roles.on(roles::Event::PeerConnected { serving })
                     }
                     Role::Display => {
                         self.display = link;
                         let f = self.roles.on(roles::Event::DisplayConnected);
                         if self.roles.display == Display::Restarted {
+                            self.peer_queue.display_restarted();
                             tracing::warn!("a new display connected: starting over with its path");
                         }
                         f
@@ -142,6 +145,14 @@ impl Inbox {
             }
         };
         self.forget(forget);
+    }
+
+    /// A restarted display: both roles start over, and the peer is told before anything this
+    /// node sends of the new path.
+    pub fn start_over(&mut self) -> Result<(), WireError> {
+        self.roles.started_over();
+        let told = self.peer_queue.start_over();
+        self.send_peer(&Message::StartOver(told))
     }
 
     pub fn forget(&mut self, f: Forget) {
@@ -214,7 +225,7 @@ impl Inbox {
     pub fn peer_message(&mut self, i: u64) -> anyhow::Result<Option<(Message, u64)>> {
         let deadline = Instant::now() + self.wait;
         loop {
-            if let Some(m) = self.peer_queue.pop_front() {
+            if let Some(m) = self.peer_queue.pop() {
                 return Ok(Some(m));
             }
             if self.roles.display != Display::Playing || !self.roles.peer_in_step() {
@@ -227,7 +238,7 @@ impl Inbox {
     /// V(k) and k, once every part of the keyframe the peer sent in answer to a rejoin has
     /// come; what it sent before belongs to frames this node did not follow.
     pub fn keyframe(&mut self, max_id: u32) -> Result<Option<(u64, Vec<NodeId>)>, WireError> {
-        while let Some((m, _)) = self.peer_queue.pop_front() {
+        while let Some((m, _)) = self.peer_queue.pop() {
             if let Message::Keyframe(k) = m {
                 let ids = k.ids.ids(max_id)?;
                 // A part of another frame's keyframe starts that one afresh.

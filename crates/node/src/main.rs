@@ -6,6 +6,7 @@
 
 mod inbox;
 mod link;
+mod peer_queue;
 mod roles;
 mod switch;
 

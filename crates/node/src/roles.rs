@@ -154,15 +154,15 @@ impl Roles {
 
     /// A restarted display: both nodes start over on their own, HC by parity and without
     /// occluders as at frame 0, with the same empty visible set, so in step with a connected
-    /// peer whatever rejoin was under way.
-    pub fn started_over(&mut self) -> Forget {
+    /// peer whatever rejoin was under way (the peer's messages of the old path are told apart
+    /// by [`crate::peer_queue::PeerQueue`]).
+    pub fn started_over(&mut self) {
         self.display = Display::Playing;
         self.hc_parity = self.index;
         self.depth_for = None;
         if self.peer != Peer::Gone {
             self.peer = Peer::InStep;
         }
-        Forget { peer_messages: true, cameras: false }
     }
 
     pub fn step(&self, i: u64) -> Step {
@@ -446,7 +446,7 @@ mod tests {
         for x in &mut c.n {
             assert_eq!(x.roles.on(Event::DisplayConnected), Forget { peer_messages: false, cameras: true });
             assert_eq!(x.roles.step(6), Step::StartOver);
-            assert!(x.roles.started_over().peer_messages);
+            x.roles.started_over();
             x.holds = None;
         }
         // From the new display's first camera: as from frame 0.

@@ -318,8 +318,7 @@ impl Switch {
     /// A restarted display: forget the visible set (the display holds none) and run from its
     /// first camera; `None` when it said goodbye first.
     fn start_over(&mut self) -> anyhow::Result<Option<u64>> {
-        let forget = self.io.roles.started_over();
-        self.io.forget(forget);
+        self.io.start_over()?;
         self.visible.clear();
         self.io.first_camera("the new display's first camera")
     }

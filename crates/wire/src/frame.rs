@@ -127,6 +127,7 @@ mod tests {
             Message::Rejoin(Rejoin { next: 12 }),
             Message::Keyframe(Keyframe { frame: 8, part: 1, parts: 2, ids: IdList::from_ids(&[0, 1, 2]) }),
             Message::Goodbye(Goodbye { reason: "done".into() }),
+            Message::StartOver(StartOver { restarts: 1 }),
         ]
     }
 
@@ -140,9 +141,9 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_9() {
+    fn golden_bytes_of_version_10() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 9);
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 10);
         // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), token
         // "t", the serving flag (protocol 6), and the settings (protocol 9): one, "--size"
         // "8x8".
@@ -167,6 +168,10 @@ mod tests {
         let mut b = Vec::new();
         encode_frame(&Message::Rejoin(Rejoin { next: 12 }), &mut b).unwrap();
         assert_eq!(b, vec![2, 0, 0, 0, 9, 12]);
+        // A start over (protocol 10): variant 10, one restart.
+        let mut b = Vec::new();
+        encode_frame(&Message::StartOver(StartOver { restarts: 1 }), &mut b).unwrap();
+        assert_eq!(b, vec![2, 0, 0, 0, 10, 1]);
         // A keyframe: variant 4, frame 8, part 1 of 2 (protocol 9), the ids' 3 bytes.
         let mut b = Vec::new();
         encode_frame(&samples()[8], &mut b).unwrap();

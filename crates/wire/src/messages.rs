@@ -181,6 +181,15 @@ pub struct Rejoin {
     pub next: u64,
 }
 
+/// The sender started over with a restarted display (RVG): what it sends its peer from here on
+/// belongs to that display's path, and anything before it to an older one's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StartOver {
+    /// The display restarts this one accounts for since the sender's last `StartOver` on this
+    /// connection: 1, or more when displays connected faster than the sender's frames.
+    pub restarts: u64,
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Goodbye {
     pub reason: String,
@@ -202,6 +211,7 @@ pub enum Message {
     /// A node asks its peer, running both roles alone, for a keyframe: after a restart, or
     /// when the link between them is back after a cut.
     Rejoin(Rejoin),
+    StartOver(StartOver),
 }
 
 impl Message {
