@@ -44,7 +44,7 @@ impl PeerQueue {
 
     pub fn push(&mut self, m: Message, at: u64) {
         match m {
-            Message::StartOver(s) => self.peer_run += s.restarts,
+            Message::StartOver(s) => self.peer_run = self.peer_run.saturating_add(s.restarts),
             m => self.messages.push_back((self.peer_run, m, at)),
         }
     }
@@ -135,6 +135,18 @@ mod tests {
         a.push(Message::StartOver(to_a[1]), 0);
         a.push(delta(2), 0);
         assert_eq!((frames(&mut a), frames(&mut b)), (vec![2], vec![0]));
+    }
+
+    #[test]
+    fn a_peer_that_says_too_many_restarts_is_never_followed_and_never_overflows() {
+        let mut a = PeerQueue::default();
+        // Wrapped, u64::MAX + 2 would be this node's first restart.
+        a.push(Message::StartOver(StartOver { restarts: u64::MAX }), 0);
+        a.push(Message::StartOver(StartOver { restarts: 2 }), 0);
+        a.push(delta(0), 0);
+        a.display_restarted();
+        a.start_over();
+        assert!(frames(&mut a).is_empty());
     }
 
     #[test]
