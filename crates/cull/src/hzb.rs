@@ -110,28 +110,25 @@ impl Pyramid {
         level.min(self.levels.len() - 1)
     }
 
-    /// Farthest depth over the level-0 pixel rectangle [x0, x1] x [y0, y1] (inclusive), read
-    /// at the level where the rectangle spans at most 2^(1 + finer) texels a side (finer = 0:
-    /// Peng 2014's 2x2): conservative, the texels cover the rectangle.
-    pub fn farthest(&self, x0: u32, y0: u32, x1: u32, y1: u32, finer: u32) -> f32 {
+    /// Whether the farthest depth over the level-0 pixel rectangle [x0, x1] x [y0, y1]
+    /// (inclusive), read at the level where the rectangle spans at most 2^(1 + finer) texels a
+    /// side (finer = 0: Peng 2014's 2x2), lies at or behind `nearest`: conservative, the texels
+    /// cover the rectangle. It stops at the first such texel, so a visible box reads only until
+    /// it finds one, a hidden one every texel.
+    pub fn lets_through(&self, (x0, y0, x1, y1): (u32, u32, u32, u32), nearest: f32, finer: u32) -> bool {
         let s = self.level_of(x0, y0, x1, y1, finer);
         let (w, h, d) = &self.levels[s];
         let (tx0, ty0, tx1, ty1) = (x0 >> s, y0 >> s, (x1 >> s).min(w - 1), (y1 >> s).min(h - 1));
-        let mut far = f32::INFINITY;
-        for y in ty0..=ty1 {
-            for x in tx0..=tx1 {
-                far = far.min(d[(y * w + x) as usize]);
-            }
-        }
-        far
+        // Rounding margin: f32 depth against an f64 corner depth.
+        (ty0..=ty1).any(|y| d[(y * w + tx0) as usize..=(y * w + tx1) as usize].iter().any(|&t| nearest >= t - 1e-7))
     }
 }
 
 impl Pyramid {
     /// Whether some pixel of the rectangle `rect` = [x0, x1] x [y0, y1] (inclusive, inside the image)
     /// lies at or behind depth `nearest`: the pyramid read from the level of
-    /// [`Pyramid::farthest`] down, only under texels that let `nearest` through, to the pixels
-    /// themselves. What `farthest` answers for the texels that cover the rectangle, this
+    /// [`Pyramid::lets_through`] down, only under texels that let `nearest` through, to the pixels
+    /// themselves. What `lets_through` answers for the texels that cover the rectangle, this
     /// answers for the rectangle: a box behind a near occluder with gaps passes a coarse texel
     /// through a gap beside it. After `budget` texels read it answers true (conservative).
     pub fn reaches(&self, rect: (u32, u32, u32, u32), nearest: f32, finer: u32, budget: u32) -> bool {
@@ -178,7 +175,7 @@ pub const PYRAMID_FINER: u32 = 3;
 pub struct HzbTester<'a> {
     pub nodes: &'a [NodeRecord],
     pub pyramid: &'a Pyramid,
-    /// Levels below Peng 2014's 2x2-texel choice to read (see [`Pyramid::farthest`]).
+    /// Levels below Peng 2014's 2x2-texel choice to read (see [`Pyramid::lets_through`]).
     pub finer: u32,
     /// Texels to read below that level, to the pixels ([`Pyramid::reaches`]); 0: that
     /// level's texels alone, as Peng 2014.
@@ -276,8 +273,7 @@ pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, finer: 
     if budget > 0 {
         return pyramid.reaches((x0, y0, x1, y1), nearest as f32, finer, budget);
     }
-    // Rounding margin: f32 depth against an f64 corner depth.
-    nearest as f32 >= pyramid.farthest(x0, y0, x1, y1, finer) - 1e-7
+    pyramid.lets_through((x0, y0, x1, y1), nearest as f32, finer)
 }
 
 /// [`visible_box`] (`read`: its `finer` and `budget`), and where the box passes, its halves
@@ -310,12 +306,15 @@ mod tests {
         let p = Pyramid::new(3, 2, vec![0.9, 0.5, 0.7, 0.8, 0.6, 0.4]);
         assert_eq!(p.levels[1], (2, 1, vec![0.5, 0.4]));
         assert_eq!(p.levels[2], (1, 1, vec![0.4]));
-        assert_eq!(p.farthest(0, 0, 0, 0, 0), 0.9);
-        assert_eq!(p.farthest(0, 0, 1, 1, 0), 0.5);
-        assert_eq!(p.farthest(0, 0, 2, 1, 0), 0.4);
+        // The farthest depth over a rectangle at the level read: a box as near as it passes,
+        // one nearer does not.
+        let farthest = |rect, finer, far: f32| p.lets_through(rect, far, finer) && !p.lets_through(rect, far - 0.01, finer);
+        assert!(farthest((0, 0, 0, 0), 0, 0.9));
+        assert!(farthest((0, 0, 1, 1), 0, 0.5));
+        assert!(farthest((0, 0, 2, 1), 0, 0.4));
         // One level finer: the 2x2 rectangle is read at level 0, texel by texel.
-        assert_eq!(p.farthest(0, 0, 1, 0, 1), 0.5);
-        assert_eq!(p.farthest(0, 0, 0, 1, 1), 0.8);
+        assert!(farthest((0, 0, 1, 0), 1, 0.5));
+        assert!(farthest((0, 0, 0, 1), 1, 0.8));
     }
 
     /// A `w` x `h` depth image of random depths, reproducible by `seed`.
@@ -332,7 +331,7 @@ mod tests {
     #[test]
     fn reaching_the_pixels_answers_for_the_rectangle_itself() {
         // Against the pixels read one by one: with budget to spare, `reaches` is exact; with
-        // little, it may only add visible answers; `farthest` at the start level never hides
+        // little, it may only add visible answers; `lets_through` at the start level never hides
         // a rectangle that `reaches` finds.
         let (w, h) = (61u32, 45u32);
         let p = Pyramid::new(w, h, noise(w, h, 11).iter().map(|d| 0.5 + 0.5 * d).collect());
@@ -351,7 +350,7 @@ mod tests {
             for finer in [0, 3] {
                 assert_eq!(p.reaches((x0, y0, x1, y1), nearest, finer, u32::MAX), brute, "({x0},{y0})-({x1},{y1}) at {nearest}");
                 assert!(!brute || p.reaches((x0, y0, x1, y1), nearest, finer, 3), "a small budget hid a visible rectangle");
-                assert!(!brute || nearest >= p.farthest(x0, y0, x1, y1, finer) - 1e-7);
+                assert!(!brute || p.lets_through((x0, y0, x1, y1), nearest, finer));
             }
             (hidden, shown) = (hidden + u32::from(!brute), shown + u32::from(brute));
         }
