@@ -19,11 +19,12 @@ use std::collections::HashMap;
 /// culls and that the frame does not change). By default all but occlusion. The triangle tests
 /// pay on lavapipe, which sets up each triangle it is given on the CPU (2M plant walk, tau 0,
 /// prev: 70,657 -> 24,171 triangles a frame, 5.6 times the exactly visible ones, where culling
-/// whole clusters exactly would leave 3.9 times). RVG's occlusion test costs lavapipe more than the triangles it saves (same walk,
-/// before the triangle tests: 32% of clusters hidden, 94,018 -> 48,460 triangles a frame, but
-/// RVG 43.0 -> 62.8 ms: testing a cluster's box costs about what drawing its 32 triangles does;
-/// with hzb's CPU pyramid instead of the exact box test, on clusters of 128, 11% hidden for
-/// 7 ms more a frame).
+/// whole clusters exactly would leave 3.9 times). RVG's occlusion test (two passes against a
+/// CPU pyramid, a cluster's box read until a texel lets it through) takes 4-16% off prev's frame
+/// on the 20M plant's walk with either LOD representation; it is off by default because prev's
+/// OR then draws only the clusters visible in the last frame, and prev's visible sets are no
+/// longer the switch's (docs/measurements/2026-12-03-cluster-hierarchy.md, "RVG's cluster
+/// occlusion test by representation").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ClusterTests {
     pub frustum: bool,

@@ -28,7 +28,7 @@ pub struct WalkArgs {
     pub residency_mib: u64,
     /// Cluster tests of the passes that draw: a list of `frustum`, `cone` (per cluster),
     /// `backface`, `small` (per triangle of a cluster drawn) and `occlusion` (RVG's two passes, in
-    /// prev; off by default: on lavapipe it saves about what it costs), or `none` (exact
+    /// prev; off by default so that prev's visible sets are the switch's), or `none` (exact
     /// visibility's item pass always draws every triangle).
     #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,
