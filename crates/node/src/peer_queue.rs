@@ -49,11 +49,11 @@ impl PeerQueue {
         }
     }
 
-    /// This node starts over with the newest display: the peer's messages of older paths are
-    /// dropped, and the returned message tells the peer (before anything of the new path).
+    /// This node starts over with the newest display (the peer's messages of older paths are
+    /// dropped as [`PeerQueue::pop`] meets them); the returned message tells the peer, before
+    /// anything of the new path.
     pub fn start_over(&mut self) -> StartOver {
         self.run = self.restarts;
-        self.messages.retain(|(r, ..)| *r >= self.run);
         let told = StartOver { restarts: self.run - self.told };
         self.told = self.run;
         told
