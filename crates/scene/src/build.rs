@@ -149,6 +149,9 @@ pub struct BuildReport {
     pub cluster_levels_max: u64,
     pub simplified_groups: u64,
     pub simplified_pieces: u64,
+    /// Triangles dropped from simplified groups as fins ([`crate::fins`]).
+    #[serde(default)]
+    pub fin_triangles_dropped: u64,
     /// Cut nodes: BVH nodes' parts of the cluster hierarchies.
     pub cut_nodes: u64,
     pub hlod_nodes: u64,

@@ -78,14 +78,18 @@ pub struct Hierarchy {
     pub groups: u64,
     /// Levels of simplification (0 when the object was too small for any).
     pub levels: u32,
+    /// Triangles dropped from the simplified groups as fins ([`crate::fins`]).
+    pub fins: u64,
 }
 
 /// A group as built: its bounds made monotone, its depth, and its clusters (triangles of the
-/// object's vertices, each cluster with its cut).
+/// object's vertices, each cluster with its cut), each made by simplifying the group
+/// `refined` names (-1: the original triangles).
 struct Group {
     bound: ErrorBound,
     depth: i32,
     clusters: Vec<(Vec<u32>, Cut)>,
+    refined: Vec<i32>,
 }
 
 /// The groups a cut switches: triangles of one of clod_build's clusters (at most as many
@@ -101,14 +105,16 @@ struct GroupShape {
 /// popping at tau 1. docs/measurements/2026-12-03-cluster-hierarchy.md
 const GROUPS: GroupShape = GroupShape { cluster_triangles: 128, clusters: 16 };
 
-/// Groups of an object of at least [`LARGE_OBJECT`] triangles: 32 clusters of 256 (the most
-/// clod_build takes). Each group locks its border while it is simplified; in an object that
-/// fills the view from near (paper 004's isosurface, 2.4M triangles) groups four times as
-/// large lock less of it and reach the same image with fewer triangles (at the static chains'
-/// tau 0.5 PSNR 0.70x their triangles, against 0.75x with [`GROUPS`] and 0.81x with groups of
-/// 64-triangle clusters). On the plant's small objects they cost triangles at every PSNR.
-/// docs/measurements/2026-12-03-cluster-hierarchy.md, "Larger groups for a large object"
-const LARGE_GROUPS: GroupShape = GroupShape { cluster_triangles: 256, clusters: 32 };
+/// Groups of an object of at least [`LARGE_OBJECT`] triangles: 128 clusters of 256 (the most
+/// triangles clod_build takes a cluster). Each group locks its border while it is simplified;
+/// in an object that fills the view from near (paper 004's isosurface, 2.4M triangles) large
+/// groups lock less of it and switch less of it as the eye moves: at the static chains' tau
+/// 0.5 PSNR 0.72x their triangles (0.70x with 32 clusters, 0.75x with [`GROUPS`]), and at tau
+/// 0.5 0.25x their popping (0.86x with 32 clusters). Larger groups fold more fans into fins
+/// ([`crate::fins`]). On the plant's small objects they cost triangles at every PSNR.
+/// docs/measurements/2026-12-03-cluster-hierarchy.md, "Larger groups for a large object" and
+/// "Fins dropped: groups of 128 clusters"
+const LARGE_GROUPS: GroupShape = GroupShape { cluster_triangles: 256, clusters: 128 };
 
 /// Triangles from which an object is built with [`LARGE_GROUPS`].
 const LARGE_OBJECT: usize = 1 << 20;
@@ -137,6 +143,7 @@ fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy
             home: Vec::new(),
             groups: 0,
             levels: 0,
+            fins: 0,
         };
     }
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte vertices");
@@ -173,10 +180,12 @@ fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy
             own = enclose(own, &groups[c.refined as usize].bound);
         }
         let lo = |refined: i32| if refined < 0 { ErrorBound { error: 0.0, ..own } } else { groups[refined as usize].bound };
+        let refined = clusters.iter().map(|c| c.refined).collect();
         let clusters = clusters.iter().map(|c| (c.indices.to_vec(), Cut { hi: own, lo: lo(c.refined) })).collect();
-        groups.push(Group { bound: own, depth: group.depth, clusters });
+        groups.push(Group { bound: own, depth: group.depth, clusters, refined });
         groups.len() as i32 - 1
     });
+    let fins = drop_fins(&mut groups, &mesh.positions);
     let levels = groups.iter().map(|g| g.depth).max().unwrap_or(0) as u32;
     // A piece of clusters: their triangles out of the object's vertices, their cuts together.
     let piece = |members: &mut dyn Iterator<Item = &(Vec<u32>, Cut)>| {
@@ -218,7 +227,42 @@ fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy
             coarse_home.push(home[part[0][0] as usize]);
         }
     }
-    Hierarchy { chunks, coarse, home: coarse_home, groups: coarse_groups.len() as u64, levels }
+    Hierarchy { chunks, coarse, home: coarse_home, groups: coarse_groups.len() as u64, levels, fins }
+}
+
+/// Drops the fins ([`crate::fins`]) from what each group's simplification made, and says how
+/// many triangles went. In build order, so that the triangles a group was simplified from have
+/// lost theirs already (a fin the next level keeps is no pair of its source).
+fn drop_fins(groups: &mut [Group], positions: &[[f32; 3]]) -> u64 {
+    let mut made: Vec<Vec<(usize, usize)>> = vec![Vec::new(); groups.len()];
+    for (g, group) in groups.iter().enumerate() {
+        for (k, &r) in group.refined.iter().enumerate().filter(|p| *p.1 >= 0) {
+            made[r as usize].push((g, k));
+        }
+    }
+    let mut dropped = 0;
+    for (r, clusters) in made.iter().enumerate() {
+        let triangles = |groups: &[Group], (g, k): (usize, usize)| -> Vec<[u32; 3]> {
+            groups[g].clusters[k].0.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+        };
+        let all: Vec<[u32; 3]> = clusters.iter().flat_map(|&c| triangles(groups, c)).collect();
+        let source = || (0..groups[r].clusters.len()).flat_map(|k| triangles(groups, (r, k))).collect();
+        let fins = crate::fins::fins(&all, source, positions, groups[r].bound.error);
+        if fins.is_empty() {
+            continue;
+        }
+        dropped += fins.len() as u64;
+        let mut first = 0;
+        for &(g, k) in clusters {
+            let indices = &mut groups[g].clusters[k].0;
+            let n = indices.len() / 3;
+            let gone: Vec<usize> = fins.iter().filter(|&&i| (first..first + n).contains(&i)).map(|&i| i - first).collect();
+            first += n;
+            let kept = indices.chunks_exact(3).enumerate().filter(|(t, _)| !gone.contains(t));
+            *indices = kept.flat_map(|p| p.1.iter().copied()).collect();
+        }
+    }
+    dropped
 }
 
 /// `a` grown to enclose `b`'s sphere, with the larger error, rounded outwards (f32 centres and

@@ -28,6 +28,7 @@ pub mod clod;
 pub mod cluster;
 pub mod error_metric;
 pub mod file;
+pub mod fins;
 pub mod format;
 pub mod generators;
 pub mod hlod;

@@ -157,6 +157,7 @@ pub fn stream(
                 s.report.cluster_levels_max = s.report.cluster_levels_max.max(h.levels as u64);
                 s.report.simplified_groups += h.groups;
                 s.report.simplified_pieces += h.coarse.len() as u64;
+                s.report.fin_triangles_dropped += h.fins;
                 let first = s.chunks.len() as u32;
                 s.coarse_chunk.extend(h.home.iter().map(|&k| first + k));
                 for (coarse, pieces) in [(false, &h.chunks), (true, &h.coarse)] {
@@ -183,6 +184,12 @@ pub fn stream(
         report
             .left_out
             .push(format!("{} degenerate triangles (repeated index or zero area): they cover no pixel", clean_stats.degenerate_triangles));
+    }
+    if report.fin_triangles_dropped > 0 {
+        report.left_out.push(format!(
+            "{} triangles of simplified groups in fins: pairs on the same corners wound opposite ways, folded by simplification within the group's error of the surface kept",
+            report.fin_triangles_dropped
+        ));
     }
     if !empty.is_empty() {
         let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();
