@@ -240,13 +240,11 @@ fn drop_fins(groups: &mut [Group], positions: &[[f32; 3]]) -> u64 {
             made[r as usize].push((g, k));
         }
     }
+    let triangles = |indices: &[u32]| indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect::<Vec<_>>();
     let mut dropped = 0;
     for (r, clusters) in made.iter().enumerate() {
-        let triangles = |groups: &[Group], (g, k): (usize, usize)| -> Vec<[u32; 3]> {
-            groups[g].clusters[k].0.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
-        };
-        let all: Vec<[u32; 3]> = clusters.iter().flat_map(|&c| triangles(groups, c)).collect();
-        let source = || (0..groups[r].clusters.len()).flat_map(|k| triangles(groups, (r, k))).collect();
+        let all: Vec<[u32; 3]> = clusters.iter().flat_map(|&(g, k)| triangles(&groups[g].clusters[k].0)).collect();
+        let source = || groups[r].clusters.iter().flat_map(|c| triangles(&c.0)).collect();
         let fins = crate::fins::fins(&all, source, positions, groups[r].bound.error);
         if fins.is_empty() {
             continue;
