@@ -1,6 +1,7 @@
 //! A pass's gather on the CPU: the cluster tests and the triangle tests of every object of a
 //! 200K-triangle plant, seen from inside it (triangles of every size on screen, most of them
-//! covering no pixel centre, as in a walk through the large plants).
+//! covering no pixel centre, as in a walk through the large plants) and from far, and of a
+//! 1M-triangle isosurface from its orbit (one smooth surface, triangles of a few pixels).
 //! Run: `cargo bench -p osw-cull --bench gather`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -10,8 +11,10 @@ use osw_cull::cluster::{ClusterStats, ClusterTests, gather};
 use osw_scene::Camera;
 use osw_scene::generators::{GenKind, generate};
 
-fn bench(c: &mut Criterion) {
-    let meshes: Vec<_> = generate(GenKind::Plant, 200_000, 1)
+type Meshes = Vec<(Vec<[f32; 3]>, Vec<u32>, Vec<osw_scene::format::ClusterRecord>)>;
+
+fn clustered(kind: GenKind, triangles: u64) -> (Meshes, osw_scene::aabb::Aabb) {
+    let meshes: Meshes = generate(kind, triangles, 1)
         .objects
         .into_iter()
         .map(|o| {
@@ -20,16 +23,25 @@ fn bench(c: &mut Criterion) {
         })
         .collect();
     let bounds = osw_scene::aabb::Aabb::from_points(meshes.iter().flat_map(|m| m.0.iter()));
+    (meshes, bounds)
+}
+
+fn bench(c: &mut Criterion) {
     let tests = ClusterTests { occlusion: false, ..ClusterTests::ALL };
-    let centre = bounds.center().as_dvec3();
-    let e = bounds.extent().as_dvec3();
-    // From inside the plant, and from far enough that most triangles cover no pixel centre.
-    for (name, eye) in
-        [("inside", centre + DVec3::new(0.0, 1.0 - 0.5 * e.y, -0.45 * e.z)), ("far", centre + DVec3::new(0.3, 0.5, -1.0) * e.length())]
-    {
+    let (plant, plant_bounds) = clustered(GenKind::Plant, 200_000);
+    let (iso, iso_bounds) = clustered(GenKind::Isosurface, 1_000_000);
+    let (pc, pe) = (plant_bounds.center().as_dvec3(), plant_bounds.extent().as_dvec3());
+    let (ic, ie) = (iso_bounds.center().as_dvec3(), iso_bounds.extent().as_dvec3());
+    // From inside the plant, and from far enough that most triangles cover no pixel centre;
+    // the isosurface from as far as its orbit (`osw path --kind orbit`).
+    for (name, meshes, eye, centre) in [
+        ("inside", &plant, pc + DVec3::new(0.0, 1.0 - 0.5 * pe.y, -0.45 * pe.z), pc),
+        ("far", &plant, pc + DVec3::new(0.3, 0.5, -1.0) * pe.length(), pc),
+        ("the isosurface's orbit", &iso, ic + DVec3::new(0.69, 0.35, 0.0) * ie.length(), ic),
+    ] {
         let view = View::new(&Camera::look_at(eye, centre, 60.0), DVec3::ZERO, 1024, 1024, 0.01);
         let (mut out, mut s) = (Vec::new(), ClusterStats::default());
-        for m in &meshes {
+        for m in meshes {
             gather(&view, tests, (&m.0, &m.1, &m.2), &mut s, |_, _| true, 0, &mut out);
         }
         println!(
@@ -42,7 +54,7 @@ fn bench(c: &mut Criterion) {
         c.bench_function(&format!("gather from {name}, every test but occlusion"), |b| {
             b.iter(|| {
                 out.clear();
-                for m in &meshes {
+                for m in meshes {
                     gather(&view, tests, (&m.0, &m.1, &m.2), &mut s, |_, _| true, 0, &mut out);
                 }
                 out.len()

@@ -176,7 +176,9 @@ pub fn gather<I: Copy + Into<u32>>(
             continue;
         }
         let ix = &indices[c.first_index as usize..(c.first_index + c.index_count) as usize];
-        let (backface, small) = (tests.backface && outside_closed, tests.small);
+        // A cluster whose every triangle faces the eye has no back face to drop.
+        let backface = tests.backface && outside_closed && !faces_toward(c, center, radius, view);
+        let small = tests.small;
         if !backface && !small {
             out.extend(ix.iter().map(|&i| base + i.into()));
             continue;
@@ -220,6 +222,13 @@ fn faces_away(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> boo
     to_apex.dot(axis) >= cutoff * to_apex.length() || d.dot(axis) >= cutoff * d.length() + radius
 }
 
+/// Every triangle of the cluster faces the eye: [`faces_away`]'s sphere test with the cone
+/// turned around, as for the same triangles wound the other way.
+fn faces_toward(c: &ClusterRecord, center: DVec3, radius: f64, view: &View) -> bool {
+    let d = center - view.eye;
+    c.cone_cutoff < 1.0 && -d.dot(DVec3::from(c.cone_axis.map(f64::from))) >= (c.cone_cutoff as f64 + 1e-4) * d.length() + radius
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -251,9 +260,9 @@ mod tests {
         (b - a).cross(c - a).dot(eye - a) > 0.0
     }
 
-    #[test]
-    fn no_front_facing_triangle_is_culled_and_back_faces_are() {
-        // 400 boxes of many sizes and orientations of faces; cameras all around.
+    /// 400 boxes of many sizes and orientations of faces, clustered (the mesh's indices in
+    /// cluster order), and 50 views of them from all around.
+    fn boxes() -> (Mesh, Vec<ClusterRecord>, Vec<View>) {
         let mut m = Mesh::default();
         for i in 0..400 {
             let o = glam::Vec3::new((i % 20) as f32 * 3.0, (i / 20) as f32 * 3.0, (i % 7) as f32);
@@ -261,24 +270,56 @@ mod tests {
         }
         let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
         m.indices = indices;
+        let views = (0..50)
+            .map(|k| {
+                let a = k as f64 * 0.7;
+                let eye = DVec3::new(30.0 + 90.0 * a.cos(), 30.0 + 40.0 * (a * 0.3).sin(), 90.0 * a.sin());
+                View::new(&Camera::look_at(eye, DVec3::new(30.0, 30.0, 2.0), 60.0), DVec3::ZERO, 256, 256, 0.01)
+            })
+            .collect();
+        (m, clusters, views)
+    }
+
+    #[test]
+    fn no_front_facing_triangle_is_culled_and_back_faces_are() {
+        let (m, clusters, views) = boxes();
         let mut culled_total = [0; 2];
         // Triangles the cone test and the triangle test drop.
-        for k in 0..50 {
-            let a = k as f64 * 0.7;
-            let eye = DVec3::new(30.0 + 90.0 * a.cos(), 30.0 + 40.0 * (a * 0.3).sin(), 90.0 * a.sin());
-            let view = View::new(&Camera::look_at(eye, DVec3::new(30.0, 30.0, 2.0), 60.0), DVec3::ZERO, 256, 256, 0.01);
+        for view in &views {
             for tests in [ClusterTests { cone: true, ..ClusterTests::NONE }, ClusterTests { backface: true, ..ClusterTests::NONE }] {
                 let mut s = ClusterStats::default();
-                let out = draw(&view, &m, &clusters, tests, &mut s);
+                let out = draw(view, &m, &clusters, tests, &mut s);
                 let kept: std::collections::HashSet<&[u32]> = out.chunks_exact(3).collect();
                 for (t, tri) in m.indices.chunks_exact(3).enumerate() {
-                    assert!(kept.contains(tri) || !front_facing(&m, tri, eye), "front-facing triangle {t} culled from {eye}");
+                    assert!(kept.contains(tri) || !front_facing(&m, tri, view.eye), "front-facing triangle {t} culled from {}", view.eye);
                 }
                 culled_total[usize::from(tests.backface)] += (m.indices.len() - out.len()) / 3;
             }
             assert!(culled_total[1] >= culled_total[0], "the triangle test drops what the cone test does");
         }
         assert!(culled_total[0] > 0, "boxes seen from outside have back-facing clusters");
+    }
+
+    #[test]
+    fn a_cluster_said_to_face_the_eye_has_no_back_face() {
+        let (m, clusters, views) = boxes();
+        let (mut toward, mut away) = (0, 0);
+        for view in &views {
+            for c in &clusters {
+                let center = DVec3::from(c.center.map(f64::from));
+                let triangles = &m.indices[c.first_index as usize..(c.first_index + c.index_count) as usize];
+                if faces_toward(c, center, c.radius as f64, view) {
+                    toward += 1;
+                    assert!(
+                        triangles.chunks_exact(3).all(|t| front_facing(&m, t, view.eye)),
+                        "a cluster facing {} has a back face",
+                        view.eye
+                    );
+                }
+                away += usize::from(faces_away(c, center, c.radius as f64, view));
+            }
+        }
+        assert!(toward > 1000 && away > 1000, "boxes seen from outside: {toward} clusters facing, {away} facing away");
     }
 
     /// The indices a pass would draw of mesh `m`.

@@ -35,26 +35,56 @@ const SNAP_PX: f64 = 1.0 / 64.0;
 /// Most pixel centres inside a triangle's screen bounds that are tested one by one.
 const EDGE_TEST_CENTRES: f64 = 16.0;
 
-/// True when pixel centre `p` lies outside the screen triangle `s` whatever moves each vertex by
-/// up to `margin` in x and y: outside one edge by more than such a move can shift the edge at
-/// `p`. A triangle so thin that the moves could turn it over counts as covering `p`.
-fn outside(s: [DVec2; 3], p: DVec2, margin: f64) -> bool {
-    let area2 = (s[1] - s[0]).perp_dot(s[2] - s[0]);
-    let shift = margin * std::f64::consts::SQRT_2;
-    let perimeter = (0..3).map(|k| (s[(k + 1) % 3] - s[k]).length()).sum::<f64>();
-    if area2.abs() <= 2.0 * shift * perimeter {
-        return false;
+/// On one axis of `extent` pixels, the first and last k whose pixel centre k + 0.5 lies in
+/// [lo, hi] (first > last when none). Clamped, then rounded by casts: `floor` and `ceil` are
+/// calls on baseline x86-64.
+fn centres(lo: f64, hi: f64, extent: f64) -> (i32, i32) {
+    let (a, b) = ((lo - 0.5).clamp(-1.0, extent), (hi - 0.5).clamp(-1.0, extent));
+    let (ta, tb) = (a as i32, b as i32);
+    ((ta + i32::from((ta as f64) < a)).max(0), (tb - i32::from((tb as f64) > b)).min(extent as i32 - 1))
+}
+
+/// A screen triangle's edges, made once for the pixel centres tested against it, grown by
+/// what moves each vertex by up to `margin` in x and y.
+struct Edges {
+    from: [DVec2; 3],
+    along: [DVec2; 3],
+    length: [f64; 3],
+    inv_length2: [f64; 3],
+    /// The sign of the triangle's area: inside lies left of each edge for +1.
+    sign: f64,
+    /// How far such a move shifts an end of an edge.
+    shift: f64,
+}
+
+impl Edges {
+    /// None when the triangle is so thin that the moves could turn it over: it counts as
+    /// covering every centre.
+    fn new(s: [DVec2; 3], margin: f64) -> Option<Edges> {
+        let along = [s[1] - s[0], s[2] - s[1], s[0] - s[2]];
+        let length = along.map(DVec2::length);
+        let area2 = along[0].perp_dot(-along[2]);
+        let shift = margin * std::f64::consts::SQRT_2;
+        if area2.abs() <= 2.0 * shift * length.iter().sum::<f64>() {
+            return None;
+        }
+        Some(Edges { from: s, along, length, inv_length2: length.map(|l| 1.0 / (l * l)), sign: area2.signum(), shift })
     }
-    (0..3).any(|k| {
-        let (a, b) = (s[k], s[(k + 1) % 3]);
-        let e = b - a;
-        let len2 = e.length_squared();
-        // Each end moves by up to `shift`; along the edge's line that shifts it at `p` by up
-        // to (|1 - t| + |t|) times as much, t being p's place along the edge.
-        let t = (p - a).dot(e) / len2;
-        let reach = shift * ((1.0 - t).abs() + t.abs());
-        e.perp_dot(p - a) * area2.signum() < -reach * len2.sqrt()
-    })
+
+    /// True when pixel centre `p` lies outside the triangle whatever the moves: outside one
+    /// edge by more than they can shift the edge at `p`.
+    fn outside(&self, p: DVec2) -> bool {
+        (0..3).any(|k| {
+            let d = p - self.from[k];
+            let inside = self.along[k].perp_dot(d) * self.sign;
+            // Each end moves by up to `shift`; along the edge's line that shifts it at `p` by
+            // up to (|1 - t| + |t|) times as much, t being p's place along the edge.
+            inside < 0.0 && {
+                let t = d.dot(self.along[k]) * self.inv_length2[k];
+                inside < -self.shift * ((1.0 - t).abs() + t.abs()) * self.length[k]
+            }
+        })
+    }
 }
 
 impl TriangleView {
@@ -86,25 +116,24 @@ impl TriangleView {
                 return false;
             }
             nearest = nearest.min(depth);
-            s[k] = DVec2::new(self.width * 0.5 + v.x / depth * self.focal_px, self.height * 0.5 - v.y / depth * self.focal_px);
+            let px = self.focal_px / depth;
+            s[k] = DVec2::new(self.width * 0.5 + v.x * px, self.height * 0.5 - v.y * px);
         }
         // How far a vertex may sit from where f64 puts it: f32 rounding of a camera-relative
         // position (vertex and eye ulps, the transform's relative error) in pixels at the
         // nearest vertex's depth, and the rasteriser's snapping.
         let margin = SNAP_PX + self.focal_px * (self.eye_ulps + size * 2.4e-7 + nearest * 1e-6) / nearest * 4.0;
         let (lo, hi) = (s[0].min(s[1]).min(s[2]) - margin, s[0].max(s[1]).max(s[2]) + margin);
-        // Pixel centres k + 0.5, k in 0..extent, inside [lo, hi].
-        let first = (lo - 0.5).ceil().max(DVec2::ZERO);
-        let last = (hi - 0.5).floor().min(DVec2::new(self.width, self.height) - 1.0);
-        if first.x > last.x || first.y > last.y {
+        let (x0, x1) = centres(lo.x, hi.x, self.width);
+        let (y0, y1) = centres(lo.y, hi.y, self.height);
+        if x0 > x1 || y0 > y1 {
             return true;
         }
-        let centres = (last - first + 1.0).element_product();
-        centres <= EDGE_TEST_CENTRES
-            && (0..centres as usize).all(|k| {
-                let n = (last.x - first.x + 1.0) as usize;
-                outside(s, first + DVec2::new((k % n) as f64, (k / n) as f64) + 0.5, margin)
-            })
+        if ((x1 - x0 + 1) * (y1 - y0 + 1)) as f64 > EDGE_TEST_CENTRES {
+            return false;
+        }
+        let Some(edges) = Edges::new(s, margin) else { return false };
+        (y0..=y1).all(|y| (x0..=x1).all(|x| edges.outside(DVec2::new(x as f64 + 0.5, y as f64 + 0.5))))
     }
 
     /// True when the eye lies behind the plane of the triangle (counter-clockwise seen from
@@ -113,8 +142,12 @@ impl TriangleView {
         let [a, b, c] = tri.map(|p| DVec3::from(p.map(f64::from)));
         let n = (b - a).cross(c - a);
         let to_eye = self.eye - a;
-        let margin = to_eye.length() * 1e-4 + self.eye_ulps * 4.0 + a.abs().max_element() * 1e-6;
-        n.dot(to_eye) < -n.length() * margin
+        let behind = n.dot(to_eye);
+        // Squared, past the sign: behind < -|n| margin.
+        behind < 0.0 && {
+            let margin = to_eye.length() * 1e-4 + self.eye_ulps * 4.0 + a.abs().max_element() * 1e-6;
+            behind * behind > n.length_squared() * margin * margin
+        }
     }
 }
 
@@ -197,6 +230,18 @@ mod tests {
         let corner = [(-0.6, 0.9), (0.9, 0.9), (0.9, -0.6)];
         assert!(t.covers_no_pixel(corner.map(|(x, y)| screen(x, y))), "outside an edge, inside the bounds");
         assert!(!t.covers_no_pixel(corner.map(|(x, y)| screen(x - 0.15, y - 0.15))), "on the edge");
+    }
+
+    #[test]
+    fn centres_round_as_floor_and_ceil_do() {
+        for k in -400..=2400 {
+            let lo = k as f64 * 0.37 - 100.0;
+            for hi in [lo, lo + 0.5, lo + 1.0, lo + 3.3] {
+                let want = (((lo - 0.5).ceil().max(0.0)) as i32, ((hi - 0.5).floor().min(63.0)) as i32);
+                let got = centres(lo, hi, 64.0);
+                assert!(got == want || (got.0 > got.1 && want.0 > want.1), "[{lo}, {hi}]: {got:?} against {want:?}");
+            }
+        }
     }
 
     #[test]
