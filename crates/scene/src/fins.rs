@@ -51,7 +51,11 @@ pub fn fins(made: &[[u32; 3]], source: impl FnOnce() -> Vec<[u32; 3]>, positions
     };
     let rest: Vec<[u32; 3]> = made.iter().copied().filter(|&t| !is_pair(t)).collect();
     let at = |v: u32| Vec3::from(positions[v as usize]);
-    let near = |v: u32| rest.iter().any(|t| closest_on_triangle(at(v), at(t[0]), at(t[1]), at(t[2])).distance(at(v)) <= error);
+    // A corner the rest uses lies on it; only the others are looked for.
+    let used: HashSet<u32> = rest.iter().flatten().copied().collect();
+    let near = |v: u32| {
+        used.contains(&v) || rest.iter().any(|t| closest_on_triangle(at(v), at(t[0]), at(t[1]), at(t[2])).distance(at(v)) <= error)
+    };
     // A directed edge of the rest without its reverse there is a hole the pair covers, unless
     // the source has it without its reverse too (the group's locked border).
     let rest_edges: HashSet<(u32, u32)> = rest.iter().flat_map(|&t| edges(t)).collect();
