@@ -4,6 +4,11 @@
 //! new camera and RVG then draws the new visible set from the same camera: the set changes by
 //! a few nodes a frame, so RVG tests almost nothing. In the switch OR and RVG run in different
 //! processes, and each gathers its own.
+//!
+//! It also remembers, per node, whether the small-triangle test paid: where it dropped few of
+//! the triangles it tested, drawing them costs lavapipe less than testing them, and the node
+//! is drawn without the test for a few views (the frame is the same: such triangles make no
+//! fragment).
 
 use crate::cluster::{ClusterStats, ClusterTests, gather};
 use crate::view::View;
@@ -19,11 +24,20 @@ struct Entry {
     stats: ClusterStats,
 }
 
+/// A node whose small-triangle test dropped less than this share of the triangles it tested
+/// skips the test for its next [`SMALL_SKIP_VIEWS`] views (the isosurface's fine cuts, whose
+/// triangles cover a few pixels, drop about a fifth, the plant's far parts about half:
+/// docs/measurements/2026-12-05-triangle-tests.md).
+const SMALL_PAYS: f64 = 0.3;
+const SMALL_SKIP_VIEWS: u32 = 8;
+
 #[derive(Default)]
 pub struct Gathered {
     key: Option<(View, ClusterTests)>,
     nodes: HashMap<NodeId, Entry>,
     indices: Vec<u32>,
+    /// Per node, the views left before its small-triangle test runs again.
+    small_skipped: HashMap<NodeId, u32>,
 }
 
 impl Gathered {
@@ -70,7 +84,22 @@ impl Gathered {
             return;
         }
         let (start, mut s) = (out.len(), ClusterStats::default());
-        gather(view, tests, geometry, &mut s, |_, _| true, base, out);
+        let skip = match self.small_skipped.get_mut(&id) {
+            Some(left) if tests.small && *left > 0 => {
+                *left -= 1;
+                true
+            }
+            _ => false,
+        };
+        gather(view, ClusterTests { small: tests.small && !skip, ..tests }, geometry, &mut s, |_, _| true, base, out);
+        if tests.small && !skip {
+            let tested = (out.len() - start) as f64 / 3.0 + s.small_culled as f64;
+            if (s.small_culled as f64) < SMALL_PAYS * tested {
+                self.small_skipped.insert(id, SMALL_SKIP_VIEWS);
+            } else {
+                self.small_skipped.remove(&id);
+            }
+        }
         let from = self.indices.len();
         self.indices.extend_from_slice(&out[start..]);
         self.nodes.insert(id, Entry { base, range: from..self.indices.len(), stats: s });
@@ -85,6 +114,49 @@ mod tests {
     use osw_scene::Camera;
     use osw_scene::generators::shapes::add_box;
     use osw_scene::mesh::Mesh;
+
+    #[test]
+    fn a_node_whose_small_test_drops_little_skips_it_for_a_few_views() {
+        // Ten boxes a few pixels across or more, and two far smaller than a pixel: the test
+        // drops only the small ones' triangles.
+        let mut m = Mesh::default();
+        for i in 0..10 {
+            let o = glam::Vec3::new(i as f32 * 3.0, 0.0, 0.0);
+            add_box(&mut m, o, o + glam::Vec3::new(2.0, 2.0, 2.0));
+        }
+        for i in 0..2 {
+            let o = glam::Vec3::new(5.0 + i as f32 * 10.0, 2.0, 0.0);
+            add_box(&mut m, o, o + glam::Vec3::splat(1e-4));
+        }
+        let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
+        let geometry = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
+        let all = ClusterTests::default();
+        let direct = |view: &View, tests: ClusterTests| {
+            let (mut out, mut s) = (Vec::new(), ClusterStats::default());
+            gather(view, tests, geometry, &mut s, |_, _| true, 0, &mut out);
+            (out, s)
+        };
+        let mut cache = Gathered::default();
+        for k in 0..=SMALL_SKIP_VIEWS + 1 {
+            // A new view each time, as each frame's camera.
+            let eye = DVec3::new(14.0, 3.0, 25.0 + k as f64 * 0.01);
+            let view = View::new(&Camera::look_at(eye, DVec3::new(14.0, 1.0, 0.0), 60.0), DVec3::ZERO, 512, 384, 0.05);
+            let (mut out, mut s) = (Vec::new(), ClusterStats::default());
+            cache.gather(&view, all, (3, 0), geometry, &mut s, &mut out);
+            let (tested, without) = (direct(&view, all), direct(&view, ClusterTests { small: false, ..all }));
+            assert!(tested.1.small_culled > 0 && tested.0.len() < without.0.len(), "view {k}: the small boxes are culled");
+            let kept = tested.0.len() / 3;
+            assert!(
+                (tested.1.small_culled as f64) < SMALL_PAYS * (kept + tested.1.small_culled as usize) as f64,
+                "view {k}: few: {} of {}",
+                tested.1.small_culled,
+                kept
+            );
+            // Tested on the first view and again once the skipped views are over.
+            let skipped = (1..=SMALL_SKIP_VIEWS).contains(&k);
+            assert_eq!((out, s), if skipped { without.clone() } else { tested }, "view {k}");
+        }
+    }
 
     #[test]
     fn a_node_gathered_again_under_the_same_view_gives_what_gather_gives() {
