@@ -14,7 +14,7 @@ use crate::cluster::{ClusterStats, ClusterTests, gather};
 use crate::view::View;
 use osw_scene::NodeId;
 use osw_scene::format::ClusterRecord;
-use std::collections::HashMap;
+use std::collections::{HashMap, hash_map};
 use std::ops::Range;
 
 /// One node's gathered indices (`Gathered::indices`), what they were offset by, and its counts.
@@ -36,7 +36,7 @@ pub struct Gathered {
     key: Option<(View, ClusterTests)>,
     nodes: HashMap<NodeId, Entry>,
     indices: Vec<u32>,
-    /// Per node, the views left before its small-triangle test runs again.
+    /// Per node whose small-triangle test did not pay, the views left before it runs again.
     small_skipped: HashMap<NodeId, u32>,
 }
 
@@ -84,21 +84,20 @@ impl Gathered {
             return;
         }
         let (start, mut s) = (out.len(), ClusterStats::default());
-        let skip = match self.small_skipped.get_mut(&id) {
-            Some(left) if tests.small && *left > 0 => {
-                *left -= 1;
+        let skip = match self.small_skipped.entry(id) {
+            hash_map::Entry::Occupied(mut left) if tests.small => {
+                *left.get_mut() -= 1;
+                if *left.get() == 0 {
+                    left.remove();
+                }
                 true
             }
             _ => false,
         };
         gather(view, ClusterTests { small: tests.small && !skip, ..tests }, geometry, &mut s, |_, _| true, base, out);
-        if tests.small && !skip {
-            let tested = (out.len() - start) as f64 / 3.0 + s.small_culled as f64;
-            if (s.small_culled as f64) < SMALL_PAYS * tested {
-                self.small_skipped.insert(id, SMALL_SKIP_VIEWS);
-            } else {
-                self.small_skipped.remove(&id);
-            }
+        let tested = (out.len() - start) as f64 / 3.0 + s.small_culled as f64;
+        if tests.small && !skip && (s.small_culled as f64) < SMALL_PAYS * tested {
+            self.small_skipped.insert(id, SMALL_SKIP_VIEWS);
         }
         let from = self.indices.len();
         self.indices.extend_from_slice(&out[start..]);
