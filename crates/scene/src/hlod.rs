@@ -5,7 +5,7 @@
 //! Error: the sloppy step's absolute error plus the largest error of the merged inputs, so that
 //! a parent's error is never below a child's (errors monotone up the hierarchy).
 
-use crate::limits::{HLOD_MAX_FRACTION, HLOD_MAX_TRIANGLES, LOD_TARGET_RATIO};
+use crate::limits::{HLOD_MAX_FRACTION, HLOD_MAX_TRIANGLES, LOD_MAX_LEVELS, LOD_MIN_TRIANGLES, LOD_TARGET_RATIO};
 use crate::lod::Level;
 use crate::mesh::Mesh;
 
@@ -56,6 +56,28 @@ pub fn build(parts: &[&Level], min_error: f32) -> Result<Level, NoHlod> {
     Ok(Level { mesh: merged.sub_mesh(&indices), error: inputs_error + (rel * scale).max(min_error) })
 }
 
+/// Extends a chain with levels each simplified as an HLOD of the one before alone would be,
+/// while that is coarser, up to LOD_MAX_LEVELS or a level of at most LOD_MIN_TRIANGLES (as a
+/// chain ends): a mesh stored once for many uses has no
+/// neighbour to meet, so the sloppy simplifier may go on where edge collapse with its borders
+/// locked stopped paying, and its far uses draw a handful of triangles instead of the chain's
+/// last level at a small fraction of a pixel of error.
+pub fn stand_ins(levels: &mut Vec<Level>, min_error: f32) {
+    while levels.len() < LOD_MAX_LEVELS {
+        let last = levels.last().expect("level 0");
+        match build(&[last], min_error) {
+            Ok(next) if next.error > last.error && !next.mesh.is_empty() => {
+                let small = next.mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize;
+                levels.push(next);
+                if small {
+                    break;
+                }
+            }
+            _ => break,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -73,6 +95,24 @@ mod tests {
         let h = build(&[&a, &b], 1e-6).expect("an HLOD");
         assert!(h.mesh.triangle_count() as f32 <= HLOD_MAX_FRACTION * (a.mesh.triangle_count() + b.mesh.triangle_count()) as f32);
         assert!(h.error > a.error.max(b.error));
+    }
+
+    #[test]
+    fn stand_ins_go_on_coarser_while_they_pay() {
+        // A part cut from a larger surface: an open pipe whose every vertex lies on a border
+        // that edge collapse keeps, so that its chain stops at once.
+        let mut m = Mesh::default();
+        shapes::tube(&mut m, &[Vec3::ZERO, Vec3::new(0.0, 0.0, 4.0)], 0.5, 256, false);
+        let (mut levels, _) = crate::lod::chain(m, 1e-6);
+        let chained = levels.len();
+        stand_ins(&mut levels, 1e-6);
+        assert!(levels.len() >= chained + 2, "{chained} levels chained, {} with stand-ins", levels.len());
+        for w in levels[chained - 1..].windows(2) {
+            assert!(w[1].mesh.triangle_count() as f32 <= HLOD_MAX_FRACTION * w[0].mesh.triangle_count() as f32);
+            assert!(w[1].error > w[0].error);
+        }
+        // They end as a chain does: at a level of a few triangles.
+        assert!(levels.last().unwrap().mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize);
     }
 
     #[test]

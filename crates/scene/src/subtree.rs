@@ -2,11 +2,12 @@
 //! it is made, and the node and block tables at the end.
 //!
 //! A leaf gets its LOD chain (occlusion switch sec. 4.1), a group an HLOD made from its children's
-//! coarsest representations: per child its HLOD or coarsest LOD, or, for a child group without
-//! an HLOD, its own children's, recursively. So a node needs nothing of its subtree but those
-//! coarsest representations, which are all this keeps of a node until its parent is built: a
-//! subtree of any size is built in the memory of one subtree, and the groups above the
-//! subtrees from their roots' representations.
+//! coarsest representations: per child its HLOD or coarsest LOD (a use of a mesh stored once:
+//! its first stand-in), or, for a child group without an HLOD, its own children's,
+//! recursively. So a node needs nothing of its subtree but those coarsest representations,
+//! which are all this keeps of a node until its parent is built: a subtree of any size is
+//! built in the memory of one subtree, and the groups above the subtrees from their roots'
+//! representations.
 //!
 //! With cluster hierarchies ([`crate::clod`]) a node's geometry is its cut node instead: its
 //! chunk (a leaf) and the simplified groups it owns ([`crate::owner`]), one block whose clusters
@@ -64,7 +65,7 @@ pub struct Built<'a> {
 /// for their parents' HLODs.
 struct PartLods {
     levels: Vec<PartLevel>,
-    coarsest: Level,
+    for_hlod: Level,
 }
 
 struct PartLevel {
@@ -291,36 +292,32 @@ impl<'a> Built<'a> {
         let p = self.prototypes;
         let prototype = |part: u32| p.parts[part as usize].prototype as usize;
         let min_error = self.min_error;
-        // Built once for all its uses, a part's chain ends in a level simplified as an HLOD of
-        // it alone would be, where that is coarser: the stand-in far uses draw and what each
-        // use leaves for its parent's HLOD.
-        let chains: Vec<(u32, (Vec<Level>, LodStats))> = times.run("lod", || {
+        // Built once for all its uses, a part's chain ends in stand-ins: what far uses draw.
+        // Each use leaves the first for its parent's HLOD (a coarser one would carry its error
+        // into every HLOD above).
+        let chains: Vec<(u32, (Vec<Level>, LodStats), usize)> = times.run("lod", || {
             parts
                 .into_par_iter()
                 .map(|(k, m)| {
                     let min_error = min_error / p.scale[prototype(k)].max(1e-30);
                     let (mut levels, stats) = crate::lod::chain(m, min_error);
-                    let last = levels.last().expect("level 0");
-                    if let Ok(seed) = crate::hlod::build(&[last], min_error)
-                        && seed.error > last.error
-                        && !seed.mesh.is_empty()
-                    {
-                        levels.push(seed);
-                    }
-                    (k, (levels, stats))
+                    let chained = levels.len();
+                    crate::hlod::stand_ins(&mut levels, min_error);
+                    let for_hlod = chained.min(levels.len() - 1);
+                    (k, (levels, stats), for_hlod)
                 })
                 .collect()
         });
         let encoded: Vec<Vec<Encoded>> = times.run("encode", || {
             chains
                 .par_iter()
-                .map(|(k, (levels, _))| {
+                .map(|(k, (levels, _), _)| {
                     let closed = p.closed[prototype(*k)];
                     levels.iter().enumerate().map(|(i, l)| encode(&l.mesh, if i == 0 { closed } else { None })).collect()
                 })
                 .collect()
         });
-        for ((k, (mut levels, stats)), blocks) in chains.into_iter().zip(encoded) {
+        for ((k, (mut levels, stats), for_hlod), blocks) in chains.into_iter().zip(encoded) {
             self.lod_stats.add(stats);
             let mut out = Vec::with_capacity(levels.len());
             for (l, e) in levels.iter().zip(blocks) {
@@ -333,7 +330,7 @@ impl<'a> Built<'a> {
                 };
                 out.push(PartLevel { bounds: l.mesh.bounds(), error: l.error, triangles: l.mesh.triangle_count() as u64, block });
             }
-            self.parts.insert(k, PartLods { levels: out, coarsest: levels.pop().expect("level 0") });
+            self.parts.insert(k, PartLods { levels: out, for_hlod: levels.swap_remove(for_hlod) });
         }
         Ok(())
     }
@@ -363,8 +360,8 @@ impl<'a> Built<'a> {
             self.levels.push((record, block));
         }
         self.lods[id as usize] = start..self.levels.len() as u32;
-        let coarsest = &part.coarsest;
-        self.coarse.insert(id, vec![Level { mesh: place.mesh(&coarsest.mesh), error: coarsest.error * place.scale }]);
+        let l = &part.for_hlod;
+        self.coarse.insert(id, vec![Level { mesh: place.mesh(&l.mesh), error: l.error * place.scale }]);
         Ok(())
     }
 
