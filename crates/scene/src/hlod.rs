@@ -83,6 +83,7 @@ mod tests {
     use super::*;
     use crate::generators::shapes;
     use glam::Vec3;
+    use proptest::prelude::*;
 
     #[test]
     fn two_spheres_merge_into_a_coarser_hlod_with_larger_error() {
@@ -113,6 +114,32 @@ mod tests {
         }
         // They end as a chain does: at a level of a few triangles.
         assert!(levels.last().unwrap().mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize);
+    }
+
+    proptest! {
+        /// On any bumpy sheet, tiny or huge, near the origin or far from it: stand-ins never
+        /// fail, each keeps at most half the triangles of the one before at a larger finite
+        /// error, and a chain stays within LOD_MAX_LEVELS.
+        #[test]
+        fn stand_ins_of_any_sheet_at_any_scale_are_coarser(
+            (nx, nz) in (1u32..40, 1u32..40),
+            bumps in prop::collection::vec(-1.0f32..1.0, 1681),
+            scale in prop::sample::select(vec![1e-6f32, 1.0, 1e6]),
+            offset in prop::sample::select(vec![0.0f32, 1e4, 1e6]),
+        ) {
+            let mut m = Mesh::default();
+            shapes::grid_plane(&mut m, Vec3::ZERO, Vec3::ONE, nx, nz);
+            for (k, p) in m.positions.iter_mut().enumerate() {
+                *p = [p[0] * scale + offset, bumps[k % bumps.len()] * 0.1 * scale, p[2] * scale];
+            }
+            let mut levels = vec![Level { mesh: m, error: 0.0 }];
+            stand_ins(&mut levels, 1e-7 * scale);
+            prop_assert!(levels.len() <= LOD_MAX_LEVELS);
+            for w in levels.windows(2) {
+                prop_assert!(w[1].mesh.triangle_count() as f32 <= HLOD_MAX_FRACTION * w[0].mesh.triangle_count() as f32);
+                prop_assert!(w[1].error > w[0].error && w[1].error.is_finite());
+            }
+        }
     }
 
     #[test]
