@@ -58,10 +58,10 @@ pub fn build(parts: &[&Level], min_error: f32) -> Result<Level, NoHlod> {
 
 /// Extends a chain with levels each simplified as an HLOD of the one before alone would be,
 /// while that is coarser, up to LOD_MAX_LEVELS or a level of at most LOD_MIN_TRIANGLES (as a
-/// chain ends): a mesh stored once for many uses has no
-/// neighbour to meet, so the sloppy simplifier may go on where edge collapse with its borders
-/// locked stopped paying, and its far uses draw a handful of triangles instead of the chain's
-/// last level at a small fraction of a pixel of error.
+/// chain ends): a mesh stored once for many uses has no neighbour to meet, so the sloppy
+/// simplifier may go on where edge collapse with its borders locked stopped paying, and its
+/// far uses draw a handful of triangles instead of the chain's last level at a small fraction
+/// of a pixel of error.
 pub fn stand_ins(levels: &mut Vec<Level>, min_error: f32) {
     while levels.len() < LOD_MAX_LEVELS {
         let last = levels.last().expect("level 0");
