@@ -108,7 +108,7 @@ impl TriangleView {
     /// bounds, or, where those hold a few, none inside its three edges.
     pub fn covers_no_pixel(&self, tri: [[f32; 3]; 3]) -> bool {
         let mut s = [DVec2::ZERO; 3];
-        let mut nearest = f64::INFINITY;
+        let mut nearest = 0.0f64;
         let mut size = 0.0f64;
         for (k, p) in tri.into_iter().enumerate() {
             let p = DVec3::from(p.map(f64::from));
@@ -118,14 +118,14 @@ impl TriangleView {
             if depth.is_nan() || depth < self.near {
                 return false;
             }
-            nearest = nearest.min(depth);
             let px = self.focal_px / depth;
+            nearest = nearest.max(px);
             s[k] = DVec2::new(self.width * 0.5 + v.x * px, self.height * 0.5 - v.y * px);
         }
         // How far a vertex may sit from where f64 puts it: f32 rounding of a camera-relative
         // position (vertex and eye ulps, the transform's relative error) in pixels at the
-        // nearest vertex's depth, and the rasteriser's snapping.
-        let margin = SNAP_PX + self.focal_px * (self.eye_ulps + size * 2.4e-7 + nearest * 1e-6) / nearest * 4.0;
+        // nearest vertex's depth (`nearest`: its pixels per unit), and the rasteriser's snapping.
+        let margin = SNAP_PX + (nearest * (self.eye_ulps + size * 2.4e-7) + self.focal_px * 1e-6) * 4.0;
         let (lo, hi) = (s[0].min(s[1]).min(s[2]) - margin, s[0].max(s[1]).max(s[2]) + margin);
         let (x0, x1) = centres(lo.x, hi.x, self.width);
         let (y0, y1) = centres(lo.y, hi.y, self.height);
