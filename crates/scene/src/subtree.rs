@@ -292,17 +292,16 @@ impl<'a> Built<'a> {
         let p = self.prototypes;
         let prototype = |part: u32| p.parts[part as usize].prototype as usize;
         let min_error = self.min_error;
-        // Built once for all its uses, a part's chain ends in stand-ins: what far uses draw.
-        // Each use leaves the first for its parent's HLOD (a coarser one would carry its error
-        // into every HLOD above).
+        // Built once for all its uses, a part's chain ends in stand-ins: what far uses draw,
+        // from the chain's first step that jumps. Each use leaves the first for its parent's
+        // HLOD (a coarser one would carry its error into every HLOD above).
         let chains: Vec<(u32, (Vec<Level>, LodStats), usize)> = times.run("lod", || {
             parts
                 .into_par_iter()
                 .map(|(k, m)| {
                     let min_error = min_error / p.scale[prototype(k)].max(1e-30);
                     let (mut levels, stats) = crate::lod::chain(m, min_error);
-                    let chained = levels.len();
-                    crate::hlod::stand_ins(&mut levels, min_error);
+                    let chained = crate::hlod::stand_ins(&mut levels, min_error);
                     let for_hlod = chained.min(levels.len() - 1);
                     (k, (levels, stats), for_hlod)
                 })
