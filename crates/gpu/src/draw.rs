@@ -95,16 +95,15 @@ impl DrawPipelines {
         };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("draw"),
-            // The view, the objects per node, the pass's use table, the vertex arena.
+            // The view, the pass's use table, the vertex arena.
             entries: &[
                 entry(
                     0,
                     wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
                     vf,
                 ),
-                entry(1, read, vf),
+                entry(1, read, wgpu::ShaderStages::VERTEX),
                 entry(2, read, wgpu::ShaderStages::VERTEX),
-                entry(3, read, wgpu::ShaderStages::VERTEX),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

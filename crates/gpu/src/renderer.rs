@@ -144,7 +144,6 @@ pub struct Renderer {
     boxtest: BoxTestPipelines,
     pyramid: Pyramid,
     view_buf: wgpu::Buffer,
-    objects_buf: wgpu::Buffer,
     /// The pass's use table on the GPU ([`crate::uses`]).
     uses_buf: wgpu::Buffer,
     /// The draw pipelines' bind group, and the arena and use table it binds.
@@ -201,10 +200,6 @@ impl Renderer {
         let draw = DrawPipelines::new(&gpu.device, rows);
         let boxtest = BoxTestPipelines::new(&gpu.device);
         let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);
-        // Each node's object, for its colour: static, indexed by node id.
-        let objects: Vec<u32> = scene.nodes().iter().map(|n| n.object).collect();
-        let objects_buf = storage(&gpu, "objects", (objects.len().max(1) * 4) as u64, U::STORAGE | U::COPY_DST);
-        gpu.queue.write_buffer(&objects_buf, 0, bytemuck::cast_slice(&objects));
         let index_buf = storage(&gpu, "pass indices", 4, U::INDEX | U::COPY_DST);
         let n = crate::limits::MAX_BOXES as u64;
         let boxes_buf = storage(&gpu, "boxes", n * 32, U::STORAGE | U::COPY_DST);
@@ -261,7 +256,6 @@ impl Renderer {
             draw,
             boxtest,
             view_buf,
-            objects_buf,
             uses_buf,
             draw_group: None,
             index_buf,
@@ -395,7 +389,7 @@ impl Renderer {
             }
             if let (Some(arena), true) = (self.residency.arena(), bytes > 0) {
                 // Made again where the arena or the use table grew since the last draw.
-                let buffers = [&self.view_buf, &self.objects_buf, &self.uses_buf, arena];
+                let buffers = [&self.view_buf, &self.uses_buf, arena];
                 if self.draw_group.as_ref().is_none_or(|(_, a, u)| a != arena || u != &self.uses_buf) {
                     self.draw_group = Some((bind(&self.gpu, &self.draw.layout, &buffers), arena.clone(), self.uses_buf.clone()));
                 }

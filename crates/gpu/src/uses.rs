@@ -20,7 +20,9 @@ pub struct Use {
     /// 1 where `rows` place the mesh; 0 where its positions are scene-local already (then the
     /// shader adds the view's offset, exactly as for a mesh stored for one use).
     pub placed: u32,
-    pub pad: [u32; 5],
+    /// The node's object, whose hash colours it.
+    pub object: u32,
+    pub pad: [u32; 4],
     /// The placement's three rows, linear part and translation ([`Rows`]).
     pub rows: [u32; 24],
 }
@@ -80,8 +82,9 @@ impl Uses {
         if (slot as u64) << self.shift > u32::MAX as u64 || slot >= self.max_nodes {
             return Err(TooManyNodes(slot + 1, slot, self.vertices));
         }
-        let instance = scene.node(id).instance;
-        let mut u = Use { node: id, base, placed: 0, pad: [0; 5], rows: [0; 24] };
+        let node = scene.node(id);
+        let instance = node.instance;
+        let mut u = Use { node: id, base, placed: 0, object: node.object, pad: [0; 4], rows: [0; 24] };
         if instance != NONE {
             let a = scene.instances()[instance as usize].affine();
             u.placed = 1;

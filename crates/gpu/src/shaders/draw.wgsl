@@ -17,16 +17,15 @@ struct Use {
     node: u32,
     base: u32,
     placed: u32,
-    pad0: u32,
-    pad1: vec4<u32>,
+    // The node's object, for its colour.
+    object: u32,
+    pad: vec4<u32>,
     rows: Rows,
 }
 
-// Each node's object (for its colour), indexed by node id.
 @group(0) @binding(0) var<uniform> view: ViewUniform;
-@group(0) @binding(1) var<storage, read> objects: array<u32>;
-@group(0) @binding(2) var<storage, read> uses: array<Use>;
-@group(0) @binding(3) var<storage, read> arena: array<Vertex>;
+@group(0) @binding(1) var<storage, read> uses: array<Use>;
+@group(0) @binding(2) var<storage, read> arena: array<Vertex>;
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -42,7 +41,7 @@ struct VertexOut {
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> VertexOut {
     let shift = view.draw.y;
-    // Field by field: a unique node's vertex reads 8 bytes of its use, not 128.
+    // Field by field: a unique node's vertex reads 16 bytes of its use, not 128.
     let slot = index >> shift;
     let node = uses[slot].node;
     let v = arena[uses[slot].base + (index & ((1u << shift) - 1u))];
@@ -55,7 +54,7 @@ fn vs_main(@builtin(vertex_index) index: u32) -> VertexOut {
     out.rel = rel;
     out.node = node;
     out.color = unpack4x8unorm(v.color);
-    let h = hash(objects[node]);
+    let h = hash(uses[slot].object);
     out.base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
     return out;
 }
