@@ -158,6 +158,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bucket_triangles: a.bucket_triangles,
         lod: a.lod,
         instances: a.instances,
+        find_repeats: a.input.is_some(),
     };
     let report = build(source.as_mut(), &input, notes, &opts, &a.output, started, &bar);
     bar.finish();

@@ -40,6 +40,11 @@ pub struct BuildOptions {
     pub lod: Lod,
     /// A mesh that the input uses several times: stored once, or a copy per use.
     pub instances: Instances,
+    /// Look for objects whose mesh repeats an earlier one's up to a translation where the
+    /// input does not say so ([`crate::repeat`]): on for files, off for the generators, whose
+    /// scenes stay as every earlier figure measured them (the plain plant repeats its
+    /// walkways and railings bay to bay: 13,351 objects of the 20M plant would be found).
+    pub find_repeats: bool,
 }
 
 /// What the build does with a mesh the input uses several times (a glTF mesh of several nodes,
@@ -101,6 +106,7 @@ impl Default for BuildOptions {
             bucket_triangles: crate::limits::BUCKET_TRIANGLES,
             lod: Lod::Chains,
             instances: Instances::Keep,
+            find_repeats: false,
         }
     }
 }
@@ -167,6 +173,10 @@ pub struct BuildReport {
     pub instanced_triangles: u64,
     #[serde(default)]
     pub instances: u64,
+    /// Of those, the objects found to repeat an earlier object's mesh up to a translation,
+    /// where the input did not say so ([`crate::repeat`]).
+    #[serde(default)]
+    pub found_repeats: u64,
     /// Meshes stored once (`--instances keep`), and the bytes of geometry blocks their uses
     /// share instead of storing a copy each.
     #[serde(default)]

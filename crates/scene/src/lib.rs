@@ -42,6 +42,7 @@ pub mod owner;
 pub mod path;
 pub mod path_gen;
 pub mod place;
+pub mod repeat;
 pub mod source;
 pub mod spill;
 pub mod stream;

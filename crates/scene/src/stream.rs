@@ -96,6 +96,8 @@ pub fn stream(
         prototypes: Prototypes::default(),
         seen: FxHashMap::default(),
         contents: FxHashMap::default(),
+        find_repeats: instancing && opts.find_repeats,
+        unnamed: Default::default(),
         instances: Vec::new(),
         repeats: Repeats::default(),
         clean_stats: CleanStats::default(),
@@ -121,6 +123,7 @@ pub fn stream(
         for (index, o) in uses {
             times.run("clean", || s.add_use(index, o, origin, split))?;
         }
+        let own = times.run("repeats", || s.found_repeats(own, origin, split))?;
         let (indices, mut own): (Vec<usize>, Vec<Object>) = own.into_iter().unzip();
         times.run("place", || crate::place::to_local(&mut own, origin));
         let cleaned = times.run("clean", || clean(indices.into_iter().zip(own).collect()))?;
@@ -200,7 +203,7 @@ pub fn stream(
         (true, Instances::Expand) => Some("--instances expand"),
         (true, Instances::Keep) => None,
     };
-    repeats.report(report, why);
+    repeats.report(report, why, opts.find_repeats);
     report.prototypes = if why.is_none() { prototypes.closed.len() as u64 } else { 0 };
     if chunks.is_empty() {
         return Err(BuildError::Empty(format!("no triangles in the input ({} objects)", empty.len())));
@@ -225,6 +228,10 @@ struct Stream<'a> {
     /// The content of each input mesh seen, by the input's index, for the uses that come
     /// without their mesh.
     contents: FxHashMap<u32, u128>,
+    /// Whether to look for repeats the input does not name, and the contents in their own
+    /// frames of the meshes seen once (see [`crate::repeat`]).
+    find_repeats: bool,
+    unnamed: rustc_hash::FxHashSet<u128>,
     instances: Vec<InstanceRecord>,
     repeats: Repeats,
     clean_stats: CleanStats,
@@ -274,19 +281,86 @@ impl Stream<'_> {
     /// A use of a mesh in its own frame (the input's `index`-th object): its instance and its
     /// placed parts, the mesh cleaned and cut at the first use of its content.
     fn add_use(&mut self, index: usize, o: Object, origin: glam::DVec3, split: SplitOptions) -> Result<(), BuildError> {
-        let Object { name, mesh, placement, anchor, prototype: named } = o;
-        let named = named.expect("a use names its mesh");
+        let named = o.prototype.expect("a use names its mesh");
         let key = match self.contents.get(&named) {
-            Some(&key) if mesh.is_empty() => {
+            Some(&key) if o.mesh.is_empty() => {
                 self.report.input_triangles += self.seen[&key].input;
                 key
             }
             _ => {
-                let key = mesh_hash(&mesh);
+                let key = mesh_hash(&o.mesh);
                 self.contents.insert(named, key);
                 key
             }
         };
+        // A mesh new by its content in its frame may still be an earlier one moved (a glTF
+        // exported without reuse, each copy's vertices in world coordinates).
+        if !self.seen.contains_key(&key)
+            && let Some(t) = self.repeat(&o)
+        {
+            return self.use_found(index, t, o, origin, split);
+        }
+        self.use_content(index, key, o, origin, split)
+    }
+
+    /// `o`'s mesh in its own frame where an earlier object's was the same
+    /// ([`crate::repeat`]); else None, and its content is remembered.
+    fn repeat(&mut self, o: &Object) -> Option<crate::repeat::Translated> {
+        if !self.find_repeats {
+            return None;
+        }
+        let t = crate::repeat::translated(o)?;
+        self.seen_before(t.content).then_some(t)
+    }
+
+    /// Whether a mesh of content `content` (in its own frame) came before; remembers it.
+    fn seen_before(&mut self, content: u128) -> bool {
+        self.seen.contains_key(&content) || !self.unnamed.insert(content)
+    }
+
+    /// A use of the mesh found in `t`, standing where `o` stood.
+    fn use_found(
+        &mut self,
+        index: usize,
+        t: crate::repeat::Translated,
+        o: Object,
+        origin: glam::DVec3,
+        split: SplitOptions,
+    ) -> Result<(), BuildError> {
+        self.report.found_repeats += 1;
+        let placement = glam::DAffine3::from_translation(t.corner);
+        let o = Object { mesh: t.mesh, placement, anchor: glam::DVec3::ZERO, prototype: None, ..o };
+        self.use_content(index, t.content, o, origin, split)
+    }
+
+    /// Of objects of their own, `own`, those whose mesh an earlier one has up to a translation
+    /// become uses of it ([`crate::repeat`]; the first of each content stays its own, the
+    /// second brings the mesh); returns the rest.
+    fn found_repeats(
+        &mut self,
+        own: Vec<(usize, Object)>,
+        origin: glam::DVec3,
+        split: SplitOptions,
+    ) -> Result<Vec<(usize, Object)>, BuildError> {
+        if !self.find_repeats {
+            return Ok(own);
+        }
+        let found: Vec<_> = own.into_par_iter().map(|(index, o)| (index, crate::repeat::translated(&o), o)).collect();
+        let mut rest = Vec::with_capacity(found.len());
+        for (index, t, o) in found {
+            match t {
+                Some(t) if self.seen_before(t.content) => {
+                    self.use_found(index, t, o, origin, split)?;
+                }
+                _ => rest.push((index, o)),
+            }
+        }
+        Ok(rest)
+    }
+
+    /// [`Stream::add_use`] of a mesh whose content is `key`.
+    fn use_content(&mut self, index: usize, key: u128, o: Object, origin: glam::DVec3, split: SplitOptions) -> Result<(), BuildError> {
+        let Object { name, mesh, placement, anchor, .. } = o;
         if !self.seen.contains_key(&key) {
             let input = mesh.triangle_count() as u64;
             let (mesh, stats) = mesh.clean().map_err(|source| BuildError::Mesh { index, name: name.clone(), source })?;
@@ -385,7 +459,7 @@ impl Repeats {
     }
 
     /// The report's counts; `expanded` says why each use was stored in full, if it was.
-    fn report(&self, report: &mut BuildReport, expanded: Option<&str>) {
+    fn report(&self, report: &mut BuildReport, expanded: Option<&str>, searched: bool) {
         let repeated = || self.prototypes.values().filter(|u| u.uses > 1);
         report.unique_triangles = self.single + self.prototypes.values().map(|u| u.first).sum::<u64>();
         report.instanced_triangles = repeated().map(|u| u.triangles).sum();
@@ -401,10 +475,16 @@ impl Repeats {
             ));
         }
         if self.single > 0 && expanded.is_none() {
-            report.left_out.push(format!(
-                "looking for repeats the input does not name: {} triangles of objects with a mesh of their own are stored as they are (no search for identical meshes yet)",
-                self.single
-            ));
+            report.left_out.push(match searched {
+                true => format!(
+                    "looking for repeats the input does not name beyond exact translations ({} objects found to repeat an earlier one's mesh, the first of each stored as its own): {} triangles of objects with a mesh of their own are stored as they are; copies scaled, turned, or rounded apart far from the origin are not looked for",
+                    report.found_repeats, self.single
+                ),
+                false => format!(
+                    "looking for repeats the input does not name, in a generated scene (it stays as earlier figures measured it): {} triangles of objects with a mesh of their own are stored as they are",
+                    self.single
+                ),
+            });
         }
     }
 }
