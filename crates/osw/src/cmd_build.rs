@@ -192,8 +192,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     if report.instances > 0 {
         out!(
-            "repeats: {} uses of meshes used more than once, {} triangles of {} unique; {} meshes stored once, {:.1} MB of blocks shared",
+            "repeats: {} uses of meshes used more than once ({} found by content, unnamed in the input), {} triangles of {} unique; {} meshes stored once, {:.1} MB of blocks shared",
             report.instances,
+            report.found_repeats,
             report.instanced_triangles,
             report.unique_triangles,
             report.prototypes,
