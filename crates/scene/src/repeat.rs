@@ -11,15 +11,16 @@
 //! rounded apart far from the origin, and not copies scaled, mirrored or turned.
 
 use crate::limits::LOD_MIN_TRIANGLES;
-use crate::mesh::{Mesh, Object};
+use crate::mesh::Object;
 use glam::DVec3;
 
 /// A mesh found in its own frame: the name of its content, where its frame lies in the world
-/// (its box's low corner), and the mesh with its positions relative to that corner.
+/// (its box's low corner), and its positions relative to that corner (its indices and
+/// colours are the object's).
 pub struct Translated {
     pub content: u128,
     pub corner: DVec3,
-    pub mesh: Mesh,
+    pub positions: Vec<[f32; 3]>,
 }
 
 /// `o`'s mesh in its own frame, or None where it is not worth a use: at most
@@ -29,29 +30,26 @@ pub fn translated(o: &Object) -> Option<Translated> {
     if o.mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize {
         return None;
     }
-    let world: Vec<DVec3> = o.mesh.positions.iter().map(|&p| o.world(p)).collect();
-    let corner = world.iter().fold(DVec3::INFINITY, |lo, &p| lo.min(p));
+    let mut relative: Vec<[f64; 3]> = o.mesh.positions.iter().map(|&p| o.world(p).to_array()).collect();
+    let corner = relative.iter().fold(DVec3::INFINITY, |lo, &p| lo.min(DVec3::from(p)));
     if !corner.is_finite() {
         return None;
     }
-    let relative: Vec<DVec3> = world.iter().map(|&p| p - corner).collect();
+    relative.iter_mut().for_each(|p| *p = (DVec3::from(*p) - corner).to_array());
     let mut h = xxhash_rust::xxh3::Xxh3::new();
     h.update(&(relative.len() as u64).to_le_bytes());
-    h.update(bytemuck::cast_slice(&relative.iter().map(|p| p.to_array()).collect::<Vec<[f64; 3]>>()));
+    h.update(bytemuck::cast_slice(&relative));
     h.update(bytemuck::cast_slice(&o.mesh.indices));
     h.update(o.mesh.colors.as_flattened());
-    let positions = relative.iter().map(|p| p.as_vec3().to_array()).collect();
-    Some(Translated {
-        content: h.digest128(),
-        corner,
-        mesh: Mesh { positions, indices: o.mesh.indices.clone(), colors: o.mesh.colors.clone() },
-    })
+    let positions = relative.iter().map(|&p| DVec3::from(p).as_vec3().to_array()).collect();
+    Some(Translated { content: h.digest128(), corner, positions })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::generators::shapes;
+    use crate::mesh::Mesh;
     use glam::{DAffine3, Vec3};
 
     /// A sphere whose coordinates are multiples of 2^-10, as a file in fixed precision holds
@@ -78,7 +76,7 @@ mod tests {
             let t = translated(&o).unwrap();
             assert_eq!(t.content, first.content, "a copy at {at}");
             // The first copy's mesh placed at this copy's corner is this copy, exactly.
-            for (k, p) in first.mesh.positions.iter().enumerate() {
+            for (k, p) in first.positions.iter().enumerate() {
                 assert_eq!(Vec3::from(*p).as_dvec3() + t.corner, o.world(o.mesh.positions[k]), "vertex {k} at {at}");
             }
         }

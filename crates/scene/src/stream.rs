@@ -329,7 +329,8 @@ impl Stream<'_> {
     ) -> Result<(), BuildError> {
         self.report.found_repeats += 1;
         let placement = glam::DAffine3::from_translation(t.corner);
-        let o = Object { mesh: t.mesh, placement, anchor: glam::DVec3::ZERO, prototype: None, ..o };
+        let mesh = Mesh { positions: t.positions, ..o.mesh };
+        let o = Object { mesh, placement, anchor: glam::DVec3::ZERO, prototype: None, ..o };
         self.use_content(index, t.content, o, origin, split)
     }
 
