@@ -3,9 +3,8 @@
 //! every triangle faces away from the eye (meshopt's normal cone, kept only for closed meshes
 //! wound outwards), cover no pixel that another triangle of the frame does not cover nearer, so
 //! they are skipped. Inside the clusters kept, [`crate::triangle`] drops the triangles that face
-//! away or cover no pixel centre. RVG can also skip clusters hidden behind what it drew first
-//! (two passes, as niagara: `osw_render::pass::rvg`), remembering which were visible
-//! in a [`ClusterHistory`]. All tests are conservative.
+//! away or cover no pixel centre. RVG and OR also skip the clusters that HC found hidden
+//! behind the depth it tested against ([`VisibleClusters`]). All tests are conservative.
 
 use crate::triangle::TriangleView;
 use crate::view::View;
@@ -16,15 +15,12 @@ use osw_scene::format::ClusterRecord;
 use std::collections::HashMap;
 
 /// Which cluster and triangle tests a pass runs (each can be turned off alone to show what it
-/// culls and that the frame does not change). By default all but occlusion. The triangle tests
-/// pay on lavapipe, which sets up each triangle it is given on the CPU (2M plant walk, tau 0,
-/// prev: 70,657 -> 24,171 triangles a frame, 5.6 times the exactly visible ones, where culling
-/// whole clusters exactly would leave 3.9 times). RVG's occlusion test (two passes against a
-/// CPU pyramid, a cluster's box read until a texel lets it through) takes 4-16% off prev's frame
-/// on the 20M plant's walk with either LOD representation; it is off by default because prev's
-/// OR then draws only the clusters visible in the last frame, and prev's visible sets are no
-/// longer the switch's (docs/measurements/2026-12-03-cluster-hierarchy.md, "RVG's cluster
-/// occlusion test by representation").
+/// culls and that the frame does not change). The triangle tests pay on lavapipe, which sets
+/// up each triangle it is given on the CPU (2M plant walk, tau 0, prev: 70,657 -> 24,171
+/// triangles a frame, 5.6 times the exactly visible ones, where culling whole clusters exactly
+/// would leave 3.9 times). The occlusion test (prev and the switch) is HC's: the clusters of
+/// its visible set that its depth pyramid hides are left out by RVG and by a later OR
+/// (`osw_render::pass::note_clusters`, [`VisibleClusters`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ClusterTests {
     pub frustum: bool,
@@ -33,7 +29,7 @@ pub struct ClusterTests {
     pub backface: bool,
     /// Per triangle of a cluster drawn: no pixel centre inside its screen bounds.
     pub small: bool,
-    /// RVG's two passes (the other passes have no depth to test against).
+    /// HC's notes of hidden clusters (prev and the switch; the other modes have no pyramid).
     pub occlusion: bool,
 }
 
@@ -44,7 +40,7 @@ impl ClusterTests {
 
 impl Default for ClusterTests {
     fn default() -> ClusterTests {
-        ClusterTests { frustum: true, cone: true, backface: true, small: true, occlusion: false }
+        ClusterTests::ALL
     }
 }
 
@@ -111,31 +107,77 @@ impl std::ops::Add for ClusterStats {
     }
 }
 
-/// Per LOD node drawn, which of its clusters were visible in the last frame (a bit each), and
-/// those found visible in this one.
-#[derive(Debug, Default)]
-pub struct ClusterHistory {
-    last: HashMap<NodeId, Vec<u64>>,
-    this: HashMap<NodeId, Vec<u64>>,
+/// Which clusters of a frame's visible set HC found not hidden against its depth pyramid, a
+/// bit each per LOD node it looked at (`osw_render::pass::note_clusters`). RVG draws only
+/// those, and OR of a later frame draws only those as occluders (paper 004 sec. 5.3.1: the
+/// clusters visible in the last frame are the occluders). The switch's HC node sends them to
+/// RVG as a [`VisibleClusters::mask`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VisibleClusters {
+    nodes: HashMap<NodeId, Vec<u64>>,
 }
 
-impl ClusterHistory {
-    pub fn was_visible(&self, id: NodeId, cluster: usize) -> bool {
-        self.last.get(&id).and_then(|b| b.get(cluster / 64)).is_some_and(|w| w >> (cluster % 64) & 1 != 0)
+impl VisibleClusters {
+    /// Whether cluster `cluster` of node `id` is drawn: found visible, or of a node not looked
+    /// at (one HC did not find, or a LOD that OR's front update chose anew), drawn whole.
+    pub fn takes(&self, id: NodeId, cluster: usize) -> bool {
+        self.nodes.get(&id).is_none_or(|b| b.get(cluster / 64).is_some_and(|w| w >> (cluster % 64) & 1 != 0))
     }
 
-    /// Marks a cluster visible in this frame.
+    /// Notes that node `id`'s clusters were looked at, whether or not any is visible.
+    pub fn look_at(&mut self, id: NodeId) {
+        self.nodes.entry(id).or_default();
+    }
+
+    /// Marks a cluster visible.
     pub fn mark(&mut self, id: NodeId, cluster: usize) {
-        let bits = self.this.entry(id).or_default();
+        let bits = self.nodes.entry(id).or_default();
         if bits.len() <= cluster / 64 {
             bits.resize(cluster / 64 + 1, 0);
         }
         bits[cluster / 64] |= 1 << (cluster % 64);
     }
 
-    /// This frame becomes the last: nodes not drawn in it are forgotten.
-    pub fn end_frame(&mut self) {
-        self.last = std::mem::take(&mut self.this);
+    /// The bits of `pvs` (sorted, every node looked at), node by node in its order, `count(id)`
+    /// bits each (the node's opaque clusters), 1 where visible, packed from the low bit of
+    /// the first byte: what the display needs to know, since it holds the same scene.
+    pub fn mask(&self, pvs: &[NodeId], count: impl Fn(NodeId) -> u32) -> Vec<u8> {
+        let total: u64 = pvs.iter().map(|&id| u64::from(count(id))).sum();
+        let mut out = vec![0u8; total.div_ceil(8) as usize];
+        let mut at = 0usize;
+        for &id in pvs {
+            for k in 0..count(id) as usize {
+                if self.takes(id, k) {
+                    out[at / 8] |= 1 << (at % 8);
+                }
+                at += 1;
+            }
+        }
+        out
+    }
+
+    /// The clusters a [`VisibleClusters::mask`] of `pvs` says, or what is wrong with it: its
+    /// length must be the one the scene's cluster counts give, its padding zero.
+    pub fn from_mask(pvs: &[NodeId], count: impl Fn(NodeId) -> u32, mask: &[u8]) -> Result<VisibleClusters, String> {
+        let total: u64 = pvs.iter().map(|&id| u64::from(count(id))).sum();
+        if mask.len() as u64 != total.div_ceil(8) {
+            return Err(format!("a cluster mask of {} bytes for {} nodes of {total} clusters", mask.len(), pvs.len()));
+        }
+        if !total.is_multiple_of(8) && mask.last().is_some_and(|&b| b >> (total % 8) != 0) {
+            return Err("a cluster mask with bits set past its last cluster".into());
+        }
+        let mut v = VisibleClusters::default();
+        let mut at = 0usize;
+        for &id in pvs {
+            v.look_at(id);
+            for k in 0..count(id) as usize {
+                if mask[at / 8] >> (at % 8) & 1 != 0 {
+                    v.mark(id, k);
+                }
+                at += 1;
+            }
+        }
+        Ok(v)
     }
 }
 
@@ -246,11 +288,42 @@ mod tests {
             let written = t.to_string();
             assert_eq!(written.parse::<ClusterTests>(), Ok(t), "{written}");
         }
-        assert_eq!(ClusterTests::default().to_string(), "frustum,cone,backface,small");
+        assert_eq!(ClusterTests::default().to_string(), "frustum,cone,backface,small,occlusion");
         assert_eq!("none".parse::<ClusterTests>(), Ok(ClusterTests::NONE));
         for bad in ["", "none,cone", "frustrum", "cone,"] {
             assert!(bad.parse::<ClusterTests>().unwrap_err().contains("expected a list of"), "{bad:?}");
         }
+    }
+
+    /// A mask carries exactly the notes of the visible set it was made for: every node looked
+    /// at, a node's clusters past 64 included; a node not looked at is drawn whole; a mask of
+    /// the wrong length, or with bits past its last cluster, is refused.
+    #[test]
+    fn a_cluster_mask_reads_back_the_notes_it_was_made_from() {
+        let counts = |id: NodeId| [3u32, 0, 70, 5][id as usize];
+        let pvs = [0, 1, 2, 3];
+        let mut notes = VisibleClusters::default();
+        for id in pvs {
+            notes.look_at(id);
+        }
+        for (id, k) in [(0, 1), (2, 0), (2, 63), (2, 64), (2, 69), (3, 4)] {
+            notes.mark(id, k);
+        }
+        let mask = notes.mask(&pvs, counts);
+        assert_eq!(mask.len(), (3 + 70 + 5usize).div_ceil(8));
+        let back = VisibleClusters::from_mask(&pvs, counts, &mask).unwrap();
+        for id in pvs {
+            for k in 0..counts(id) as usize {
+                assert_eq!(back.takes(id, k), notes.takes(id, k), "node {id} cluster {k}");
+            }
+        }
+        assert!(!back.takes(0, 0) && back.takes(2, 64) && !back.takes(2, 65));
+        assert!(back.takes(9, 0), "a node not looked at is drawn whole");
+        let short = VisibleClusters::from_mask(&pvs, counts, &mask[1..]).unwrap_err();
+        assert!(short.contains("of 78 clusters"), "{short}");
+        let mut padded = mask.clone();
+        *padded.last_mut().unwrap() |= 0x80;
+        assert!(VisibleClusters::from_mask(&pvs, counts, &padded).unwrap_err().contains("past its last cluster"));
     }
 
     /// Triangles of `m` whose front faces `eye` (counter-clockwise from outside).
@@ -340,19 +413,6 @@ mod tests {
         let out = draw(&view, &m, &clusters, ClusterTests { cone: true, backface: true, ..ClusterTests::NONE }, &mut s);
         assert_eq!((s.cone_culled, s.backface_culled), (0, 0));
         assert_eq!(out, m.indices, "every triangle, in cluster order");
-    }
-
-    #[test]
-    fn the_history_keeps_one_frame() {
-        let mut h = ClusterHistory::default();
-        h.mark(7, 3);
-        h.mark(7, 130);
-        assert!(!h.was_visible(7, 3), "marks count from the next frame");
-        h.end_frame();
-        assert!(h.was_visible(7, 3) && h.was_visible(7, 130));
-        assert!(!h.was_visible(7, 4) && !h.was_visible(8, 3) && !h.was_visible(7, 1000));
-        h.end_frame();
-        assert!(!h.was_visible(7, 3), "a node not drawn is forgotten");
     }
 
     #[test]

@@ -18,6 +18,7 @@ mod ui;
 mod window;
 
 use clap::Parser;
+use osw_cull::cluster::VisibleClusters;
 use osw_gpu::RenderOptions;
 use osw_render::output::{frame_path, push_ids, write_png};
 use osw_render::results::DisplayFrame;
@@ -163,7 +164,6 @@ fn run(a: &Args) -> anyhow::Result<()> {
     }
     let mut rows: Vec<DisplayFrame> = Vec::with_capacity(path.len());
     let mut pvs_txt = String::new();
-    let mut clusters = osw_cull::cluster::ClusterHistory::default();
     let (mut last, mut cpu) = (Instant::now(), osw_render::stats::cpu_ms());
     let mut i = 0;
     while i < requested {
@@ -174,8 +174,15 @@ fn run(a: &Args) -> anyhow::Result<()> {
         r.begin_frame();
         let camera = osw_render::packet::camera(&cam);
         let view = r.view(&camera, cam.tau_px);
-        // RVG as prev's (hidden clusters culled where HC culled).
-        let drawn = osw_render::pass::rvg(&mut r, &scene, &view, &frames.visible, row.cull_skipped == 0, &mut clusters)?;
+        // RVG as prev's: the clusters HC found hidden are left out.
+        let notes = match frames.mask.take() {
+            Some(m) => Some(
+                VisibleClusters::from_mask(&frames.visible, |id| scene.opaque_clusters(id), &m)
+                    .map_err(|e| anyhow::anyhow!("frame {i}: node {}: {e}", links::NAMES[row.hc_node as usize]))?,
+            ),
+            None => None,
+        };
+        let drawn = osw_render::pass::rvg(&mut r, &scene, &view, &frames.visible, notes.as_ref())?;
         (row.rvg_ms, row.rvg_gpu_ms) = (t.elapsed().as_secs_f64() * 1e3, drawn.gpu_ms());
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
         [

@@ -21,6 +21,8 @@ pub struct Frames {
     pub cluster: Cluster,
     /// V(i), sorted LOD ids.
     pub visible: Vec<u32>,
+    /// HC's cluster mask of V(i), when it sent one (osw_wire::messages::ClusterMask).
+    pub mask: Option<Vec<u8>>,
     max_id: u32,
     /// The node that sent the previous frame and when it sent its end of frame.
     prev_eof: Option<(usize, u64)>,
@@ -34,7 +36,16 @@ pub struct Frames {
 impl Frames {
     /// Waits until both nodes are connected; a frame may then take up to `wait`.
     pub fn connect(notes: Receiver<Note>, max_id: u32, wait: Duration, idle: &mut dyn FnMut()) -> anyhow::Result<Frames> {
-        let mut f = Frames { notes, cluster: Cluster::default(), visible: Vec::new(), max_id, prev_eof: None, held: VecDeque::new(), wait };
+        let mut f = Frames {
+            notes,
+            cluster: Cluster::default(),
+            visible: Vec::new(),
+            mask: None,
+            max_id,
+            prev_eof: None,
+            held: VecDeque::new(),
+            wait,
+        };
         let deadline = Instant::now() + wait;
         while f.cluster.nodes.iter().any(Option::is_none) {
             let note = f.next_note(deadline, idle).map_err(|_| anyhow::anyhow!("the nodes did not connect within {wait:?}"))?;
@@ -70,6 +81,7 @@ impl Frames {
         // running alone); if that node is lost before its end of frame, from the other.
         let mut source: Option<(usize, CameraPacket)> = None;
         let mut next = Assembly::default();
+        self.mask = None;
         let mut replay: VecDeque<Arrival> = std::mem::take(&mut self.held);
         let max_id = self.max_id;
         let deadline = Instant::now() + self.wait;
@@ -86,6 +98,7 @@ impl Frames {
                             if let Some((lost, _)) = source.filter(|(n, _)| self.cluster.nodes[*n].is_none()) {
                                 tracing::warn!("frame {i}: node {} lost mid-frame; reading the frame from the other", links::NAMES[lost]);
                                 (source, next, row.bytes, row.id_bytes, row.ids_sent) = (None, Assembly::default(), 0, 0, 0);
+                                (self.mask, row.mask_bytes) = (None, 0);
                                 replay = std::mem::take(&mut self.held);
                             }
                             continue;
@@ -118,6 +131,10 @@ impl Frames {
                     let part = k.ids.ids(max_id)?;
                     row.ids_sent += part.len() as u64;
                     next.keyframe(&self.visible, k.part, k.parts, part).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
+                }
+                Message::Clusters(c) if c.frame == i => {
+                    (row.bytes, row.mask_bytes) = (row.bytes + bytes, row.mask_bytes + bytes);
+                    self.mask = Some(c.bits);
                 }
                 Message::EndOfFrame(e) if e.frame == i => {
                     row.bytes += bytes;
@@ -160,6 +177,7 @@ fn frame_of(m: &Message) -> Option<u64> {
         Message::Delta(d) => Some(d.frame),
         Message::Keyframe(k) => Some(k.frame),
         Message::EndOfFrame(e) => Some(e.frame),
+        Message::Clusters(c) => Some(c.frame),
         _ => None,
     }
 }

@@ -46,6 +46,7 @@ pub fn write_outputs(
             incremental_saved_fraction: if ids_full > 0.0 { 1.0 - ids_sent / ids_full } else { 0.0 },
             bytes_per_id: bytes / ids_sent.max(1.0),
             id_bytes_per_id: id_bytes / ids_sent.max(1.0),
+            mask_bytes_per_frame_mean: mean(|r| r.mask_bytes as f64),
             batch: set.batch,
             latency_ms_median: quantile(&col(|r| r.latency_ms), 0.5),
             rvg_gpu_ms_median: osw_render::stats::gpu_median(rows.iter().map(|r| r.rvg_gpu_ms)),

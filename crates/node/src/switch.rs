@@ -18,6 +18,7 @@
 
 use crate::inbox::Inbox;
 use crate::roles::{Display, Duty, Peer, Step, keyframe_to_display};
+use osw_cull::cluster::VisibleClusters;
 use osw_cull::delta::{Assembly, batches, diff};
 use osw_cull::frustum_cull;
 use osw_cull::payoff::Payoff;
@@ -28,7 +29,7 @@ use osw_render::pass::{self, HcOptions, HcPass};
 use osw_render::results::NodeFrame;
 use osw_scene::{NodeId, SceneFile};
 use osw_wire::clock::now_us;
-use osw_wire::messages::{Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Rejoin};
+use osw_wire::messages::{ClusterMask, Delta, EndOfFrame, Goodbye, HcWireStats, IdList, Keyframe, LinkStamps, Message, Rejoin};
 use std::time::Instant;
 
 pub struct Switch {
@@ -53,6 +54,9 @@ pub struct Switch {
     occluders: Vec<NodeId>,
     /// The BVH nodes this node's last HC found visible (osw_cull::hardware_cull_seen).
     seen: Vec<NodeId>,
+    /// Which clusters of V(i-1) this node's HC found visible (pass::note_clusters): OR draws
+    /// only those of its nodes.
+    notes: VisibleClusters,
     /// When the peer's end of the previous frame arrived (this node was OR), for the display.
     peer_eof_received_us: u64,
 }
@@ -73,6 +77,7 @@ impl Switch {
             visible: Vec::new(),
             occluders: Vec::new(),
             seen: Vec::new(),
+            notes: VisibleClusters::default(),
             peer_eof_received_us: 0,
         }
     }
@@ -149,7 +154,8 @@ impl Switch {
         if duty == Duty::Solo && cull {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let t = Instant::now();
-            let or = pass::or(r, &self.scene, &view, &self.visible, cam.tau_px, (Pass::Depth, true, None), &mut self.occluders)?;
+            let or =
+                pass::or(r, &self.scene, &view, &self.visible, cam.tau_px, (Pass::Depth, true, Some(&self.notes)), &mut self.occluders)?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
         }
         let mut pvs = Vec::new();
@@ -162,9 +168,7 @@ impl Switch {
             pvs.sort_unstable();
             HcPass { stats, ..HcPass::default() }
         };
-        if let Some(p) = hc.pyramid {
-            r.give_back(p);
-        }
+        let pyramid = hc.pyramid;
         let (hc, times) = (hc.stats, hc.times);
         (f.hc_traversal_ms, f.hc_second_look_ms, f.hc_retest_ms) = (times.traversal_ms, times.second_look_ms, times.retest_ms);
         // A frame without occluders (the first) culls nothing, whatever culling would save.
@@ -175,9 +179,27 @@ impl Switch {
         let hc_us = t.elapsed().as_micros() as u64;
         let passes_us = [times.traversal_ms, times.second_look_ms, times.retest_ms].map(|ms| (ms * 1e3) as u64);
         let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull };
-        let clock = LinkStamps { sent_us: now_us(), camera_received_us, peer_eof_received_us: self.peer_eof_received_us };
-        let eof = Message::EndOfFrame(EndOfFrame { frame: i, stats, clock });
-        self.io.send(&eof, self.io.roles.peer_in_step(), true)?;
+        let peer_eof_received_us = self.peer_eof_received_us;
+        let eof = |sent_us| {
+            Message::EndOfFrame(EndOfFrame { frame: i, stats, clock: LinkStamps { sent_us, camera_received_us, peer_eof_received_us } })
+        };
+        self.io.send(&eof(now_us()), self.io.roles.peer_in_step(), false)?;
+        // HC's notes of V(i)'s clusters (pass::note_clusters) once the peer has its end of
+        // frame: RVG draws only the visible ones, and so does this node's next OR.
+        self.notes = VisibleClusters::default();
+        if let Some(p) = pyramid {
+            if self.renderer.options().cluster_tests.occlusion {
+                self.notes = pass::note_clusters(&self.scene, &view, &pvs, &p)?;
+                let bits = self.notes.mask(&pvs, |id| self.scene.opaque_clusters(id));
+                // A mask too large for a frame (about 130M clusters in view) is not sent: RVG
+                // then draws the nodes whole.
+                if bits.len() <= osw_wire::limits::KEYFRAME_PART_BYTES {
+                    self.io.send(&Message::Clusters(ClusterMask { frame: i, bits }), false, true)?;
+                }
+            }
+            self.renderer.give_back(p);
+        }
+        self.io.send(&eof(now_us()), false, true)?;
         if self.io.roles.hc_done(i) {
             for part in self.keyframe(i, &pvs) {
                 self.io.send_peer(&part)?;
@@ -237,11 +259,11 @@ impl Switch {
         // frame it culled; when it does not, OR draws nothing, and only follows V(i).
         let cull = self.payoff.as_mut().is_none_or(Payoff::cull);
         let (mut drawn, mut or_ms) = (DrawStats::default(), 0.0);
-        let scene = &self.scene;
+        let (scene, notes) = (&self.scene, &self.notes);
         let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn = drawn + pass::or(r, scene, &view, ids, cam.tau_px, (Pass::Depth, clear, None), scratch)?;
+                drawn = drawn + pass::or(r, scene, &view, ids, cam.tau_px, (Pass::Depth, clear, Some(notes)), scratch)?;
                 or_ms += ms(t);
             }
             Ok(())
@@ -320,6 +342,7 @@ impl Switch {
     fn start_over(&mut self) -> anyhow::Result<Option<u64>> {
         self.io.start_over()?;
         self.visible.clear();
+        self.notes = VisibleClusters::default();
         self.io.first_camera("the new display's first camera")
     }
 

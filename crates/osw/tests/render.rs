@@ -90,8 +90,9 @@ fn a_small_residency_budget_evicts_and_draws_the_same_frames() {
 }
 
 /// Cluster culling inside the PVS's nodes (osw_cull::cluster, osw_cull::triangle): each test
-/// turned off alone stops its count and draws no fewer triangles; the visible sets never
-/// change, and neither do the frames without the frustum, small-triangle or occlusion test.
+/// turned off alone stops its count and draws no fewer triangles; the visible sets change only
+/// without the occlusion test (OR then draws hidden clusters as occluders too), and the frames
+/// do not change without the frustum, small-triangle or occlusion test.
 /// Without a back-face test the back faces it skips are drawn again: hidden behind their front
 /// faces, they can win only a silhouette pixel where the two tie in depth, so the frames differ
 /// by at most a few such pixels. Culling whole clusters never draws fewer triangles than the
@@ -133,13 +134,18 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
         let covered = frame.pixels().filter(|p| p.0 != SKY_RGBA).count() as f64;
         assert!(covered > 0.0 && f >= covered, "frame {i}: {f} fragments for {covered} covered pixels");
     }
+    let mut unnoted = None;
     for (k, name) in names.into_iter().enumerate() {
         let without: Vec<&str> = names.iter().copied().filter(|&n| n != name).collect();
         let (out, culled, t) = run(&without.join(","));
         assert_eq!(culled[k], 0.0, "without {name}: a test turned off culls nothing");
         // The triangle test also drops what the cone test does.
         assert!(t > all_t || (name == "cone" && t >= all_t), "without {name}: {t} triangles, all tests {all_t}");
-        assert_eq!(read(&all.join("pvs.txt")), read(&out.join("pvs.txt")), "without {name}: visible sets");
+        if name == "occlusion" {
+            unnoted = Some(out.clone());
+        } else {
+            assert_eq!(read(&all.join("pvs.txt")), read(&out.join("pvs.txt")), "without {name}: visible sets");
+        }
         // What the frustum and small tests drop makes no fragment; back faces and hidden
         // clusters do (the back-face test also drops what the cone test does).
         let f = fragments(&out);
@@ -163,7 +169,7 @@ fn each_cluster_test_turned_off_changes_its_count_not_the_frames() {
     }
     let (none, _, none_t) = run("none");
     assert!(none_t > all_t);
-    assert_eq!(read(&all.join("pvs.txt")), read(&none.join("pvs.txt")));
+    assert_eq!(read(&unnoted.unwrap().join("pvs.txt")), read(&none.join("pvs.txt")));
     // Whole clusters against the item buffer's clusters with a visible triangle, frame by frame.
     let exact = d.path().join("exact");
     osw_ok(&["exact", "--scene", s(&scene), "--path", s(&path), "--size", SIZE, "--out", s(&exact)]);

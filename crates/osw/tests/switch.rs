@@ -55,15 +55,14 @@ fn the_switch_is_prev_split_across_processes() {
         _ => Duty::Or,
     };
     assert!(rows.len() >= 15 && rows.iter().enumerate().all(|(i, r)| r.frame == i as u64 && r.duty == expect(r.frame)), "{rows:?}");
-    check_bandwidth(&run, &full, &exact, &d.path().join("bw"));
+    check_bandwidth(&scene, &run, &full, &exact, &d.path().join("bw"));
     check_latency(&run, &d.path().join("lat"));
 }
 
-/// `osw run --cluster-tests` reaches the display: with RVG's occlusion test, or with the
-/// frustum test alone, its counts say so and its frames are prev's with the same tests. With
-/// the frustum test alone the visible sets are prev's too (the nodes take the list; their
-/// depth does not depend on it); with the occlusion test prev's OR draws only the clusters
-/// visible in the last frame, the switch's nodes all: other visible sets, the same image.
+/// `osw run --cluster-tests` reaches the nodes and the display: with every test (HC's notes
+/// of hidden clusters sent to RVG as a mask), or with the frustum test alone, the counts say
+/// so, and the visible sets, the triangles RVG draws and the frames are prev's with the same
+/// tests.
 #[test]
 fn the_switch_runs_the_cluster_tests_it_is_given() {
     let d = tempfile::tempdir().unwrap();
@@ -75,10 +74,15 @@ fn the_switch_runs_the_cluster_tests_it_is_given() {
         osw_ok(&[&["run"], &walk[..], &["--out", s(&run)]].concat());
         osw_ok(&[&["render", "--mode", "prev"], &walk[..], &["--out", s(&prev)]].concat());
         let pvs = |p: &Path| std::fs::read_to_string(p.join("pvs.txt")).unwrap();
-        if tests == "frustum" {
-            assert_eq!(pvs(&run), pvs(&prev), "{tests}: visible sets");
-            let (r, p) = (summary(&run), summary(&prev));
-            assert_eq!(r.triangles_drawn_mean, p.triangles_drawn_mean, "{tests}: RVG draws what prev's RVG draws");
+        assert_eq!(pvs(&run), pvs(&prev), "{tests}: visible sets");
+        // Where culling did not pay (osw_cull::payoff) RVG draws the nodes whole, and the
+        // small-triangle test skips nodes where it did not pay for the process that draws them
+        // (osw_cull::gathered): the counts of those frames are the display's own.
+        let stats = |p: &Path, k: &str| csv_column(&p.join("stats.csv"), k);
+        let (skipped, drawn, prev_drawn) = (stats(&run, "cull_skipped"), stats(&run, "triangles_drawn"), stats(&prev, "triangles_drawn"));
+        assert_eq!(skipped, stats(&prev, "cull_skipped"), "{tests}: frames culled");
+        for i in (0..12).filter(|&i| skipped[i] == 0.0 || tests == "frustum") {
+            assert_eq!(drawn[i], prev_drawn[i], "{tests}: frame {i}: RVG draws what prev's RVG draws");
         }
         for i in 0..12 {
             let f = |p: &Path| std::fs::read(p.join(format!("frames/{i:05}.png"))).unwrap();
@@ -113,7 +117,7 @@ fn frame_len(m: &osw_wire::Message) -> usize {
     osw_wire::Frame::new(m).unwrap().len()
 }
 
-fn check_bandwidth(run: &Path, full: &Path, exact: &Path, out: &Path) {
+fn check_bandwidth(scene: &Path, run: &Path, full: &Path, exact: &Path, out: &Path) {
     osw_ok(&["bandwidth", "--run", s(run), "--full", s(full), "--exact", s(exact), "--out", s(out)]);
     let (bw, display, display_full) = (csv(&out.join("bandwidth.csv")), csv(&run.join("stats.csv")), csv(&full.join("stats.csv")));
     let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("bandwidth.json")).unwrap()).unwrap();
@@ -134,8 +138,22 @@ fn check_bandwidth(run: &Path, full: &Path, exact: &Path, out: &Path) {
             tau_px: 0.0,
             sampled_us: osw_wire::clock::now_us(),
         })) as f64;
-        assert_eq!(num(r, "hc_to_rvg_bytes") - num(r, "hc_to_or_bytes"), camera, "frame {i}: {r:?}");
+        // And HC's cluster mask of the frame's visible set: a bit per opaque cluster of its nodes.
+        assert_eq!(num(r, "hc_to_rvg_bytes") - num(r, "hc_to_or_bytes"), camera + num(d, "mask_bytes"), "frame {i}: {r:?}");
     }
+    let file = osw_scene::SceneFile::open(scene).unwrap();
+    let sets = std::fs::read_to_string(run.join("pvs.txt")).unwrap();
+    let mut masks = 0;
+    for (i, (line, d)) in sets.lines().zip(&display).enumerate() {
+        let clusters: u32 = line.split_whitespace().map(|t| file.opaque_clusters(t.parse().unwrap())).sum();
+        let bits = vec![0; clusters.div_ceil(8) as usize];
+        let mask = frame_len(&osw_wire::Message::Clusters(osw_wire::messages::ClusterMask { frame: i as u64, bits })) as f64;
+        // Where culling did not pay (osw_cull::payoff) HC has no pyramid, and sends no mask.
+        let culled = num(d, "cull_skipped") == 0.0;
+        assert_eq!(num(d, "mask_bytes"), if culled { mask } else { 0.0 }, "frame {i}: a mask of {clusters} clusters takes {mask}: {d:?}");
+        masks += usize::from(culled);
+    }
+    assert!(masks > 0, "no frame culled");
     // The id-carrying messages, against their sizes coded again from the visible sets (pvs.txt).
     let batch = b as usize;
     for (dir, rows, keyframes) in [(run, &display, false), (full, &display_full, true)] {
@@ -273,7 +291,7 @@ fn the_handshake_refuses_another_scene_and_a_wrong_token() {
         (
             vec!["--scene", s(&one)],
             vec!["--scene", s(&one), "--cluster-tests", "frustum"],
-            "setting --cluster-tests: frustum,cone,backface,small there, frustum here",
+            "setting --cluster-tests: frustum,cone,backface,small,occlusion there, frustum here",
         ),
     ] {
         let mut node = std::process::Command::new(bin("osw-node"))

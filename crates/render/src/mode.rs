@@ -21,7 +21,7 @@
 use crate::pass::{self, HcOptions, HcTest};
 use crate::stats::FrameStats;
 use osw_cull::chc::ChcState;
-use osw_cull::cluster::ClusterHistory;
+use osw_cull::cluster::VisibleClusters;
 use osw_cull::delta::diff;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
@@ -118,8 +118,9 @@ pub struct ModeState {
     /// takes the same sets so that its visible sets are the switch's.
     seen: [Vec<NodeId>; 2],
     chc: Option<ChcState>,
-    /// RVG's visible clusters of the last frame (prev).
-    clusters: ClusterHistory,
+    /// HC's notes of the visible clusters, one per parity of the frame as `seen` (prev): OR
+    /// draws those of two frames back.
+    notes: [VisibleClusters; 2],
     /// Paper 003's knobs (ovc), the last frame's render time (eq. 2's T_render) and the frames
     /// so far (which pixel lines sampled tests read).
     pub ovc: OvcOptions,
@@ -150,7 +151,7 @@ impl ModeState {
             image: Vec::new(),
             seen: [Vec::new(), Vec::new()],
             chc: None,
-            clusters: ClusterHistory::default(),
+            notes: Default::default(),
             ovc: OvcOptions::default(),
             payoff: None,
             last_render_ms: None,
@@ -172,6 +173,9 @@ impl ModeState {
         // HC's additions and pyramid where prev's OR and HC drew the image (Yoon 2003 sec.
         // 5.4, below).
         let mut reused = None;
+        // HC's notes of which clusters of the visible set are hidden (prev).
+        let mut notes = None;
+        let parity = self.frames as usize % 2;
         // Whether this frame's occlusion culling is expected to pay (prev and chc; see
         // osw_cull::payoff), from the counts of the last frame judged.
         let frame = self.frames as u64;
@@ -231,15 +235,17 @@ impl ModeState {
                 // HC then dropped is hidden behind what was drawn, or outside the frustum; but
                 // adaptive culling drops visible nodes, so it draws the image as the switch's
                 // display does, and so does a run that counts the fragments of the visible set
-                // (RVG's draws alone). With RVG's cluster occlusion test OR draws the clusters
-                // visible in the last frame (sec. 5.3.1): fewer occluders than the switch's
-                // OR, so the visible sets may differ from the switch's, the image not.
-                let writes = if self.ovc.adaptive == 0.0 && !r.counts_fragments() { Pass::Color } else { Pass::Depth };
-                let history = (writes == Pass::Color && r.options().cluster_tests.occlusion).then_some(&self.clusters);
+                // (RVG's draws alone). With the cluster occlusion test, HC notes which clusters
+                // of its visible set are hidden (pass::note_clusters): RVG draws only the others,
+                // and so does OR of two frames later, as the switch's nodes do. The image is then
+                // RVG's alone.
+                let occlusion = r.options().cluster_tests.occlusion;
+                let writes = if !occlusion && self.ovc.adaptive == 0.0 && !r.counts_fragments() { Pass::Color } else { Pass::Depth };
+                let or_notes = occlusion.then_some(&self.notes[parity]);
                 self.image.clear();
                 let mut or = DrawStats::default();
                 for (ids, clear) in [(&self.older, true), (&self.added, false)] {
-                    or = or + pass::or(r, scene, view, ids, self.tau, (writes, clear, history), &mut self.occluders)?;
+                    or = or + pass::or(r, scene, view, ids, self.tau, (writes, clear, or_notes), &mut self.occluders)?;
                     self.image.extend_from_slice(&self.occluders);
                 }
                 self.image.sort_unstable();
@@ -247,17 +253,21 @@ impl ModeState {
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, writes, ..HcOptions::default() };
-                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[self.frames as usize % 2], &mut pvs)?;
+                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[parity], &mut pvs)?;
                 s.hc_ms = ms(t);
                 (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
                     (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
                 // A node that sec. 4.7.2's pixel count stopped at a coarser LOD than OR drew
                 // for it would be drawn twice (sec. 5.4 redraws such faces): the image is
                 // drawn anew.
-                if writes == Pass::Color && hc.stats.pixel_stops == 0 {
-                    reused = Some((hc.drawn, hc.pyramid));
-                } else if let Some(p) = hc.pyramid {
+                if let Some(p) = hc.pyramid {
+                    if occlusion {
+                        notes = Some(pass::note_clusters(scene, view, &pvs, &p)?);
+                    }
                     r.give_back(p);
+                }
+                if writes == Pass::Color && hc.stats.pixel_stops == 0 {
+                    reused = Some(hc.drawn);
                 }
                 hc.stats
             }
@@ -275,13 +285,13 @@ impl ModeState {
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {
-            Mode::Prev if let Some((hc, pyramid)) = reused => {
-                let begun = pass::Begun { or: &self.image, hc: &hc, pyramid };
-                pass::rvg_over(r, scene, view, &pvs, begun, &mut self.clusters)?
-            }
-            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, cull, &mut self.clusters)?,
+            Mode::Prev if let Some(hc) = reused => pass::rvg_over(r, scene, view, &pvs, pass::Begun { or: &self.image, hc: &hc })?,
+            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, notes.as_ref())?,
             _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
         };
+        // OR of two frames later draws V(i) with them (the switch's HC node for frame i is OR
+        // for frame i+1 on camera i+2).
+        self.notes[parity] = notes.unwrap_or_default();
         (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         (self.last_render_ms, self.frames) = (Some(s.rvg_ms), self.frames + 1);

@@ -154,6 +154,12 @@ impl SceneFile {
         instances_of(&self.map, &self.header)
     }
 
+    /// The opaque clusters of LOD node `lod`'s block (0 for other nodes).
+    pub fn opaque_clusters(&self, lod: NodeId) -> u32 {
+        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
+        self.blocks().get(block as usize).map_or(0, |b| b.opaque_clusters)
+    }
+
     /// Whether LOD node `lod` has translucent triangles (false for other nodes).
     pub fn has_translucent(&self, lod: NodeId) -> bool {
         let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);

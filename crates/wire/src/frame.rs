@@ -128,6 +128,7 @@ mod tests {
             Message::Keyframe(Keyframe { frame: 8, part: 1, parts: 2, ids: IdList::from_ids(&[0, 1, 2]) }),
             Message::Goodbye(Goodbye { reason: "done".into() }),
             Message::StartOver(StartOver { restarts: 1 }),
+            Message::Clusters(ClusterMask { frame: 7, bits: vec![5, 0x80] }),
         ]
     }
 
@@ -141,9 +142,9 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_10() {
+    fn golden_bytes_of_version_11() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 10);
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 11);
         // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), token
         // "t", the serving flag (protocol 6), and the settings (protocol 9): one, "--size"
         // "8x8".
@@ -176,6 +177,10 @@ mod tests {
         let mut b = Vec::new();
         encode_frame(&samples()[8], &mut b).unwrap();
         assert_eq!(b, vec![8, 0, 0, 0, 4, 8, 1, 2, 3, 0, 0, 0]);
+        // HC's cluster mask (protocol 11): variant 11, frame 7, its 2 bytes.
+        let mut b = Vec::new();
+        encode_frame(&samples()[11], &mut b).unwrap();
+        assert_eq!(b, vec![5, 0, 0, 0, 11, 7, 2, 5, 0x80]);
     }
 
     #[test]

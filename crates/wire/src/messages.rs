@@ -131,6 +131,17 @@ pub struct LinkStamps {
     pub peer_eof_received_us: u64,
 }
 
+/// HC's notes of which clusters of V(`frame`) are visible (osw_cull::cluster::VisibleClusters):
+/// per node of V(`frame`) in id order, a bit per opaque cluster of its block, 0 where HC found
+/// the cluster hidden. HC sends it to RVG only, before the end of frame; RVG draws a frame
+/// without one whole. Not in the paper, whose wire carries node ids only: about a bit per
+/// cluster in view.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ClusterMask {
+    pub frame: u64,
+    pub bits: Vec<u8>,
+}
+
 /// Clock probe, display to node: the node answers with a [`Pong`] at once.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Ping {
@@ -212,6 +223,7 @@ pub enum Message {
     /// when the link between them is back after a cut.
     Rejoin(Rejoin),
     StartOver(StartOver),
+    Clusters(ClusterMask),
 }
 
 impl Message {

@@ -37,6 +37,9 @@ pub struct DisplayFrame {
     pub bytes: u64,
     /// Of `bytes`, the messages that carry ids (deltas, keyframes), their headers included.
     pub id_bytes: u64,
+    /// Of `bytes`, HC's cluster mask (osw_wire::messages::ClusterMask), its header included.
+    #[serde(default)]
+    pub mask_bytes: u64,
     pub ids_sent: u64,
     pub ids_full: u64,
     pub pvs_nodes: u32,

@@ -123,6 +123,10 @@ pub struct SwitchSummary {
     /// Bytes of the id-carrying messages per id sent: occlusion switch sec. 3.5's 4 bytes an id plus
     /// packet headers, without the camera and end of frame that every frame sends anyway.
     pub id_bytes_per_id: f64,
+    /// Bytes a frame of HC's cluster masks to RVG (osw_wire::messages::ClusterMask), in
+    /// `bytes_per_frame_mean`: the paper's wire has none.
+    #[serde(default)]
+    pub mask_bytes_per_frame_mean: f64,
     /// Ids per delta batch, the paper's b.
     pub batch: usize,
     pub latency_ms_median: f64,
