@@ -237,11 +237,9 @@ impl ModeState {
                 // display does, and so does a run that counts the fragments of the visible set
                 // (RVG's draws alone). With the cluster occlusion test, HC notes which clusters
                 // of its visible set are hidden (pass::note_clusters): RVG draws only the others,
-                // and so does OR of two frames later, as the switch's nodes do. The image is then
-                // RVG's alone.
-                let occlusion = r.options().cluster_tests.occlusion;
-                let writes = if !occlusion && self.ovc.adaptive == 0.0 && !r.counts_fragments() { Pass::Color } else { Pass::Depth };
-                let or_notes = occlusion.then_some(&self.notes[parity]);
+                // and OR of two frames later draws only those, as the switch's nodes do.
+                let writes = if self.ovc.adaptive == 0.0 && !r.counts_fragments() { Pass::Color } else { Pass::Depth };
+                let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[parity]);
                 self.image.clear();
                 let mut or = DrawStats::default();
                 for (ids, clear) in [(&self.older, true), (&self.added, false)] {
@@ -261,7 +259,7 @@ impl ModeState {
                 // for it would be drawn twice (sec. 5.4 redraws such faces): the image is
                 // drawn anew.
                 if let Some(p) = hc.pyramid {
-                    if occlusion {
+                    if or_notes.is_some() {
                         notes = Some(pass::note_clusters(scene, view, &pvs, &p)?);
                     }
                     r.give_back(p);
@@ -285,7 +283,10 @@ impl ModeState {
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {
-            Mode::Prev if let Some(hc) = reused => pass::rvg_over(r, scene, view, &pvs, pass::Begun { or: &self.image, hc: &hc })?,
+            Mode::Prev if let Some(hc) = reused => {
+                let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[parity]);
+                pass::rvg_over(r, scene, view, &pvs, pass::Begun { or: &self.image, or_notes, hc: &hc }, notes.as_ref())?
+            }
             Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, notes.as_ref())?,
             _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
         };

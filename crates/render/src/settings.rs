@@ -23,8 +23,8 @@ pub struct AgreedArgs {
     #[arg(long)]
     pub always_cull: bool,
     /// Cluster tests of the passes that draw, in the nodes and the display: as `osw render
-    /// --cluster-tests` (`occlusion` is RVG's two passes, in the display) [default: the
-    /// config's, else frustum,cone,backface,small].
+    /// --cluster-tests` (`occlusion`: HC's notes of hidden clusters, sent to the display) [default:
+    /// the config's, else frustum,cone,backface,small,occlusion].
     #[arg(long, value_name = "LIST")]
     pub cluster_tests: Option<ClusterTests>,
 }

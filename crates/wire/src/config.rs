@@ -9,7 +9,7 @@
 //! token = "secret"            # optional: every connection must present it
 //! adaptive = 0.0              # the settings every process must agree on (`osw run` writes
 //! always_cull = false         # them; each process's flags override them)
-//! cluster_tests = "frustum,cone,backface,small"
+//! cluster_tests = "frustum,cone,backface,small,occlusion"
 //! [nodes.a]
 //! listen = "127.0.0.1:7101"   # loopback by default: reachable from this host only
 //! address = "127.0.0.1:7101"  # where the peer and the display connect

@@ -35,23 +35,57 @@ pub fn rvg(
     Ok(drawn + r.draw_translucent(scene, view, pvs, Pass::Color, false)?)
 }
 
-/// What OR and HC drew into the image before RVG (Yoon 2003 sec. 5.4): OR's nodes (sorted)
-/// and HC's additions (sorted), whole.
+/// What OR and HC drew into the image before RVG (Yoon 2003 sec. 5.4): OR's nodes (sorted),
+/// of each the clusters `or_notes` took when there were notes, else whole; and HC's
+/// additions (sorted), whole.
 pub struct Begun<'a> {
     pub or: &'a [NodeId],
+    pub or_notes: Option<&'a VisibleClusters>,
     pub hc: &'a [NodeId],
 }
 
-/// Draws `pvs` over the image that OR and HC began: the opaque nodes they did not draw, then
-/// the translucent clusters of all, as [`Renderer::draw`] orders them. What they drew and HC
-/// did not keep is hidden behind what they drew or lies outside the frustum, so the image is
-/// the PVS's. Returns the PVS's counts as [`rvg()`] would draw it (gathered for this view
-/// already: copied), with the time of the draws made.
-pub fn rvg_over(r: &mut Renderer, scene: &SceneFile, view: &View, pvs: &[NodeId], begun: Begun) -> Result<DrawStats, RenderError> {
-    let drawn = |id: &NodeId| begun.or.binary_search(id).is_ok() || begun.hc.binary_search(id).is_ok();
-    let new: Vec<NodeId> = pvs.iter().copied().filter(|id| !drawn(id)).collect();
-    let made = if new.is_empty() { DrawStats::default() } else { r.draw_opaque(scene, view, &new, Pass::Color, false)? };
-    let counts = r.gather(scene, view, pvs, r.options().cluster_tests, None)?;
-    let opaque = DrawStats { draws: made.draws, gpu_ns: made.gpu_ns, ..counts };
+/// Draws `pvs` over the image that OR and HC began: the opaque clusters they did not draw, of
+/// those with `notes` only the ones HC noted visible, then the translucent clusters of all, as
+/// [`Renderer::draw`] orders them. What they drew and HC did not keep is hidden behind what
+/// they drew or lies outside the frustum, so the image is the PVS's. Returns the PVS's counts
+/// as [`rvg()`] would draw it, with the time of the draws made: without notes gathered for
+/// this view already (copied); with notes, the clusters drawn before counted whole (the
+/// triangle tests ran where they were drawn).
+pub fn rvg_over(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    view: &View,
+    pvs: &[NodeId],
+    begun: Begun,
+    notes: Option<&VisibleClusters>,
+) -> Result<DrawStats, RenderError> {
+    let (hc, or) = (|id: NodeId| begun.hc.binary_search(&id).is_ok(), |id: NodeId| begun.or.binary_search(&id).is_ok());
+    let drawn = |id: NodeId, k: usize| hc(id) || (or(id) && begun.or_notes.is_none_or(|n| n.takes(id, k)));
+    let opaque = if notes.is_none() && begun.or_notes.is_none() {
+        // Whole nodes on both sides.
+        let new: Vec<NodeId> = pvs.iter().copied().filter(|&id| !hc(id) && !or(id)).collect();
+        let made = if new.is_empty() { DrawStats::default() } else { r.draw_opaque(scene, view, &new, Pass::Color, false)? };
+        let counts = r.gather(scene, view, pvs, r.options().cluster_tests, None)?;
+        DrawStats { draws: made.draws, gpu_ns: made.gpu_ns, ..counts }
+    } else {
+        // The counts first, as rvg() gathers them: the clusters drawn before were drawn under
+        // this view and tests, but gathered with other clusters of theirs.
+        let mut hidden = 0;
+        let visible = |id: NodeId, k: usize| notes.is_none_or(|n| n.takes(id, k));
+        let mut counts = r.gather(
+            scene,
+            view,
+            pvs,
+            r.options().cluster_tests,
+            Some(&mut |id, k, _| {
+                hidden += u64::from(!visible(id, k));
+                visible(id, k)
+            }),
+        )?;
+        counts.clusters.occlusion_culled = hidden;
+        let mut rest = r.gather(scene, view, pvs, r.options().cluster_tests, Some(&mut |id, k, _| visible(id, k) && !drawn(id, k)))?;
+        r.submit(view, Pass::Color, Layer::Opaque, false, &mut rest)?;
+        DrawStats { draws: rest.draws, gpu_ns: rest.gpu_ns, ..counts }
+    };
     Ok(opaque + r.draw_translucent(scene, view, pvs, Pass::Color, false)?)
 }
