@@ -18,6 +18,20 @@ pub fn rvg(
     notes: Option<&VisibleClusters>,
 ) -> Result<DrawStats, RenderError> {
     let Some(notes) = notes else { return r.draw(scene, view, pvs, Pass::Color, true) };
+    let mut drawn = gather_noted(r, scene, view, pvs, notes)?;
+    r.submit(view, Pass::Color, Layer::Opaque, true, &mut drawn)?;
+    Ok(drawn + r.draw_translucent(scene, view, pvs, Pass::Color, false)?)
+}
+
+/// The opaque clusters of `pvs` that `notes` take gathered, the others counted as occlusion
+/// culled.
+fn gather_noted(
+    r: &mut Renderer,
+    scene: &SceneFile,
+    view: &View,
+    pvs: &[NodeId],
+    notes: &VisibleClusters,
+) -> Result<DrawStats, RenderError> {
     let mut hidden = 0;
     let mut drawn = r.gather(
         scene,
@@ -31,8 +45,7 @@ pub fn rvg(
         }),
     )?;
     drawn.clusters.occlusion_culled = hidden;
-    r.submit(view, Pass::Color, Layer::Opaque, true, &mut drawn)?;
-    Ok(drawn + r.draw_translucent(scene, view, pvs, Pass::Color, false)?)
+    Ok(drawn)
 }
 
 /// What OR and HC drew into the image before RVG (Yoon 2003 sec. 5.4): OR's nodes (sorted),
@@ -48,9 +61,7 @@ pub struct Begun<'a> {
 /// those with `notes` only the ones HC noted visible, then the translucent clusters of all, as
 /// [`Renderer::draw`] orders them. What they drew and HC did not keep is hidden behind what
 /// they drew or lies outside the frustum, so the image is the PVS's. Returns the PVS's counts
-/// as [`rvg()`] would draw it, with the time of the draws made: without notes gathered for
-/// this view already (copied); with notes, the clusters drawn before counted whole (the
-/// triangle tests ran where they were drawn).
+/// as [`rvg()`] would draw it, with the time of the draws made.
 pub fn rvg_over(
     r: &mut Renderer,
     scene: &SceneFile,
@@ -70,19 +81,11 @@ pub fn rvg_over(
     } else {
         // The counts first, as rvg() gathers them: the clusters drawn before were drawn under
         // this view and tests, but gathered with other clusters of theirs.
-        let mut hidden = 0;
+        let counts = match notes {
+            Some(notes) => gather_noted(r, scene, view, pvs, notes)?,
+            None => r.gather(scene, view, pvs, r.options().cluster_tests, None)?,
+        };
         let visible = |id: NodeId, k: usize| notes.is_none_or(|n| n.takes(id, k));
-        let mut counts = r.gather(
-            scene,
-            view,
-            pvs,
-            r.options().cluster_tests,
-            Some(&mut |id, k, _| {
-                hidden += u64::from(!visible(id, k));
-                visible(id, k)
-            }),
-        )?;
-        counts.clusters.occlusion_culled = hidden;
         let mut rest = r.gather(scene, view, pvs, r.options().cluster_tests, Some(&mut |id, k, _| visible(id, k) && !drawn(id, k)))?;
         r.submit(view, Pass::Color, Layer::Opaque, false, &mut rest)?;
         DrawStats { draws: rest.draws, gpu_ns: rest.gpu_ns, ..counts }
