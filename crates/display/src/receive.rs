@@ -155,7 +155,7 @@ impl Frames {
                         // frame then, on its clock, and it arrived here.
                         prev.peer_link_ms = ms(clock(hc).to_display(e.clock.peer_eof_received_us), clock(sender).to_display(sent));
                     }
-                    self.prev_eof = Some((hc, e.clock.sent_us));
+                    self.prev_eof = Some((hc, e.clock.peer_sent_us));
                     row.hc_node = hc as u32;
                     row.degraded = self.cluster.nodes.iter().any(Option::is_none) as u32;
                     break;

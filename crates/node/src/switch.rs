@@ -180,17 +180,20 @@ impl Switch {
         let passes_us = [times.traversal_ms, times.second_look_ms, times.retest_ms].map(|ms| (ms * 1e3) as u64);
         let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull };
         let peer_eof_received_us = self.peer_eof_received_us;
+        let peer_sent_us = now_us();
         let eof = |sent_us| {
-            Message::EndOfFrame(EndOfFrame { frame: i, stats, clock: LinkStamps { sent_us, camera_received_us, peer_eof_received_us } })
+            let clock = LinkStamps { sent_us, camera_received_us, peer_eof_received_us, peer_sent_us };
+            Message::EndOfFrame(EndOfFrame { frame: i, stats, clock })
         };
-        self.io.send(&eof(now_us()), self.io.roles.peer_in_step(), false)?;
+        self.io.send(&eof(peer_sent_us), self.io.roles.peer_in_step(), false)?;
         // HC's notes of V(i)'s clusters (pass::note_clusters) once the peer has its end of
         // frame: RVG draws only the visible ones, and so does this node's next OR.
         self.notes = VisibleClusters::default();
         if let Some(p) = pyramid {
             if self.renderer.options().cluster_tests.occlusion {
-                self.notes = pass::note_clusters(&self.scene, &view, &pvs, &p)?;
-                let bits = self.notes.mask(&pvs, |id| self.scene.opaque_clusters(id));
+                let notes = pass::note_clusters(&self.scene, &view, &pvs, &p)?;
+                let bits = notes.visible.mask(&pvs, |id| self.scene.opaque_clusters(id));
+                self.notes = notes.occluders;
                 // A mask too large for a frame (about 130M clusters in view) is not sent: RVG
                 // then draws the nodes whole.
                 if bits.len() <= osw_wire::limits::KEYFRAME_PART_BYTES {

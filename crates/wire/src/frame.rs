@@ -119,7 +119,7 @@ mod tests {
             Message::EndOfFrame(EndOfFrame {
                 frame: 7,
                 stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, passes_us: [3, 1, 1], pvs: 3, cull_skipped: false },
-                clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3 },
+                clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3, peer_sent_us: 4 },
             }),
             Message::Ping(Ping { sent_us: 9 }),
             Message::Pong(Pong { ping_sent_us: 9, received_us: 10, sent_us: 11 }),
@@ -151,13 +151,13 @@ mod tests {
         let mut b = Vec::new();
         encode_frame(&samples()[0], &mut b).unwrap();
         assert_eq!(b, [&[23, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, b't', 1, 1, 6][..], b"--size", &[3], b"8x8"].concat());
-        // An end of frame: length 13, variant 3, frame 7, tests 10, levels 2, hc_us 5, HC's
-        // passes 3, 1, 1 (protocol 9), pvs 3, culling not skipped, then the link stamps 1, 2, 3
-        // (bincode standard: varint integers; protocol 7 dropped an OR time that was always
-        // 0, protocol 8 added the skipped flag).
+        // An end of frame: length 14, variant 3, frame 7, tests 10, levels 2, hc_us 5, HC's
+        // passes 3, 1, 1 (protocol 9), pvs 3, culling not skipped, then the link stamps 1, 2,
+        // 3, 4 (bincode standard: varint integers; protocol 7 dropped an OR time that was
+        // always 0, protocol 8 added the skipped flag, protocol 11 when the peer's copy went).
         let mut b = Vec::new();
         encode_frame(&samples()[3], &mut b).unwrap();
-        assert_eq!(b, vec![13, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 1, 3, 0, 1, 2, 3]);
+        assert_eq!(b, vec![14, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 1, 3, 0, 1, 2, 3, 4]);
         // A camera: variant 1, frame 7, eight f64 (position, orientation, fovy) and tau as
         // little-endian IEEE doubles, then sampled_us 123: 2 + 9 * 8 + 1 = 75 bytes, the
         // paper's 72 (sec. 3.5) plus tau, the frame number and the stamp.

@@ -123,12 +123,15 @@ pub struct EndOfFrame {
 /// display computes each link's one-way latency; 0 where there is none.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct LinkStamps {
-    /// When this end of frame was sent (HC → RVG and HC → OR).
+    /// When this end of frame was sent (HC → RVG, or HC → OR for the peer's copy).
     pub sent_us: u64,
     /// When this node received the frame's camera from RVG (RVG → HC).
     pub camera_received_us: u64,
     /// When this node, as OR, received the peer's end of the previous frame (HC → OR).
     pub peer_eof_received_us: u64,
+    /// When this frame's end went to the peer (HC → OR; protocol 11): before HC's cluster
+    /// notes, which RVG's end of frame waits for.
+    pub peer_sent_us: u64,
 }
 
 /// HC's notes of which clusters of V(`frame`) are visible (osw_cull::cluster::VisibleClusters):

@@ -35,20 +35,30 @@ pub fn or(
     Ok(drawn)
 }
 
+/// HC's notes of the opaque clusters of its visible set (pass::note_clusters).
+#[derive(Clone, Debug, Default)]
+pub struct Notes {
+    /// Those the pyramid does not hide, for RVG of the same frame.
+    pub visible: VisibleClusters,
+    /// Those, and every cluster not wholly inside the frustum, for OR of a later frame.
+    pub occluders: VisibleClusters,
+}
+
 /// The opaque clusters of `pvs` (HC's V(i), for `view`) that `pyramid` does not hide. RVG of
 /// this frame draws only those: a hidden cluster is behind geometry drawn for this camera
 /// (OR's occluders and HC's, each at tau for it), and the node nearest at each pixel is in the
 /// visible set with its nearest cluster, so the image is the visible set's. OR, drawing V(i)
 /// as occluders for a later camera, leaves out those that were hidden: a hidden cluster writes
 /// no depth, and one still hidden a frame or two later writes none either (the temporal
-/// coherence that sec. 4.6 draws V(i-1) on). Clusters not wholly inside the frustum count as
-/// visible: they may come into view. Fewer occluders can only make HC find more visible:
-/// conservative.
-pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &Pyramid) -> Result<VisibleClusters, RenderError> {
+/// coherence that sec. 4.6 draws V(i-1) on). For OR, clusters not wholly inside the frustum
+/// count as visible: they may come into view. Fewer occluders can only make HC find more
+/// visible: conservative.
+pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &Pyramid) -> Result<Notes, RenderError> {
     let vp = view.view_proj().as_dmat4();
-    let mut notes = VisibleClusters::default();
+    let mut notes = Notes::default();
     for &id in pvs {
-        notes.look_at(id);
+        notes.visible.look_at(id);
+        notes.occluders.look_at(id);
         // An instance's cluster boxes placed, not its vertices: a placed box holds the placed
         // cluster's box (exactly where the placement keeps the axes), so the test is conservative.
         let (g, placement) = (scene.stored_geometry(id)?, scene.placement(id));
@@ -57,9 +67,12 @@ pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &P
                 continue;
             }
             let b = placement.as_ref().map_or(c.aabb(), |p| p.bounds(c.aabb()));
-            let edge = view.frustum.classify(&b) != Containment::Inside || view.frustum.needs_no_test(&b);
-            if edge || visible_box(pyramid, &vp, view, &b, CLUSTER_FINER, 0) {
-                notes.mark(id, k);
+            // The part of the box on the image is tested: hidden there, it is hidden.
+            if view.frustum.needs_no_test(&b) || visible_box(pyramid, &vp, view, &b, CLUSTER_FINER, 0) {
+                notes.visible.mark(id, k);
+                notes.occluders.mark(id, k);
+            } else if view.frustum.classify(&b) != Containment::Inside {
+                notes.occluders.mark(id, k);
             }
         }
     }
