@@ -12,7 +12,6 @@ use glam::DVec3;
 use osw_scene::NodeId;
 use osw_scene::cluster::NO_CONE;
 use osw_scene::format::ClusterRecord;
-use std::collections::HashMap;
 
 /// Which cluster and triangle tests a pass runs (each can be turned off alone to show what it
 /// culls and that the frame does not change). The triangle tests pay on lavapipe, which sets
@@ -114,69 +113,63 @@ impl std::ops::Add for ClusterStats {
 /// RVG as a [`VisibleClusters::mask`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct VisibleClusters {
-    nodes: HashMap<NodeId, Vec<u64>>,
+    /// The nodes looked at, in increasing id order, each with where its bits start.
+    nodes: Vec<(NodeId, usize)>,
+    /// A bit per opaque cluster of each node in turn, 1 where visible, packed from the low bit
+    /// of the first byte: the mask itself.
+    bits: Vec<u8>,
+    /// Bits in use.
+    len: usize,
 }
 
 impl VisibleClusters {
     /// Whether cluster `cluster` of node `id` is drawn: found visible, or of a node not looked
     /// at (one HC did not find, or a LOD that OR's front update chose anew), drawn whole.
     pub fn takes(&self, id: NodeId, cluster: usize) -> bool {
-        self.nodes.get(&id).is_none_or(|b| b.get(cluster / 64).is_some_and(|w| w >> (cluster % 64) & 1 != 0))
+        let Ok(i) = self.nodes.binary_search_by_key(&id, |n| n.0) else { return true };
+        let end = self.nodes.get(i + 1).map_or(self.len, |n| n.1);
+        let at = self.nodes[i].1 + cluster;
+        at < end && self.bits[at / 8] >> (at % 8) & 1 != 0
     }
 
-    /// Notes that node `id`'s clusters were looked at, whether or not any is visible.
-    pub fn look_at(&mut self, id: NodeId) {
-        self.nodes.entry(id).or_default();
+    /// Looks at node `id` (above every node looked at before) of `count` opaque clusters, none
+    /// visible yet.
+    pub fn look_at(&mut self, id: NodeId, count: u32) {
+        debug_assert!(self.nodes.last().is_none_or(|n| n.0 < id), "nodes in increasing id order");
+        self.nodes.push((id, self.len));
+        self.len += count as usize;
+        self.bits.resize(self.len.div_ceil(8), 0);
     }
 
-    /// Marks a cluster visible.
-    pub fn mark(&mut self, id: NodeId, cluster: usize) {
-        let bits = self.nodes.entry(id).or_default();
-        if bits.len() <= cluster / 64 {
-            bits.resize(cluster / 64 + 1, 0);
-        }
-        bits[cluster / 64] |= 1 << (cluster % 64);
+    /// Marks cluster `cluster` of the node looked at last visible.
+    pub fn mark(&mut self, cluster: usize) {
+        let at = self.nodes.last().expect("a node looked at").1 + cluster;
+        debug_assert!(at < self.len, "a cluster of the node");
+        self.bits[at / 8] |= 1 << (at % 8);
     }
 
-    /// The bits of `pvs` (sorted, every node looked at), node by node in its order, `count(id)`
-    /// bits each (the node's opaque clusters), 1 where visible, packed from the low bit of
-    /// the first byte: what the display needs to know, since it holds the same scene.
-    pub fn mask(&self, pvs: &[NodeId], count: impl Fn(NodeId) -> u32) -> Vec<u8> {
-        let total: u64 = pvs.iter().map(|&id| u64::from(count(id))).sum();
-        let mut out = vec![0u8; total.div_ceil(8) as usize];
-        let mut at = 0usize;
+    /// The bits of the nodes looked at, node by node in id order, a bit per opaque cluster:
+    /// what the display needs to know, since it holds the same scene.
+    pub fn mask(&self) -> &[u8] {
+        &self.bits
+    }
+
+    /// The clusters a [`VisibleClusters::mask`] of `pvs` (sorted) says, `count(id)` bits a
+    /// node, or what is wrong with it: its length must be the one the scene's cluster counts
+    /// give, its padding zero.
+    pub fn from_mask(pvs: &[NodeId], count: impl Fn(NodeId) -> u32, mask: Vec<u8>) -> Result<VisibleClusters, String> {
+        let mut v = VisibleClusters::default();
         for &id in pvs {
-            for k in 0..count(id) as usize {
-                if self.takes(id, k) {
-                    out[at / 8] |= 1 << (at % 8);
-                }
-                at += 1;
-            }
+            v.nodes.push((id, v.len));
+            v.len += count(id) as usize;
         }
-        out
-    }
-
-    /// The clusters a [`VisibleClusters::mask`] of `pvs` says, or what is wrong with it: its
-    /// length must be the one the scene's cluster counts give, its padding zero.
-    pub fn from_mask(pvs: &[NodeId], count: impl Fn(NodeId) -> u32, mask: &[u8]) -> Result<VisibleClusters, String> {
-        let total: u64 = pvs.iter().map(|&id| u64::from(count(id))).sum();
-        if mask.len() as u64 != total.div_ceil(8) {
-            return Err(format!("a cluster mask of {} bytes for {} nodes of {total} clusters", mask.len(), pvs.len()));
+        if mask.len() != v.len.div_ceil(8) {
+            return Err(format!("a cluster mask of {} bytes for {} nodes of {} clusters", mask.len(), pvs.len(), v.len));
         }
-        if !total.is_multiple_of(8) && mask.last().is_some_and(|&b| b >> (total % 8) != 0) {
+        if !v.len.is_multiple_of(8) && mask.last().is_some_and(|&b| b >> (v.len % 8) != 0) {
             return Err("a cluster mask with bits set past its last cluster".into());
         }
-        let mut v = VisibleClusters::default();
-        let mut at = 0usize;
-        for &id in pvs {
-            v.look_at(id);
-            for k in 0..count(id) as usize {
-                if mask[at / 8] >> (at % 8) & 1 != 0 {
-                    v.mark(id, k);
-                }
-                at += 1;
-            }
-        }
+        v.bits = mask;
         Ok(v)
     }
 }
@@ -303,27 +296,28 @@ mod tests {
         let counts = |id: NodeId| [3u32, 0, 70, 5][id as usize];
         let pvs = [0, 1, 2, 3];
         let mut notes = VisibleClusters::default();
+        let marked = [(0, 1), (2, 0), (2, 63), (2, 64), (2, 69), (3, 4)];
         for id in pvs {
-            notes.look_at(id);
-        }
-        for (id, k) in [(0, 1), (2, 0), (2, 63), (2, 64), (2, 69), (3, 4)] {
-            notes.mark(id, k);
-        }
-        let mask = notes.mask(&pvs, counts);
-        assert_eq!(mask.len(), (3 + 70 + 5usize).div_ceil(8));
-        let back = VisibleClusters::from_mask(&pvs, counts, &mask).unwrap();
-        for id in pvs {
-            for k in 0..counts(id) as usize {
-                assert_eq!(back.takes(id, k), notes.takes(id, k), "node {id} cluster {k}");
+            notes.look_at(id, counts(id));
+            for &(_, k) in marked.iter().filter(|m| m.0 == id) {
+                notes.mark(k);
             }
         }
-        assert!(!back.takes(0, 0) && back.takes(2, 64) && !back.takes(2, 65));
+        let mask = notes.mask().to_vec();
+        assert_eq!(mask.len(), (3 + 70 + 5usize).div_ceil(8));
+        let back = VisibleClusters::from_mask(&pvs, counts, mask.clone()).unwrap();
+        for id in pvs {
+            for k in 0..counts(id) as usize {
+                assert_eq!(back.takes(id, k), marked.contains(&(id, k)), "node {id} cluster {k}");
+            }
+        }
+        assert!(!back.takes(2, 70) && !back.takes(0, 3), "past a node's clusters");
         assert!(back.takes(9, 0), "a node not looked at is drawn whole");
-        let short = VisibleClusters::from_mask(&pvs, counts, &mask[1..]).unwrap_err();
+        let short = VisibleClusters::from_mask(&pvs, counts, mask[1..].to_vec()).unwrap_err();
         assert!(short.contains("of 78 clusters"), "{short}");
         let mut padded = mask.clone();
         *padded.last_mut().unwrap() |= 0x80;
-        assert!(VisibleClusters::from_mask(&pvs, counts, &padded).unwrap_err().contains("past its last cluster"));
+        assert!(VisibleClusters::from_mask(&pvs, counts, padded).unwrap_err().contains("past its last cluster"));
     }
 
     /// Triangles of `m` whose front faces `eye` (counter-clockwise from outside).

@@ -177,7 +177,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         // RVG as prev's: the clusters HC found hidden are left out.
         let notes = match frames.mask.take() {
             Some(m) => Some(
-                VisibleClusters::from_mask(&frames.visible, |id| scene.opaque_clusters(id), &m)
+                VisibleClusters::from_mask(&frames.visible, |id| scene.opaque_clusters(id), m)
                     .map_err(|e| anyhow::anyhow!("frame {i}: node {}: {e}", links::NAMES[row.hc_node as usize]))?,
             ),
             None => None,

@@ -192,7 +192,7 @@ impl Switch {
         if let Some(p) = pyramid {
             if self.renderer.options().cluster_tests.occlusion {
                 let notes = pass::note_clusters(&self.scene, &view, &pvs, &p)?;
-                let bits = notes.visible.mask(&pvs, |id| self.scene.opaque_clusters(id));
+                let bits = notes.visible.mask().to_vec();
                 self.notes = notes.occluders;
                 // A mask too large for a frame (about 130M clusters in view) is not sent: RVG
                 // then draws the nodes whole.

@@ -44,7 +44,7 @@ pub struct Notes {
     pub occluders: VisibleClusters,
 }
 
-/// The opaque clusters of `pvs` (HC's V(i), for `view`) that `pyramid` does not hide. RVG of
+/// The opaque clusters of `pvs` (HC's V(i), sorted, for `view`) that `pyramid` does not hide. RVG of
 /// this frame draws only those: a hidden cluster is behind geometry drawn for this camera
 /// (OR's occluders and HC's, each at tau for it), and the node nearest at each pixel is in the
 /// visible set with its nearest cluster, so the image is the visible set's. OR, drawing V(i)
@@ -57,11 +57,11 @@ pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &P
     let vp = view.view_proj().as_dmat4();
     let mut notes = Notes::default();
     for &id in pvs {
-        notes.visible.look_at(id);
-        notes.occluders.look_at(id);
         // An instance's cluster boxes placed, not its vertices: a placed box holds the placed
         // cluster's box (exactly where the placement keeps the axes), so the test is conservative.
         let (g, placement) = (scene.stored_geometry(id)?, scene.placement(id));
+        notes.visible.look_at(id, g.opaque as u32);
+        notes.occluders.look_at(id, g.opaque as u32);
         for (k, c) in g.clusters[..g.opaque].iter().enumerate() {
             if !view.lod.takes(&c.cut) {
                 continue;
@@ -69,10 +69,10 @@ pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &P
             let b = placement.as_ref().map_or(c.aabb(), |p| p.bounds(c.aabb()));
             // The part of the box on the image is tested: hidden there, it is hidden.
             if view.frustum.needs_no_test(&b) || visible_box(pyramid, &vp, view, &b, CLUSTER_FINER, 0) {
-                notes.visible.mark(id, k);
-                notes.occluders.mark(id, k);
+                notes.visible.mark(k);
+                notes.occluders.mark(k);
             } else if view.frustum.classify(&b) != Containment::Inside {
-                notes.occluders.mark(id, k);
+                notes.occluders.mark(k);
             }
         }
     }
