@@ -6,8 +6,8 @@
 //! below the farthest occluder depth over its rectangle.
 //!
 //! The same pyramid and test, read a few levels finer, down to the pixels under a box where
-//! its texels let it through ([`Pyramid::reaches`]), and on the halves of a box that passes
-//! ([`visible_parts`]), are the first test of `prev`'s and the switch's default HC (`--hc
+//! its texels let it through and there by the box's own depth ([`Pyramid::reaches`],
+//! [`visible_box`]), are the first test of `prev`'s and the switch's default HC (`--hc
 //! hybrid`): every round of its traversal then costs no GPU round trip.
 
 use crate::frustum::Containment;
@@ -126,42 +126,107 @@ impl Pyramid {
 
 impl Pyramid {
     /// Whether some pixel of the rectangle `rect` = [x0, x1] x [y0, y1] (inclusive, inside the image)
-    /// lies at or behind depth `nearest`: the pyramid read from the level of
-    /// [`Pyramid::lets_through`] down, only under texels that let `nearest` through, to the pixels
-    /// themselves. What `lets_through` answers for the texels that cover the rectangle, this
-    /// answers for the rectangle: a box behind a near occluder with gaps passes a coarse texel
-    /// through a gap beside it. After `budget` texels read it answers true (conservative).
-    pub fn reaches(&self, rect: (u32, u32, u32, u32), nearest: f32, finer: u32, budget: u32) -> bool {
+    /// lies at or behind a box there: `nearest` the box's nearest depth, and `within` its
+    /// nearest depth over the pixel centres of a block of pixels (inclusive), None where it
+    /// covers none of them. The pyramid is read from the level of [`Pyramid::lets_through`]
+    /// down, only under texels that let the box through, to the pixels themselves. What
+    /// `lets_through` answers for the texels that cover the rectangle, this answers for the
+    /// box: a box behind a near occluder with gaps passes a coarse texel through a gap beside
+    /// it, and its rectangle through a gap beside its silhouette. After `budget` texels read it
+    /// answers true (conservative).
+    pub fn reaches(
+        &self,
+        rect: (u32, u32, u32, u32),
+        (nearest, within): (f32, &impl Fn((u32, u32, u32, u32)) -> Option<f32>),
+        finer: u32,
+        budget: u32,
+    ) -> bool {
         let level = self.level_of(rect.0, rect.1, rect.2, rect.3, finer);
         let mut left = budget;
-        self.reaches_below(level, rect, (0, 0, u32::MAX, u32::MAX), nearest, &mut left)
+        self.reaches_below(level, rect, (0, 0, u32::MAX, u32::MAX), (nearest, within), &mut left)
     }
 
     /// [`Pyramid::reaches`] at `level`, over the texels of `rect` (level-0 pixels) within
-    /// `within` (texels of this level).
-    fn reaches_below(&self, level: usize, rect: (u32, u32, u32, u32), within: (u32, u32, u32, u32), nearest: f32, left: &mut u32) -> bool {
+    /// `texels` (of this level).
+    fn reaches_below(
+        &self,
+        level: usize,
+        rect: (u32, u32, u32, u32),
+        texels: (u32, u32, u32, u32),
+        (nearest, within): (f32, &impl Fn((u32, u32, u32, u32)) -> Option<f32>),
+        left: &mut u32,
+    ) -> bool {
         let (w, h, d) = &self.levels[level];
         let (x0, y0, x1, y1) = rect;
-        let tx0 = (x0 >> level).max(within.0);
-        let ty0 = (y0 >> level).max(within.1);
-        let tx1 = (x1 >> level).min(w - 1).min(within.2);
-        let ty1 = (y1 >> level).min(h - 1).min(within.3);
+        let tx0 = (x0 >> level).max(texels.0);
+        let ty0 = (y0 >> level).max(texels.1);
+        let tx1 = (x1 >> level).min(w - 1).min(texels.2);
+        let ty1 = (y1 >> level).min(h - 1).min(texels.3);
         for y in ty0..=ty1 {
             for x in tx0..=tx1 {
                 if *left == 0 {
                     return true;
                 }
                 *left -= 1;
-                // Rounding margin: f32 depth against an f64 corner depth.
-                if nearest < d[(y * w + x) as usize] - 1e-7 {
+                // Rounding margin: f32 depth against an f64 depth.
+                let farthest = d[(y * w + x) as usize] - 1e-7;
+                if nearest < farthest {
                     continue;
                 }
-                if level == 0 || self.reaches_below(level - 1, rect, (2 * x, 2 * y, 2 * x + 1, 2 * y + 1), nearest, left) {
+                let block =
+                    ((x << level).max(x0), (y << level).max(y0), (((x + 1) << level) - 1).min(x1), (((y + 1) << level) - 1).min(y1));
+                // The box's part over this texel: nearer than none of it, it is hidden here.
+                let Some(part) = within(block).filter(|&z| z >= farthest) else { continue };
+                if level == 0 || self.reaches_below(level - 1, rect, (2 * x, 2 * y, 2 * x + 1, 2 * y + 1), (part, within), left) {
                     return true;
                 }
             }
         }
         false
+    }
+}
+
+/// The rays through a view's pixel centres, camera-relative (the eye at the origin): pixel (x,
+/// y)'s meets the near plane at `corner + x step_x + y step_y`, and the point t times as far
+/// along it has reversed-Z depth 1 / t ([`View::view_proj`]: depth = near / distance along the
+/// view axis).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelRays {
+    corner: DVec3,
+    step_x: DVec3,
+    step_y: DVec3,
+}
+
+impl PixelRays {
+    pub fn new(view: &View) -> PixelRays {
+        let f = 1.0 / (view.fovy_rad * 0.5).tan();
+        let (w, h) = (view.width as f64, view.height as f64);
+        let q = view.orientation;
+        // Near-plane offsets per unit of normalised device x and y.
+        let (right, up) = (q * DVec3::X * (view.near * w / h / f), q * DVec3::Y * (view.near / f));
+        // Pixel centre (x + 0.5, y + 0.5): ndc x = (2x + 1) / w - 1, ndc y = 1 - (2y + 1) / h.
+        let corner = q * DVec3::NEG_Z * view.near + right * (1.0 / w - 1.0) + up * (1.0 - 1.0 / h);
+        PixelRays { corner, step_x: right * (2.0 / w), step_y: up * (-2.0 / h) }
+    }
+
+    /// Reversed-Z depth where the ray through pixel (x, y)'s centre enters the camera-relative
+    /// box `lo..hi` (1 where the box reaches the near plane there), or None where it misses
+    /// the box: what the GPU's exact test draws of the box at that pixel.
+    pub fn depth_into(&self, x: u32, y: u32, (lo, hi): (DVec3, DVec3)) -> Option<f64> {
+        let d = self.corner + x as f64 * self.step_x + y as f64 * self.step_y;
+        let (mut enter, mut exit) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if lo[a] > 0.0 || hi[a] < 0.0 {
+                    return None;
+                }
+                continue;
+            }
+            let (t0, t1) = (lo[a] / d[a], hi[a] / d[a]);
+            enter = enter.max(t0.min(t1));
+            exit = exit.min(t0.max(t1));
+        }
+        (enter <= exit && exit > 0.0).then(|| 1.0 / enter.max(1.0))
     }
 }
 
@@ -171,18 +236,33 @@ impl Pyramid {
 /// almost always see a gap.
 pub const PYRAMID_FINER: u32 = 3;
 
-/// Tests boxes against a [`Pyramid`] on the CPU.
-pub struct HzbTester<'a> {
-    pub nodes: &'a [NodeRecord],
-    pub pyramid: &'a Pyramid,
+/// How a box is read against a [`Pyramid`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Read {
     /// Levels below Peng 2014's 2x2-texel choice to read (see [`Pyramid::lets_through`]).
     pub finer: u32,
     /// Texels to read below that level, to the pixels ([`Pyramid::reaches`]); 0: that
     /// level's texels alone, as Peng 2014.
     pub budget: u32,
-    /// Times a box that passes is halved along its longest side and its halves tested
-    /// ([`visible_parts`]); 0: the box alone.
-    pub splits: u32,
+    /// Whether, on the way down, each texel is read against the box's own nearest depth over
+    /// it ([`OnImage::nearest_in`]) rather than the nearest over the box's rectangle: a large
+    /// box seen at a slant, or beside the eye, is hidden where its rectangle is not, at a
+    /// clipping of the box per texel read.
+    pub by_block: bool,
+}
+
+impl Read {
+    /// `finer` levels below Peng 2014's texels, no further.
+    pub const fn at(finer: u32) -> Read {
+        Read { finer, budget: 0, by_block: false }
+    }
+}
+
+/// Tests boxes against a [`Pyramid`] on the CPU.
+pub struct HzbTester<'a> {
+    pub nodes: &'a [NodeRecord],
+    pub pyramid: &'a Pyramid,
+    pub read: Read,
 }
 
 impl VisibilityTester for HzbTester<'_> {
@@ -219,19 +299,22 @@ impl Footprint {
 
     /// As [`Footprint::of`], for any scene-local box.
     pub fn of_box(vp: &DMat4, view: &View, b: &Aabb) -> Footprint {
-        let (lo, hi) = view.test_box(b);
+        match clip_corners(vp, view.test_box(b)) {
+            Some(corners) => Footprint::of_points(view, &corners),
+            None => Footprint::Behind,
+        }
+    }
+
+    /// [`Footprint::of_box`] of the part of the box on the image (see [`OnImage`]).
+    pub fn of_box_on_image(vp: &DMat4, view: &View, b: &Aabb) -> Footprint {
+        OnImage::new(vp, view, b).map_or(Footprint::Behind, |o| o.footprint())
+    }
+
+    /// The rectangle and nearest depth of clip-space points in front of the eye.
+    fn of_points(view: &View, points: &[DVec4]) -> Footprint {
         let (w, h) = (view.width as f64, view.height as f64);
         let (mut x0, mut y0, mut x1, mut y1, mut nearest) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY, 0.0f64);
-        for c in 0..8 {
-            let p = DVec3::new(
-                if c & 1 != 0 { hi.x } else { lo.x },
-                if c & 2 != 0 { hi.y } else { lo.y },
-                if c & 4 != 0 { hi.z } else { lo.z },
-            );
-            let clip = *vp * DVec4::new(p.x, p.y, p.z, 1.0);
-            if clip.w <= 0.0 {
-                return Footprint::Behind;
-            }
+        for clip in points {
             let (nx, ny, nz) = (clip.x / clip.w, clip.y / clip.w, clip.z / clip.w);
             x0 = x0.min((nx + 1.0) * 0.5 * w);
             x1 = x1.max((nx + 1.0) * 0.5 * w);
@@ -251,49 +334,171 @@ impl Footprint {
     }
 }
 
+/// The clip-space corners of the camera-relative box `lo..hi` (corner c takes the maximum on
+/// axis k where bit k of c is set), or None when one is behind the eye.
+fn clip_corners(vp: &DMat4, (lo, hi): (DVec3, DVec3)) -> Option<[DVec4; 8]> {
+    let corners = std::array::from_fn(|c| {
+        let p = DVec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), hi, lo);
+        *vp * p.extend(1.0)
+    });
+    corners.iter().all(|c: &DVec4| c.w > 0.0).then_some(corners)
+}
+
+/// A box's six faces as corner indices (see [`clip_corners`]), each in order around it.
+const BOX_FACES: [[usize; 4]; 6] = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
+
+/// A box as the image shows it: its grown corners in clip space, the nearest depth of its part
+/// on the image, or on any block of pixels. What lies off the image or outside a block draws
+/// nothing there, and a large box beside the eye has its nearest corner off the image: its
+/// part on the image is farther, and behind a wall its whole box is not. A box seen along a
+/// slant is nearer at one end than at the other: each block's part has its own depth.
+pub struct OnImage<'a> {
+    view: &'a View,
+    corners: [DVec4; 8],
+    grown: (DVec3, DVec3),
+    rays: PixelRays,
+}
+
+impl<'a> OnImage<'a> {
+    /// None when a corner of the grown box is behind the eye.
+    pub fn new(vp: &DMat4, view: &'a View, b: &Aabb) -> Option<OnImage<'a>> {
+        let grown = view.test_box(b);
+        let corners = clip_corners(vp, grown)?;
+        Some(OnImage { view, corners, grown, rays: PixelRays::new(view) })
+    }
+
+    /// The box's rectangle and nearest depth, of its faces clipped to the frustum's sides
+    /// where the rectangle crosses the image's edge.
+    pub fn footprint(&self) -> Footprint {
+        let whole = Footprint::of_points(self.view, &self.corners);
+        let (w, h) = (self.view.width as f64, self.view.height as f64);
+        match whole {
+            Footprint::Rect { x0, y0, x1, y1, .. } if x0 < 0.0 || y0 < 0.0 || x1 > w || y1 > h => {
+                let on_image = self.clipped((-1.0, 1.0, -1.0, 1.0));
+                let (x0, y0, x1, y1) = on_image.rect;
+                match on_image.points {
+                    // Nothing of it on the image: a rectangle off it.
+                    0 => Footprint::Rect { x0: -2.0, y0: -2.0, x1: -1.0, y1: -1.0, nearest: 0.0 },
+                    _ => Footprint::Rect { x0, y0, x1, y1, nearest: on_image.nearest },
+                }
+            }
+            whole => whole,
+        }
+    }
+
+    /// The box's nearest depth over the centres of the pixels [x0, x1] x [y0, y1] (inclusive):
+    /// along the ray of a single pixel, else the nearest corner of its faces clipped to the
+    /// frustum through the block's outer pixel centres (the nearest point of a convex body is
+    /// a corner). None where it covers none of them.
+    pub fn nearest_in(&self, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> Option<f64> {
+        if (x0, y0) == (x1, y1) {
+            return self.rays.depth_into(x0, y0, self.grown);
+        }
+        let (w, h) = (self.view.width as f64, self.view.height as f64);
+        // Widened a little, so that a block one pixel wide keeps a width.
+        let ndc_x = |x: u32, e: f64| (2.0 * (x as f64 + 0.5 + e)) / w - 1.0;
+        let ndc_y = |y: u32, e: f64| 1.0 - (2.0 * (y as f64 + 0.5 + e)) / h;
+        let part = self.clipped((ndc_x(x0, -1e-3), ndc_x(x1, 1e-3), ndc_y(y1, 1e-3), ndc_y(y0, -1e-3)));
+        (part.points > 0).then_some(part.nearest)
+    }
+
+    /// The box's faces clipped to the frustum of normalised device x in [ax, bx], y in [ay, by].
+    fn clipped(&self, (ax, bx, ay, by): (f64, f64, f64, f64)) -> Clipped {
+        let planes = [
+            DVec4::new(1.0, 0.0, 0.0, -ax),
+            DVec4::new(-1.0, 0.0, 0.0, bx),
+            DVec4::new(0.0, 1.0, 0.0, -ay),
+            DVec4::new(0.0, -1.0, 0.0, by),
+        ];
+        let mut out = Clipped::new(self.view);
+        for face in BOX_FACES {
+            out.clip_face(face.map(|c| self.corners[c]), &planes);
+        }
+        out
+    }
+}
+
+/// What is left of a box's faces clipped to four planes (Sutherland and Hodgman: a quad cut by
+/// four planes keeps at most 8 corners): the rectangle and nearest depth of those corners.
+struct Clipped {
+    width: f64,
+    height: f64,
+    points: u32,
+    rect: (f64, f64, f64, f64),
+    nearest: f64,
+}
+
+impl Clipped {
+    fn new(view: &View) -> Clipped {
+        let rect = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        Clipped { width: view.width as f64, height: view.height as f64, points: 0, rect, nearest: 0.0 }
+    }
+
+    /// Takes in what of `face` lies on the positive side of every plane (p . (x, y, z, w) >= 0).
+    fn clip_face(&mut self, face: [DVec4; 4], planes: &[DVec4; 4]) {
+        let (mut a, mut b) = ([DVec4::ZERO; 8], [DVec4::ZERO; 8]);
+        a[..4].copy_from_slice(&face);
+        let (mut poly, mut next, mut n) = (&mut a, &mut b, 4);
+        for plane in planes {
+            let mut m = 0;
+            for i in 0..n {
+                let (p, q) = (poly[i], poly[(i + 1) % n]);
+                let (dp, dq) = (plane.dot(p), plane.dot(q));
+                if dp >= 0.0 {
+                    next[m] = p;
+                    m += 1;
+                }
+                if (dp >= 0.0) != (dq >= 0.0) && m < 8 {
+                    next[m] = p + (q - p) * (dp / (dp - dq));
+                    m += 1;
+                }
+            }
+            (poly, next, n) = (next, poly, m);
+        }
+        for c in &poly[..n] {
+            let (nx, ny) = (c.x / c.w, c.y / c.w);
+            let (x, y) = ((nx + 1.0) * 0.5 * self.width, (1.0 - ny) * 0.5 * self.height);
+            self.rect = (self.rect.0.min(x), self.rect.1.min(y), self.rect.2.max(x), self.rect.3.max(y));
+            self.nearest = self.nearest.max(c.z / c.w);
+        }
+        self.points += n as u32;
+    }
+}
+
 impl HzbTester<'_> {
     fn visible(&self, vp: &DMat4, view: &View, id: NodeId) -> bool {
-        visible_parts(self.pyramid, vp, view, &self.nodes[id as usize].aabb(), (self.finer, self.budget), self.splits)
+        visible_box(self.pyramid, vp, view, &self.nodes[id as usize].aabb(), self.read)
     }
 }
 
-/// Whether any of box `b` may be nearer than the farthest depth under its screen rectangle
-/// (read `finer` levels below Peng 2014's 2x2 texels): false only when all of it is hidden.
-/// `vp`: the view's camera-relative view-projection in f64.
-/// With a `budget`, the texels that let it through are read down to the pixels under its
-/// rectangle ([`Pyramid::reaches`]).
-pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, finer: u32, budget: u32) -> bool {
-    let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of_box(vp, view, b) else { return true };
+/// Whether any of box `b` may be nearer than the farthest depth under its rectangle (see
+/// [`Read`] for how it is read): false only when all of it is hidden. `vp`: the view's
+/// camera-relative view-projection in f64.
+/// With a `budget`, its rectangle on the image ([`OnImage::footprint`]), and the texels that
+/// let it through are read down to the pixels under it, and there by the box's own depth at
+/// each pixel centre its silhouette covers ([`Pyramid::reaches`], [`PixelRays`]): as the GPU's
+/// exact test draws the box. Most boxes the rectangle let through are small and far, seen
+/// beside an occluder's edge.
+pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, read: Read) -> bool {
     let (w, h) = (view.width as f64, view.height as f64);
-    if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
-        return false;
+    let pixels = |x0: f64, y0: f64, x1: f64, y1: f64| {
+        let clamp = |v: f64, m: f64| v.clamp(0.0, m - 1.0) as u32;
+        (x1 >= 0.0 && y1 >= 0.0 && x0 < w && y0 < h)
+            .then(|| (clamp(x0.floor(), w), clamp(y0.floor(), h), clamp(x1.floor(), w), clamp(y1.floor(), h)))
+    };
+    if read.budget == 0 {
+        // Peng 2014's test, as the GPU pyramid's shader makes it: the whole box's rectangle.
+        let Footprint::Rect { x0, y0, x1, y1, nearest } = Footprint::of_box(vp, view, b) else { return true };
+        return pixels(x0, y0, x1, y1).is_some_and(|rect| pyramid.lets_through(rect, nearest as f32, read.finer));
     }
-    let clamp = |v: f64, m: f64| v.clamp(0.0, m - 1.0) as u32;
-    let (x0, y0, x1, y1) = (clamp(x0.floor(), w), clamp(y0.floor(), h), clamp(x1.floor(), w), clamp(y1.floor(), h));
-    if budget > 0 {
-        return pyramid.reaches((x0, y0, x1, y1), nearest as f32, finer, budget);
-    }
-    pyramid.lets_through((x0, y0, x1, y1), nearest as f32, finer)
-}
-
-/// [`visible_box`] (`read`: its `finer` and `budget`), and where the box passes, its halves
-/// along its longest side, `splits` times over: visible when a part is. A footprint takes the
-/// box's nearest depth over all of its rectangle, so a long box seen at a slant (a pipe
-/// along a wall) passes behind an occluder that hides every part of it; each half has a
-/// smaller rectangle and a farther nearest depth. The halves cover the box: conservative.
-pub fn visible_parts(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, read: (u32, u32), splits: u32) -> bool {
-    if !visible_box(pyramid, vp, view, b, read.0, read.1) {
-        return false;
-    }
-    if splits == 0 {
-        return true;
-    }
-    let axis = b.extent().max_position();
-    let mid = 0.5 * (b.min[axis] + b.max[axis]);
-    let (mut lo, mut hi) = (*b, *b);
-    lo.max[axis] = mid;
-    hi.min[axis] = mid;
-    visible_parts(pyramid, vp, view, &lo, read, splits - 1) || visible_parts(pyramid, vp, view, &hi, read, splits - 1)
+    let Some(on_image) = OnImage::new(vp, view, b) else { return true };
+    let Footprint::Rect { x0, y0, x1, y1, nearest } = on_image.footprint() else { return true };
+    let Some(rect) = pixels(x0, y0, x1, y1) else { return false };
+    let within = |block: (u32, u32, u32, u32)| match read.by_block || (block.0, block.1) == (block.2, block.3) {
+        true => on_image.nearest_in(block).map(|z| z as f32),
+        false => Some(nearest as f32),
+    };
+    pyramid.reaches(rect, (nearest as f32, &within), read.finer, read.budget)
 }
 
 #[cfg(test)]
@@ -348,8 +553,9 @@ mod tests {
             let nearest = 0.48 + 0.06 * next(1000) as f32 / 1000.0;
             let brute = (y0..=y1).any(|y| (x0..=x1).any(|x| nearest >= depth[(y * w + x) as usize] - 1e-7));
             for finer in [0, 3] {
-                assert_eq!(p.reaches((x0, y0, x1, y1), nearest, finer, u32::MAX), brute, "({x0},{y0})-({x1},{y1}) at {nearest}");
-                assert!(!brute || p.reaches((x0, y0, x1, y1), nearest, finer, 3), "a small budget hid a visible rectangle");
+                let rect = |_| Some(nearest);
+                assert_eq!(p.reaches((x0, y0, x1, y1), (nearest, &rect), finer, u32::MAX), brute, "({x0},{y0})-({x1},{y1}) at {nearest}");
+                assert!(!brute || p.reaches((x0, y0, x1, y1), (nearest, &rect), finer, 3), "a small budget hid a visible rectangle");
                 assert!(!brute || p.lets_through((x0, y0, x1, y1), nearest, finer));
             }
             (hidden, shown) = (hidden + u32::from(!brute), shown + u32::from(brute));
@@ -358,9 +564,10 @@ mod tests {
     }
 
     #[test]
-    fn a_box_split_into_parts_is_visible_wherever_a_point_of_it_is() {
-        // The reference: points on a grid through each box, projected, against the depth at
-        // their pixel. A part test that hides a box with a visible point fails.
+    fn a_box_read_to_the_pixels_is_visible_wherever_a_pixel_of_it_is() {
+        // The reference: each box's faces rasterised at pixel centres against the depth there.
+        // A test that hides a box with a visible pixel fails; reading to the pixels hides
+        // more than the rectangle alone, and block by block no fewer.
         use osw_scene::Camera;
         let (w, h) = (96u32, 64u32);
         let view = View::new(&Camera::look_at(DVec3::new(0.0, 0.0, 10.0), DVec3::ZERO, 60.0), DVec3::ZERO, w, h, 0.01);
@@ -368,7 +575,7 @@ mod tests {
         // Occluders: a wall of random depth in front of the boxes, with gaps.
         let depth: Vec<f32> = noise(w, h, 3).iter().map(|d| if *d < 0.15 { 0.0 } else { 0.9 + 0.1 * d }).collect();
         let p = Pyramid::new(w, h, depth.clone());
-        let (mut culled_whole, mut culled_parts, mut visible) = (0, 0, 0);
+        let (mut culled_rect, mut culled_pixels, mut culled_blocks, mut visible) = (0, 0, 0, 0);
         let mut rng = 9u32;
         let mut unit = || {
             rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
@@ -378,24 +585,178 @@ mod tests {
             let c = glam::Vec3::new(8.0 * unit() - 4.0, 6.0 * unit() - 3.0, -6.0 * unit());
             let e = glam::Vec3::new(3.0 * unit(), 0.3 * unit(), 3.0 * unit()) + 0.05;
             let b = Aabb { min: c - e, max: c + e };
-            let seen = (0..=16).flat_map(|i| (0..=16).flat_map(move |j| (0..=16).map(move |k| (i, j, k)))).any(|(i, j, k)| {
-                let t = glam::Vec3::new(i as f32, j as f32, k as f32) / 16.0;
-                let q = (b.min + (b.max - b.min) * t).as_dvec3() - view.eye;
-                let clip = vp * q.extend(1.0);
-                let (x, y) = ((clip.x / clip.w + 1.0) * 0.5 * w as f64, (1.0 - clip.y / clip.w) * 0.5 * h as f64);
-                clip.w > 0.0
-                    && (0.0..w as f64).contains(&x)
-                    && (0.0..h as f64).contains(&y)
-                    && clip.z / clip.w >= depth[(y as u32 * w + x as u32) as usize] as f64
-            });
-            let whole = visible_box(&p, &vp, &view, &b, 0, 0);
-            let parts = visible_parts(&p, &vp, &view, &b, (3, 64), 4);
-            assert!(!seen || parts, "box {b:?} has a visible point but its parts were hidden");
-            assert!(!parts || whole, "a part passed where the whole box did not");
-            (culled_whole, culled_parts, visible) =
-                (culled_whole + u32::from(!whole), culled_parts + u32::from(!parts), visible + u32::from(seen));
+            let raw = (b.min.as_dvec3() - view.eye, b.max.as_dvec3() - view.eye);
+            let seen = (0..h)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .any(|(x, y)| drawn_box_at(&view, raw, x, y).0.is_some_and(|z| z >= depth[(y * w + x) as usize] as f64));
+            let rect = visible_box(&p, &vp, &view, &b, Read::at(0));
+            let read = |by_block| Read { finer: 3, budget: 1 << 16, by_block };
+            let (pixels, blocks) = (visible_box(&p, &vp, &view, &b, read(false)), visible_box(&p, &vp, &view, &b, read(true)));
+            assert!(!seen || pixels, "box {b:?} has a visible pixel but was hidden");
+            assert!(!seen || blocks, "box {b:?} has a visible pixel but was hidden block by block");
+            assert!(!pixels || rect, "the pixels let through a box its rectangle hid");
+            assert_eq!(pixels, blocks, "box {b:?}: with budget to spare, block by block only reads fewer texels");
+            (culled_rect, culled_pixels, culled_blocks, visible) = (
+                culled_rect + u32::from(!rect),
+                culled_pixels + u32::from(!pixels),
+                culled_blocks + u32::from(!blocks),
+                visible + u32::from(seen),
+            );
         }
-        assert!(visible > 50 && culled_parts > culled_whole, "{visible} visible; culled {culled_whole} whole, {culled_parts} in parts");
+        assert!(
+            visible > 50 && culled_pixels > culled_rect && culled_blocks == culled_pixels,
+            "{visible} visible; culled {culled_rect} by the rectangle, {culled_pixels} to the pixels, {culled_blocks} block by block"
+        );
+    }
+
+    /// Box `lo..hi` (camera-relative) drawn at pixel (x, y)'s centre as a rasteriser draws its
+    /// 12 triangles through `view`: the nearest reversed-Z depth among the faces covering the
+    /// centre (interpolated linearly on screen, where it is affine), and the centre's distance
+    /// in pixels to the nearest triangle edge.
+    fn drawn_box_at(view: &View, (lo, hi): (DVec3, DVec3), x: u32, y: u32) -> (Option<f64>, f64) {
+        let vp = view.view_proj().as_dmat4();
+        let (w, h) = (view.width as f64, view.height as f64);
+        let corner = |i: usize| {
+            let p = DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
+            let q = vp * p.extend(1.0);
+            DVec3::new((q.x / q.w + 1.0) * 0.5 * w, (1.0 - q.y / q.w) * 0.5 * h, q.z / q.w)
+        };
+        let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+        let (mut depth, mut edge) = (None::<f64>, f64::INFINITY);
+        for f in BOX_FACES {
+            for [a, b, c] in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]].map(|t| t.map(corner)) {
+                let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+                if area.abs() < 1e-12 {
+                    continue;
+                }
+                let sides = [(b, c), (c, a), (a, b)];
+                let l = sides.map(|(u, v)| ((v.x - u.x) * (py - u.y) - (v.y - u.y) * (px - u.x)) / area);
+                for (v, (u, t)) in l.iter().zip(sides) {
+                    edge = edge.min((v * area).abs() / (t.truncate() - u.truncate()).length());
+                }
+                if l.iter().all(|&v| v >= 0.0) {
+                    let z = l[0] * a.z + l[1] * b.z + l[2] * c.z;
+                    depth = Some(depth.map_or(z, |d| d.max(z)));
+                }
+            }
+        }
+        (depth, edge)
+    }
+
+    #[test]
+    fn pixel_rays_enter_a_box_where_its_faces_are_drawn() {
+        // Coverage agrees with the rasterised faces away from their edges, and depth wherever
+        // both cover the centre (the view-projection is f32, the rays f64).
+        use osw_scene::Camera;
+        let camera = Camera::look_at(DVec3::new(3.0, 2.0, 9.0), DVec3::new(0.5, -0.5, 0.0), 55.0);
+        let view = View::new(&camera, DVec3::ZERO, 80, 50, 0.05);
+        let rays = PixelRays::new(&view);
+        let mut rng = 3u32;
+        let mut unit = || {
+            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+            (rng >> 8) as f64 / (1 << 24) as f64
+        };
+        let mut covered = 0;
+        for _ in 0..40 {
+            let c = DVec3::new(6.0 * unit() - 3.0, 4.0 * unit() - 2.0, 4.0 * unit() - 4.0);
+            let e = DVec3::new(2.0 * unit(), 2.0 * unit(), 2.0 * unit()) + 0.05;
+            let b = (c - e - view.eye, c + e - view.eye);
+            for (y, x) in (0..view.height).flat_map(|y| (0..view.width).map(move |x| (y, x))) {
+                let ((drawn, edge), got) = (drawn_box_at(&view, b, x, y), rays.depth_into(x, y, b));
+                if edge > 1e-3 {
+                    assert_eq!(got.is_some(), drawn.is_some(), "pixel ({x}, {y}) of box {b:?}");
+                }
+                if let (Some(g), Some(d)) = (got, drawn) {
+                    assert!((g - d).abs() <= 1e-6 * d, "pixel ({x}, {y}): depth {g} against {d}");
+                    covered += 1;
+                }
+            }
+        }
+        assert!(covered > 2000, "{covered} pixels covered");
+    }
+
+    #[test]
+    fn a_box_across_the_image_edge_is_measured_on_the_image() {
+        // Every pixel centre the box's faces cover lies in its rectangle on the image, no
+        // nearer than its nearest depth there; boxes that reach far off the image get a
+        // smaller rectangle and a farther nearest depth than their whole.
+        use osw_scene::Camera;
+        let camera = Camera::look_at(DVec3::new(0.0, 1.0, 6.0), DVec3::new(0.0, 0.0, 0.0), 60.0);
+        let view = View::new(&camera, DVec3::ZERO, 64, 48, 0.05);
+        let vp = view.view_proj().as_dmat4();
+        let mut rng = 17u32;
+        let mut unit = || {
+            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+            (rng >> 8) as f64 / (1 << 24) as f64
+        };
+        let (mut tighter, mut covered) = (0, 0);
+        for _ in 0..200 {
+            let c = DVec3::new(16.0 * unit() - 8.0, 12.0 * unit() - 6.0, -8.0 * unit() + 1.0);
+            let e = DVec3::new(4.0 * unit(), 4.0 * unit(), 4.0 * unit()) + 0.05;
+            let b = Aabb { min: (c - e).as_vec3(), max: (c + e).as_vec3() };
+            let (Footprint::Rect { x0, y0, x1, y1, nearest }, Footprint::Rect { nearest: whole, .. }) =
+                (Footprint::of_box_on_image(&vp, &view, &b), Footprint::of_box(&vp, &view, &b))
+            else {
+                continue;
+            };
+            for (y, x) in (0..view.height).flat_map(|y| (0..view.width).map(move |x| (y, x))) {
+                let Some(z) = drawn_box_at(&view, view.test_box(&b), x, y).0 else { continue };
+                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                let margin = 1e-9;
+                assert!(px >= x0 - margin && px <= x1 + margin && py >= y0 - margin && py <= y1 + margin, "({x}, {y}) outside {b:?}");
+                assert!(z <= nearest * (1.0 + 1e-6), "({x}, {y}) at {z}, nearer than {nearest}");
+                covered += 1;
+            }
+            tighter += u32::from(nearest < whole * 0.9);
+        }
+        assert!(covered > 10_000 && tighter > 20, "{covered} pixels covered, {tighter} boxes nearer off the image");
+    }
+
+    #[test]
+    fn a_block_of_pixels_sees_the_nearest_part_of_the_box_within_it() {
+        // Against the faces rasterised pixel by pixel: a block's nearest depth is no nearer than
+        // nothing and no farther than any covered centre in it; a block holding no covered
+        // centre (away from the edges) reaches nothing; slanted boxes give blocks farther than
+        // the whole box's nearest.
+        use osw_scene::Camera;
+        let camera = Camera::look_at(DVec3::new(1.0, 2.0, 7.0), DVec3::new(0.0, 0.0, -1.0), 60.0);
+        let view = View::new(&camera, DVec3::ZERO, 48, 40, 0.05);
+        let vp = view.view_proj().as_dmat4();
+        let mut rng = 29u32;
+        let mut next = |m: u32| {
+            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+            (rng >> 8) % m
+        };
+        let (mut farther, mut blocks) = (0, 0);
+        for _ in 0..60 {
+            let c = glam::Vec3::new(next(120) as f32 / 10.0 - 6.0, next(80) as f32 / 10.0 - 4.0, -(next(80) as f32) / 10.0);
+            let e = glam::Vec3::new(next(40) as f32 / 10.0, next(40) as f32 / 10.0, next(60) as f32 / 10.0) + 0.05;
+            let b = Aabb { min: c - e, max: c + e };
+            let Some(on_image) = OnImage::new(&vp, &view, &b) else { continue };
+            let Footprint::Rect { nearest, .. } = on_image.footprint() else { continue };
+            let drawn: Vec<(Option<f64>, f64)> = (0..view.height)
+                .flat_map(|y| (0..view.width).map(move |x| (x, y)))
+                .map(|(x, y)| drawn_box_at(&view, view.test_box(&b), x, y))
+                .collect();
+            for _ in 0..40 {
+                let (x0, y0) = (next(view.width), next(view.height));
+                let (x1, y1) = ((x0 + next(12)).min(view.width - 1), (y0 + next(12)).min(view.height - 1));
+                let cells = (y0..=y1).flat_map(|y| (x0..=x1).map(move |x| (y * view.width + x) as usize));
+                let (deepest, sure) = cells.fold((None::<f64>, true), |(d, sure), i| {
+                    let (z, edge) = drawn[i];
+                    (z.map_or(d, |z| Some(d.map_or(z, |d: f64| d.max(z)))), sure && edge > 1e-3)
+                });
+                let got = on_image.nearest_in((x0, y0, x1, y1));
+                if let Some(z) = deepest {
+                    assert!(got.is_some_and(|g| g >= z * (1.0 - 1e-6)), "block ({x0},{y0})-({x1},{y1}) of {b:?}: {got:?} against {z}");
+                    farther += u32::from(got.is_some_and(|g| g < nearest * 0.95));
+                } else if sure {
+                    assert!(got.is_none_or(|g| g <= nearest), "block ({x0},{y0})-({x1},{y1}) of {b:?}: {got:?}, nearer than the box");
+                }
+                blocks += u32::from(deepest.is_some());
+            }
+        }
+        assert!(blocks > 300 && farther > 30, "{blocks} blocks covered, {farther} farther than their box");
     }
 
     #[test]

@@ -25,8 +25,8 @@ pub trait VisibilityTester {
 
     /// Offered after each round but the last: LODs of this frame's PVS not in V(i-1) (OR drew
     /// nothing of them), found since the last ones taken. A tester may add them as occluders
-    /// for the rest of the traversal and returns whether it did; else they are offered again
-    /// with the next ones. Conservative: they are the scene's geometry at tau for this view,
+    /// for the rest of the traversal (now, or with later ones) and returns whether it took
+    /// them; else they are offered again with the next ones. Conservative: they are the scene's geometry at tau for this view,
     /// and hide only what is behind them.
     fn add_occluders(&mut self, _view: &View, _lods: &[NodeId]) -> Result<bool, Self::Error> {
         Ok(false)

@@ -49,7 +49,7 @@ fn bench(c: &mut Criterion) {
             let pyramid = osw_cull::hzb::Pyramid::new(1024, 1024, r.read_depth().expect("depth"));
             let mut out = Vec::with_capacity(boxes.len());
             osw_cull::VisibilityTester::test(
-                &mut osw_cull::hzb::HzbTester { nodes, pyramid: &pyramid, finer: 3, budget: 0, splits: 0 },
+                &mut osw_cull::hzb::HzbTester { nodes, pyramid: &pyramid, read: osw_cull::hzb::Read::at(3) },
                 &view,
                 &ids,
                 &mut out,

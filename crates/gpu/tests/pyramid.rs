@@ -8,7 +8,7 @@
 
 use glam::DVec3;
 use osw_cull::VisibilityTester;
-use osw_cull::hzb::{HzbTester, Pyramid};
+use osw_cull::hzb::{HzbTester, Pyramid, Read};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{BoxTest, RenderOptions, Renderer, Sampling};
 use osw_scene::Camera;
@@ -36,7 +36,7 @@ fn the_gpu_pyramid_answers_as_the_cpu_reference() {
     let cpu_pyramid = Pyramid::new(w, h, r.read_depth().unwrap());
     let mut cpu_answers = Vec::new();
     // finer 3: the GPU shader's default.
-    HzbTester { nodes: scene.nodes(), pyramid: &cpu_pyramid, finer: 3, budget: 0, splits: 0 }.test(&view, &boxes, &mut cpu_answers);
+    HzbTester { nodes: scene.nodes(), pyramid: &cpu_pyramid, read: Read::at(3) }.test(&view, &boxes, &mut cpu_answers);
 
     let n = boxes.len();
     let hidden = |a: &[osw_cull::Visibility]| a.iter().filter(|v| !v.visible).count();

@@ -23,7 +23,7 @@ use crate::stats::FrameStats;
 use osw_cull::chc::ChcState;
 use osw_cull::cluster::VisibleClusters;
 use osw_cull::delta::diff;
-use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, select_occluders};
+use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, Read, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::payoff::Alternating;
 use osw_cull::{HcStats, View, frustum_cull, hardware_cull};
@@ -216,13 +216,7 @@ impl ModeState {
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
                 let pyramid = Pyramid::new(view.width, view.height, depth);
-                let Ok(hc) = hardware_cull(
-                    nodes,
-                    view,
-                    self.tau,
-                    &mut HzbTester { nodes, pyramid: &pyramid, finer: 0, budget: 0, splits: 0 },
-                    &mut pvs,
-                );
+                let Ok(hc) = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, read: Read::at(0) }, &mut pvs);
                 s.hc_ms = ms(t);
                 hc
             }

@@ -3,7 +3,7 @@
 //! boxes, and the retest of the additions drawn as occluders.
 
 use osw_cull::hc::nearest_in_view;
-use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid};
+use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid, Read};
 use osw_cull::retest::retest_additions;
 use osw_cull::{HcStats, View, VisibilityTester, frustum_cull, hardware_cull_seen};
 use osw_gpu::draw::Pass;
@@ -52,26 +52,33 @@ impl std::str::FromStr for HcTest {
     }
 }
 
-/// `--hc hybrid` tests the PVS's boxes at most this many pixels across again. Larger boxes
-/// are nearly always visible.
+/// `--hc hybrid` tests the PVS's boxes at most this many pixels across again, and those not in
+/// V(i-1) whatever their size. Larger boxes of V(i-1) are nearly always visible.
 const HYBRID_SECOND_PX: f64 = 512.0;
 
-/// The second look reads the pyramid this many levels finer than Peng 2014's 2x2 texels: at
-/// most 128 texels a side, 16K reads for the largest box. Measured on the 5M plant walk at
-/// tau 5, against the exact GPU test it replaced: it drops 85 boxes a
-/// frame where the exact test dropped 102 and costs 0.8 ms where that cost 10 (one core); 5
-/// levels drop 77, 8 levels 88.5 for 3 ms.
-const HYBRID_SECOND_FINER: u32 = 6;
+/// How the second look reads the pyramid: from 4 levels finer than Peng 2014's 2x2 texels (at
+/// most 32 texels a side) down to the pixels, block by block. Measured on the 5M plant walk at
+/// tau 5, against the exact GPU test it replaced, 6 levels without the pixels dropped 85 boxes
+/// a frame where the exact test dropped 102, for 0.8 ms against 10 (one core). Reading down
+/// to the pixels, 6 levels left the 2M instanced plant's near parts behind a wall to the
+/// retest (a part 880 px across spans too many texels there for the budget); 3 and 4 levels
+/// hid them, 4 for 1.0 ms a frame at 10B against 1.2 (docs/measurements/2026-12-04-instances.md).
+const SECOND_LOOK_READ: Read = Read { finer: 4, budget: PIXELS_BUDGET, by_block: true };
 
 /// How the hybrid's traversal tests a box against its pyramid: texels read below the box's
-/// level, down to the pixels under it (osw_cull::hzb::Pyramid::reaches), and times a passing
-/// box is halved (osw_cull::hzb::visible_parts). The coarse test let through boxes that the
-/// retest's exact GPU test then hid, the same ones every frame, each reached by a chain of
-/// tests from a visible ancestor. On the 20M plant walk (tau 1, 1024x1024, every frame
-/// culled) the traversal's tests went from 1,524 a frame to 1,258 with the pixels, 1,266
-/// with 4 halvings, 1,158 with both, and HC from 22 to 11 ms (docs/measurements/2026-12-03-hc-tests.md).
+/// level, down to the pixels under it (osw_cull::hzb::Pyramid::reaches), and there by the
+/// box's own depth at the pixel centres it covers ([`osw_cull::hzb::PixelRays`], as the exact
+/// GPU test draws it). The coarse test let through boxes that the retest's exact GPU test
+/// then hid, the same ones every frame, each reached by a chain of tests from a visible
+/// ancestor. On the 20M plant walk (tau 1, 1024x1024, every frame culled) the traversal's
+/// tests went from 1,524 a frame to 1,258 with the pixels, and HC from 22 to 11 ms
+/// (docs/measurements/2026-12-03-hc-tests.md). With each pixel read by the box's own depth,
+/// halving a box that passes (which had taken 1,258 to 1,158 there) no longer pays: on the
+/// 10B instanced plant walk the traversal's tests went from 4,182 to 3,075 a frame, its
+/// additions drawn as occluders from 404 to 16 nodes, and its time from 19-23 to 11 ms
+/// (docs/measurements/2026-12-04-instances.md).
+const TRAVERSAL_READ: Read = Read { finer: PYRAMID_FINER, budget: PIXELS_BUDGET, by_block: false };
 const PIXELS_BUDGET: u32 = 1024;
-const SPLITS: u32 = 4;
 
 /// `--hc hybrid`'s tester: boxes against the CPU pyramid of the depth buffer, which new
 /// occluders found by the traversal join, at least `min` at a time (drawn, the depth read
@@ -82,8 +89,16 @@ struct HybridTester<'a> {
     pyramid: Pyramid,
     min: usize,
     writes: Pass,
+    /// New occluders not hidden by the pyramid, not drawn yet.
+    pending: Vec<NodeId>,
     /// The new occluders drawn so far (the retest need not draw them again).
     drawn: Vec<NodeId>,
+}
+
+impl HybridTester<'_> {
+    fn hzb(&self) -> HzbTester<'_> {
+        HzbTester { nodes: self.scene.nodes(), pyramid: &self.pyramid, read: TRAVERSAL_READ }
+    }
 }
 
 /// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]). With the
@@ -99,20 +114,23 @@ impl VisibilityTester for HybridTester<'_> {
     type Error = RenderError;
 
     fn test(&mut self, view: &View, ids: &[NodeId], out: &mut Vec<osw_cull::Visibility>) -> Result<(), RenderError> {
-        let Ok(()) =
-            HzbTester { nodes: self.scene.nodes(), pyramid: &self.pyramid, finer: PYRAMID_FINER, budget: PIXELS_BUDGET, splits: SPLITS }
-                .test(view, ids, out);
+        let Ok(()) = self.hzb().test(view, ids, out);
         Ok(())
     }
 
+    /// Takes every offer: the LODs whose own boxes the pyramid hides are left out (hidden, they
+    /// write no depth; the traversal passed their BVH node's box, and an HLOD's box is often
+    /// smaller: a far group seen through a gap beside it), the others drawn once `min` wait.
     fn add_occluders(&mut self, view: &View, lods: &[NodeId]) -> Result<bool, RenderError> {
-        if lods.len() < self.min {
-            return Ok(false);
+        let mut seen = Vec::with_capacity(lods.len());
+        let Ok(()) = self.hzb().test(view, lods, &mut seen);
+        self.pending.extend(lods.iter().zip(&seen).filter(|(_, v)| v.visible).map(|(&id, _)| id));
+        if self.pending.len() >= self.min {
+            self.r.draw_opaque(self.scene, view, &self.pending, self.writes, false)?;
+            self.r.give_back(std::mem::take(&mut self.pyramid));
+            self.pyramid = self.r.depth_pyramid()?;
+            self.drawn.append(&mut self.pending);
         }
-        self.r.draw_opaque(self.scene, view, lods, self.writes, false)?;
-        self.r.give_back(std::mem::take(&mut self.pyramid));
-        self.pyramid = self.r.depth_pyramid()?;
-        self.drawn.extend_from_slice(lods);
         Ok(true)
     }
 }
@@ -201,7 +219,7 @@ pub fn hc(
     let t = Instant::now();
     let mut look = Dropped::default();
     if let Some(pyramid) = &traversal.pyramid {
-        look = second_look(r, scene, view, opts.adaptive, pyramid, pvs)?;
+        look = second_look(r, scene, view, (opts.adaptive, previous), pyramid, pvs)?;
     }
     let second_look_ms = ms(t);
     let t = Instant::now();
@@ -270,7 +288,7 @@ fn traverse(
     } else if opts.test == HcTest::Hybrid {
         let pyramid = r.depth_pyramid()?;
         let (min, writes) = (opts.new_occluders_min, opts.writes);
-        let mut tester = HybridTester { r, scene, pyramid, min, writes, drawn: std::mem::take(&mut t.drawn) };
+        let mut tester = HybridTester { r, scene, pyramid, min, writes, pending: Vec::new(), drawn: std::mem::take(&mut t.drawn) };
         t.stats = hardware_cull_seen(nodes, view, tau, previous, seen, &mut tester, pvs)?;
         t.drawn = tester.drawn;
         t.drawn.sort_unstable();
@@ -307,26 +325,30 @@ struct Dropped {
     adaptive: u32,
 }
 
-/// The hybrid's second look: every small box of the PVS tested again before the additions are
-/// drawn, against the traversal's pyramid read finer (or, with adaptive culling, which scores
-/// pixel counts, exactly on the GPU): what the traversal's coarse rectangles let through
-/// would otherwise be drawn as an addition, dropped, and found again the next frame.
+/// The hybrid's second look: every small box of the PVS, and every box not in V(i-1)
+/// (`previous`), tested again before the additions are drawn, against the traversal's pyramid
+/// read finer and block by block (or, with adaptive culling, which scores pixel counts,
+/// exactly on the GPU): what the traversal's coarse rectangles let through would otherwise be
+/// drawn as an addition, dropped by the retest, and found again the next frame. On the 2M
+/// instanced plant walk those were three near parts a frame behind a wall, each box reaching
+/// off the image: the retest's 4-5 ms a frame (docs/measurements/2026-12-04-instances.md).
 fn second_look(
     r: &mut Renderer,
     scene: &SceneFile,
     view: &View,
-    adaptive: f64,
+    (adaptive, previous): (f64, &[NodeId]),
     pyramid: &Pyramid,
     pvs: &mut Vec<NodeId>,
 ) -> Result<Dropped, RenderError> {
     let nodes = scene.nodes();
     let vp = view.view_proj().as_dmat4();
-    let small: Vec<NodeId> = pvs.iter().copied().filter(|&id| Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_SECOND_PX).collect();
+    let looked = |id: NodeId| previous.binary_search(&id).is_err() || Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_SECOND_PX;
+    let small: Vec<NodeId> = pvs.iter().copied().filter(|&id| looked(id)).collect();
     let (hidden, adaptive_culled) = if adaptive > 0.0 {
         drop_hidden(r, scene, view, &small, adaptive, pvs)?
     } else {
         let mut seen = Vec::with_capacity(small.len());
-        let Ok(()) = HzbTester { nodes, pyramid, finer: HYBRID_SECOND_FINER, budget: 0, splits: 0 }.test(view, &small, &mut seen);
+        let Ok(()) = HzbTester { nodes, pyramid, read: SECOND_LOOK_READ }.test(view, &small, &mut seen);
         let dropped: Vec<NodeId> = small.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
         pvs.retain(|id| dropped.binary_search(id).is_err());
         (dropped.len() as u32, 0)

@@ -5,7 +5,7 @@ use osw_cull::View;
 use osw_cull::cluster::VisibleClusters;
 use osw_cull::front::update_front;
 use osw_cull::frustum::Containment;
-use osw_cull::hzb::{Pyramid, visible_box};
+use osw_cull::hzb::{Pyramid, Read, visible_box};
 use osw_gpu::draw::{Layer, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
@@ -68,7 +68,7 @@ pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &P
             }
             let b = placement.as_ref().map_or(c.aabb(), |p| p.bounds(c.aabb()));
             // The part of the box on the image is tested: hidden there, it is hidden.
-            if view.frustum.needs_no_test(&b) || visible_box(pyramid, &vp, view, &b, CLUSTER_FINER, 0) {
+            if view.frustum.needs_no_test(&b) || visible_box(pyramid, &vp, view, &b, Read::at(CLUSTER_FINER)) {
                 notes.visible.mark(k);
                 notes.occluders.mark(k);
             } else if view.frustum.classify(&b) != Containment::Inside {
