@@ -191,9 +191,8 @@ impl Switch {
         self.notes = VisibleClusters::default();
         if let Some(p) = pyramid {
             if self.renderer.options().cluster_tests.occlusion {
-                let notes = pass::note_clusters(&self.scene, &view, &pvs, &p)?;
-                let bits = notes.visible.mask().to_vec();
-                self.notes = notes.occluders;
+                self.notes = pass::note_clusters(&self.scene, &view, &pvs, &p)?;
+                let bits = self.notes.mask().to_vec();
                 // A mask too large for a frame (about 130M clusters in view) is not sent: RVG
                 // then draws the nodes whole.
                 if bits.len() <= osw_wire::limits::KEYFRAME_PART_BYTES {

@@ -279,21 +279,14 @@ impl ModeState {
         let drawn = match self.mode {
             Mode::Prev if let Some(hc) = reused => {
                 let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[parity]);
-                pass::rvg_over(
-                    r,
-                    scene,
-                    view,
-                    &pvs,
-                    pass::Begun { or: &self.image, or_notes, hc: &hc },
-                    notes.as_ref().map(|n| &n.visible),
-                )?
+                pass::rvg_over(r, scene, view, &pvs, pass::Begun { or: &self.image, or_notes, hc: &hc }, notes.as_ref())?
             }
-            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, notes.as_ref().map(|n| &n.visible))?,
+            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, notes.as_ref())?,
             _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
         };
         // OR of two frames later draws V(i) with them (the switch's HC node for frame i is OR
         // for frame i+1 on camera i+2).
-        self.notes[parity] = notes.map(|n| n.occluders).unwrap_or_default();
+        self.notes[parity] = notes.unwrap_or_default();
         (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         (self.last_render_ms, self.frames) = (Some(s.rvg_ms), self.frames + 1);

@@ -12,5 +12,5 @@ mod or;
 mod rvg;
 
 pub use hc::{HcOptions, HcPass, HcTest, HcTimes, NEW_OCCLUDERS_MIN, hc};
-pub use or::{Notes, note_clusters, or};
+pub use or::{note_clusters, or};
 pub use rvg::{Begun, rvg, rvg_over};

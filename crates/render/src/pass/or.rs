@@ -4,7 +4,6 @@
 use osw_cull::View;
 use osw_cull::cluster::VisibleClusters;
 use osw_cull::front::update_front;
-use osw_cull::frustum::Containment;
 use osw_cull::hzb::{Pyramid, Read, visible_box};
 use osw_gpu::draw::{Layer, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
@@ -35,33 +34,24 @@ pub fn or(
     Ok(drawn)
 }
 
-/// HC's notes of the opaque clusters of its visible set (pass::note_clusters).
-#[derive(Clone, Debug, Default)]
-pub struct Notes {
-    /// Those the pyramid does not hide, for RVG of the same frame.
-    pub visible: VisibleClusters,
-    /// Those, and every cluster not wholly inside the frustum, for OR of a later frame.
-    pub occluders: VisibleClusters,
-}
-
-/// The opaque clusters of `pvs` (HC's V(i), sorted, for `view`) that `pyramid` does not hide. RVG of
-/// this frame draws only those: a hidden cluster is behind geometry drawn for this camera
-/// (OR's occluders and HC's, each at tau for it), and the node nearest at each pixel is in the
-/// visible set with its nearest cluster, so the image is the visible set's. OR, drawing V(i)
-/// as occluders for a later camera, leaves out those that were hidden: a hidden cluster writes
+/// The opaque clusters of `pvs` (HC's V(i), sorted, for `view`) that `pyramid` does not hide
+/// on the image. RVG of this frame draws only those: a hidden cluster is behind geometry drawn
+/// for this camera (OR's occluders and HC's, each at tau for it), and the node nearest at each
+/// pixel is in the visible set with its nearest cluster, so the image is the visible set's. OR,
+/// drawing V(i) as occluders for a later camera, draws only those too: a hidden cluster writes
 /// no depth, and one still hidden a frame or two later writes none either (the temporal
-/// coherence that sec. 4.6 draws V(i-1) on). For OR, clusters not wholly inside the frustum
-/// count as visible: they may come into view. Fewer occluders can only make HC find more
-/// visible: conservative.
-pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &Pyramid) -> Result<Notes, RenderError> {
+/// coherence that sec. 4.6 draws V(i-1) on). Fewer occluders can only make HC find more
+/// visible: conservative. Clusters at the frustum's edge, hidden on the image, were kept for
+/// OR at first (they may come into view for its later camera): on the 10B instanced plant's
+/// walk they changed no PVS and cost OR 1-3 ms a frame, on the 2M one they hid one node.
+pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &Pyramid) -> Result<VisibleClusters, RenderError> {
     let vp = view.view_proj().as_dmat4();
-    let mut notes = Notes::default();
+    let mut notes = VisibleClusters::default();
     for &id in pvs {
         // An instance's cluster boxes placed, not its vertices: a placed box holds the placed
         // cluster's box (exactly where the placement keeps the axes), so the test is conservative.
         let (g, placement) = (scene.stored_geometry(id)?, scene.placement(id));
-        notes.visible.look_at(id, g.opaque as u32);
-        notes.occluders.look_at(id, g.opaque as u32);
+        notes.look_at(id, g.opaque as u32);
         for (k, c) in g.clusters[..g.opaque].iter().enumerate() {
             if !view.lod.takes(&c.cut) {
                 continue;
@@ -69,10 +59,7 @@ pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &P
             let b = placement.as_ref().map_or(c.aabb(), |p| p.bounds(c.aabb()));
             // The part of the box on the image is tested: hidden there, it is hidden.
             if view.frustum.needs_no_test(&b) || visible_box(pyramid, &vp, view, &b, Read::at(CLUSTER_FINER)) {
-                notes.visible.mark(k);
-                notes.occluders.mark(k);
-            } else if view.frustum.classify(&b) != Containment::Inside {
-                notes.occluders.mark(k);
+                notes.mark(k);
             }
         }
     }
