@@ -175,7 +175,7 @@ impl Pyramid {
                 }
                 let block =
                     ((x << level).max(x0), (y << level).max(y0), (((x + 1) << level) - 1).min(x1), (((y + 1) << level) - 1).min(y1));
-                // The box's part over this texel: nearer than none of it, it is hidden here.
+                // The box's own nearest depth over this texel's pixels: behind its farthest, hidden here.
                 let Some(part) = within(block).filter(|&z| z >= farthest) else { continue };
                 if level == 0 || self.reaches_below(level - 1, rect, (2 * x, 2 * y, 2 * x + 1, 2 * y + 1), (part, within), left) {
                     return true;
