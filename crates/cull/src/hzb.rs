@@ -305,11 +305,6 @@ impl Footprint {
         }
     }
 
-    /// [`Footprint::of_box`] of the part of the box on the image (see [`OnImage`]).
-    pub fn of_box_on_image(vp: &DMat4, view: &View, b: &Aabb) -> Footprint {
-        OnImage::new(vp, view, b).map_or(Footprint::Behind, |o| o.footprint())
-    }
-
     /// The rectangle and nearest depth of clip-space points in front of the eye.
     fn of_points(view: &View, points: &[DVec4]) -> Footprint {
         let (w, h) = (view.width as f64, view.height as f64);
@@ -522,15 +517,30 @@ mod tests {
         assert!(farthest((0, 0, 0, 1), 1, 0.8));
     }
 
+    /// A linear congruential generator: samples reproducible by seed.
+    struct Lcg(u32);
+
+    impl Lcg {
+        fn next(&mut self) -> u32 {
+            self.0 = self.0.wrapping_mul(1664525).wrapping_add(1013904223);
+            self.0 >> 8
+        }
+
+        /// In [0, 1).
+        fn unit(&mut self) -> f64 {
+            self.next() as f64 / (1 << 24) as f64
+        }
+
+        /// In [0, m).
+        fn below(&mut self, m: u32) -> u32 {
+            self.next() % m
+        }
+    }
+
     /// A `w` x `h` depth image of random depths, reproducible by `seed`.
     fn noise(w: u32, h: u32, seed: u32) -> Vec<f32> {
-        let mut rng = seed;
-        (0..w * h)
-            .map(|_| {
-                rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
-                (rng >> 8) as f32 / (1 << 24) as f32
-            })
-            .collect()
+        let mut rng = Lcg(seed);
+        (0..w * h).map(|_| rng.unit() as f32).collect()
     }
 
     #[test]
@@ -541,16 +551,12 @@ mod tests {
         let (w, h) = (61u32, 45u32);
         let p = Pyramid::new(w, h, noise(w, h, 11).iter().map(|d| 0.5 + 0.5 * d).collect());
         let depth = &p.levels[0].2;
-        let mut rng = 5u32;
-        let mut next = |m: u32| {
-            rng = rng.wrapping_mul(22695477).wrapping_add(1);
-            (rng >> 8) % m
-        };
+        let mut rng = Lcg(5);
         let (mut hidden, mut shown) = (0, 0);
         for _ in 0..2000 {
-            let (x0, y0) = (next(w), next(h));
-            let (x1, y1) = ((x0 + next(24)).min(w - 1), (y0 + next(24)).min(h - 1));
-            let nearest = 0.48 + 0.06 * next(1000) as f32 / 1000.0;
+            let (x0, y0) = (rng.below(w), rng.below(h));
+            let (x1, y1) = ((x0 + rng.below(24)).min(w - 1), (y0 + rng.below(24)).min(h - 1));
+            let nearest = 0.48 + 0.06 * rng.below(1000) as f32 / 1000.0;
             let brute = (y0..=y1).any(|y| (x0..=x1).any(|x| nearest >= depth[(y * w + x) as usize] - 1e-7));
             for finer in [0, 3] {
                 let rect = |_| Some(nearest);
@@ -576,11 +582,8 @@ mod tests {
         let depth: Vec<f32> = noise(w, h, 3).iter().map(|d| if *d < 0.15 { 0.0 } else { 0.9 + 0.1 * d }).collect();
         let p = Pyramid::new(w, h, depth.clone());
         let (mut culled_rect, mut culled_pixels, mut culled_blocks, mut visible) = (0, 0, 0, 0);
-        let mut rng = 9u32;
-        let mut unit = || {
-            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
-            (rng >> 8) as f32 / (1 << 24) as f32
-        };
+        let mut rng = Lcg(9);
+        let mut unit = || rng.unit() as f32;
         for _ in 0..500 {
             let c = glam::Vec3::new(8.0 * unit() - 4.0, 6.0 * unit() - 3.0, -6.0 * unit());
             let e = glam::Vec3::new(3.0 * unit(), 0.3 * unit(), 3.0 * unit()) + 0.05;
@@ -651,15 +654,11 @@ mod tests {
         let camera = Camera::look_at(DVec3::new(3.0, 2.0, 9.0), DVec3::new(0.5, -0.5, 0.0), 55.0);
         let view = View::new(&camera, DVec3::ZERO, 80, 50, 0.05);
         let rays = PixelRays::new(&view);
-        let mut rng = 3u32;
-        let mut unit = || {
-            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
-            (rng >> 8) as f64 / (1 << 24) as f64
-        };
+        let mut rng = Lcg(3);
         let mut covered = 0;
         for _ in 0..40 {
-            let c = DVec3::new(6.0 * unit() - 3.0, 4.0 * unit() - 2.0, 4.0 * unit() - 4.0);
-            let e = DVec3::new(2.0 * unit(), 2.0 * unit(), 2.0 * unit()) + 0.05;
+            let c = DVec3::new(6.0 * rng.unit() - 3.0, 4.0 * rng.unit() - 2.0, 4.0 * rng.unit() - 4.0);
+            let e = DVec3::new(2.0 * rng.unit(), 2.0 * rng.unit(), 2.0 * rng.unit()) + 0.05;
             let b = (c - e - view.eye, c + e - view.eye);
             for (y, x) in (0..view.height).flat_map(|y| (0..view.width).map(move |x| (y, x))) {
                 let ((drawn, edge), got) = (drawn_box_at(&view, b, x, y), rays.depth_into(x, y, b));
@@ -684,18 +683,14 @@ mod tests {
         let camera = Camera::look_at(DVec3::new(0.0, 1.0, 6.0), DVec3::new(0.0, 0.0, 0.0), 60.0);
         let view = View::new(&camera, DVec3::ZERO, 64, 48, 0.05);
         let vp = view.view_proj().as_dmat4();
-        let mut rng = 17u32;
-        let mut unit = || {
-            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
-            (rng >> 8) as f64 / (1 << 24) as f64
-        };
+        let mut rng = Lcg(17);
         let (mut tighter, mut covered) = (0, 0);
         for _ in 0..200 {
-            let c = DVec3::new(16.0 * unit() - 8.0, 12.0 * unit() - 6.0, -8.0 * unit() + 1.0);
-            let e = DVec3::new(4.0 * unit(), 4.0 * unit(), 4.0 * unit()) + 0.05;
+            let c = DVec3::new(16.0 * rng.unit() - 8.0, 12.0 * rng.unit() - 6.0, -8.0 * rng.unit() + 1.0);
+            let e = DVec3::new(4.0 * rng.unit(), 4.0 * rng.unit(), 4.0 * rng.unit()) + 0.05;
             let b = Aabb { min: (c - e).as_vec3(), max: (c + e).as_vec3() };
             let (Footprint::Rect { x0, y0, x1, y1, nearest }, Footprint::Rect { nearest: whole, .. }) =
-                (Footprint::of_box_on_image(&vp, &view, &b), Footprint::of_box(&vp, &view, &b))
+                (OnImage::new(&vp, &view, &b).map_or(Footprint::Behind, |o| o.footprint()), Footprint::of_box(&vp, &view, &b))
             else {
                 continue;
             };
@@ -722,15 +717,11 @@ mod tests {
         let camera = Camera::look_at(DVec3::new(1.0, 2.0, 7.0), DVec3::new(0.0, 0.0, -1.0), 60.0);
         let view = View::new(&camera, DVec3::ZERO, 48, 40, 0.05);
         let vp = view.view_proj().as_dmat4();
-        let mut rng = 29u32;
-        let mut next = |m: u32| {
-            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
-            (rng >> 8) % m
-        };
+        let mut rng = Lcg(29);
         let (mut farther, mut blocks) = (0, 0);
         for _ in 0..60 {
-            let c = glam::Vec3::new(next(120) as f32 / 10.0 - 6.0, next(80) as f32 / 10.0 - 4.0, -(next(80) as f32) / 10.0);
-            let e = glam::Vec3::new(next(40) as f32 / 10.0, next(40) as f32 / 10.0, next(60) as f32 / 10.0) + 0.05;
+            let c = glam::Vec3::new(rng.below(120) as f32 / 10.0 - 6.0, rng.below(80) as f32 / 10.0 - 4.0, -(rng.below(80) as f32) / 10.0);
+            let e = glam::Vec3::new(rng.below(40) as f32 / 10.0, rng.below(40) as f32 / 10.0, rng.below(60) as f32 / 10.0) + 0.05;
             let b = Aabb { min: c - e, max: c + e };
             let Some(on_image) = OnImage::new(&vp, &view, &b) else { continue };
             let Footprint::Rect { nearest, .. } = on_image.footprint() else { continue };
@@ -739,8 +730,8 @@ mod tests {
                 .map(|(x, y)| drawn_box_at(&view, view.test_box(&b), x, y))
                 .collect();
             for _ in 0..40 {
-                let (x0, y0) = (next(view.width), next(view.height));
-                let (x1, y1) = ((x0 + next(12)).min(view.width - 1), (y0 + next(12)).min(view.height - 1));
+                let (x0, y0) = (rng.below(view.width), rng.below(view.height));
+                let (x1, y1) = ((x0 + rng.below(12)).min(view.width - 1), (y0 + rng.below(12)).min(view.height - 1));
                 let cells = (y0..=y1).flat_map(|y| (x0..=x1).map(move |x| (y * view.width + x) as usize));
                 let (deepest, sure) = cells.fold((None::<f64>, true), |(d, sure), i| {
                     let (z, edge) = drawn[i];
@@ -764,13 +755,7 @@ mod tests {
         // Odd sizes both ways: each texel of level l is the minimum over the level-0 pixels of
         // its 2^l x 2^l block, clipped to the image, counted pixel by pixel.
         let (w, h) = (37u32, 23u32);
-        let mut rng = 7u32;
-        let depth: Vec<f32> = (0..w * h)
-            .map(|_| {
-                rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
-                (rng >> 8) as f32 / (1 << 24) as f32
-            })
-            .collect();
+        let depth = noise(w, h, 7);
         // Built new, and again in the storage of a larger pyramid of another shape.
         let mut reused = Pyramid::new(64, 9, vec![0.0; 64 * 9]);
         let Ok(()) = reused.rebuild(w, h, |d| {
