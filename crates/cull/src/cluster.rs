@@ -175,60 +175,80 @@ impl VisibleClusters {
 }
 
 /// Appends to `out` the indices (offset by `base`) of the clusters of one node that the cut of
-/// `view.lod` takes, that may cover a pixel and that `select` (given a cluster's index in the
-/// block) takes, less the triangles the triangle tests find covering none.
+/// `view.lod` takes and that may cover a pixel, less the triangles the triangle tests find
+/// covering none.
 pub fn gather<I: Copy + Into<u32>>(
     view: &View,
     tests: ClusterTests,
     geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
     stats: &mut ClusterStats,
-    mut select: impl FnMut(usize, &ClusterRecord) -> bool,
     base: u32,
     out: &mut Vec<u32>,
 ) {
     let (positions, indices, clusters) = geometry;
     let triangles = TriangleView::new(view);
-    for (k, c) in clusters.iter().enumerate() {
-        // A cluster hierarchy's node holds clusters of several levels; the cut takes some.
-        if !view.lod.takes(&c.cut) {
-            continue;
+    for c in clusters {
+        if let Some(backface) = test_cluster(view, tests, c, stats) {
+            push_triangles(&triangles, (backface, tests.small), (positions, cluster_indices(indices, c)), stats, base, out);
         }
-        stats.clusters += 1;
-        let center = DVec3::from(c.center.map(f64::from));
-        // The sphere grown by its centre's f32 rounding, and the eye's (the GPU makes vertices
-        // camera-relative in f32; see View::test_box).
-        let radius = c.radius as f64 * (1.0 + 1e-5) + center.abs().max_element() * 2.4e-7 + view.eye.abs().max_element() * 2.4e-7;
-        if tests.frustum && view.frustum.sphere_outside(center, radius) {
-            stats.frustum_culled += 1;
-            continue;
-        }
-        let outside_closed = c.cone_cutoff < NO_CONE && eye_outside_closed(c, view);
-        if tests.cone && outside_closed && faces_away(c, center, radius, view) {
-            stats.cone_culled += 1;
-            continue;
-        }
-        if !select(k, c) {
-            continue;
-        }
-        let ix = &indices[c.first_index as usize..(c.first_index + c.index_count) as usize];
-        // A cluster whose every triangle faces the eye has no back face to drop.
-        let backface = tests.backface && outside_closed && !faces_toward(c, center, radius, view);
-        let small = tests.small;
-        if !backface && !small {
-            out.extend(ix.iter().map(|&i| base + i.into()));
-            continue;
-        }
-        for t in ix.chunks_exact(3) {
-            // Written out: `[0, 1, 2].map(..)` was left a call per triangle where this loop is
-            // inlined into a larger caller (measured: 5% of vfc's frame).
-            let tri = [positions[t[0].into() as usize], positions[t[1].into() as usize], positions[t[2].into() as usize]];
-            if backface && triangles.faces_away(tri) {
-                stats.backface_culled += 1;
-            } else if small && triangles.covers_no_pixel(tri) {
-                stats.small_culled += 1;
-            } else {
-                out.extend(t.iter().map(|&i| base + i.into()));
-            }
+    }
+}
+
+/// The cluster tests of [`gather`] on cluster `c`, counted in `stats`: `None` when the cut
+/// does not take it or it covers no pixel, else whether its triangles may face away (the
+/// back-face test then runs on each).
+pub fn test_cluster(view: &View, tests: ClusterTests, c: &ClusterRecord, stats: &mut ClusterStats) -> Option<bool> {
+    // A cluster hierarchy's node holds clusters of several levels; the cut takes some.
+    if !view.lod.takes(&c.cut) {
+        return None;
+    }
+    stats.clusters += 1;
+    let center = DVec3::from(c.center.map(f64::from));
+    // The sphere grown by its centre's f32 rounding, and the eye's (the GPU makes vertices
+    // camera-relative in f32; see View::test_box).
+    let radius = c.radius as f64 * (1.0 + 1e-5) + center.abs().max_element() * 2.4e-7 + view.eye.abs().max_element() * 2.4e-7;
+    if tests.frustum && view.frustum.sphere_outside(center, radius) {
+        stats.frustum_culled += 1;
+        return None;
+    }
+    let outside_closed = c.cone_cutoff < NO_CONE && eye_outside_closed(c, view);
+    if tests.cone && outside_closed && faces_away(c, center, radius, view) {
+        stats.cone_culled += 1;
+        return None;
+    }
+    // A cluster whose every triangle faces the eye has no back face to drop.
+    Some(tests.backface && outside_closed && !faces_toward(c, center, radius, view))
+}
+
+/// Cluster `c`'s triangles in a block's `indices`.
+pub fn cluster_indices<'a, I>(indices: &'a [I], c: &ClusterRecord) -> &'a [I] {
+    &indices[c.first_index as usize..(c.first_index + c.index_count) as usize]
+}
+
+/// Appends to `out` the triangles `ix` of one cluster (offset by `base`), less those that face
+/// away (with `backface`) or cover no pixel centre (with `small`), counted in `stats`.
+pub fn push_triangles<I: Copy + Into<u32>>(
+    triangles: &TriangleView,
+    (backface, small): (bool, bool),
+    (positions, ix): (&[[f32; 3]], &[I]),
+    stats: &mut ClusterStats,
+    base: u32,
+    out: &mut Vec<u32>,
+) {
+    if !backface && !small {
+        out.extend(ix.iter().map(|&i| base + i.into()));
+        return;
+    }
+    for t in ix.chunks_exact(3) {
+        // Written out: `[0, 1, 2].map(..)` was left a call per triangle where this loop is
+        // inlined into a larger caller (measured: 5% of vfc's frame).
+        let tri = [positions[t[0].into() as usize], positions[t[1].into() as usize], positions[t[2].into() as usize]];
+        if backface && triangles.faces_away(tri) {
+            stats.backface_culled += 1;
+        } else if small && triangles.covers_no_pixel(tri) {
+            stats.small_culled += 1;
+        } else {
+            out.extend(t.iter().map(|&i| base + i.into()));
         }
     }
 }
@@ -374,7 +394,7 @@ mod tests {
         for view in &views {
             for c in &clusters {
                 let center = DVec3::from(c.center.map(f64::from));
-                let triangles = &m.indices[c.first_index as usize..(c.first_index + c.index_count) as usize];
+                let triangles = cluster_indices(&m.indices, c);
                 if faces_toward(c, center, c.radius as f64, view) {
                     toward += 1;
                     assert!(
@@ -392,7 +412,7 @@ mod tests {
     /// The indices a pass would draw of mesh `m`.
     fn draw(view: &View, m: &Mesh, clusters: &[ClusterRecord], tests: ClusterTests, s: &mut ClusterStats) -> Vec<u32> {
         let mut out = Vec::new();
-        gather(view, tests, (&m.positions, &m.indices, clusters), s, |_, _| true, 0, &mut out);
+        gather(view, tests, (&m.positions, &m.indices, clusters), s, 0, &mut out);
         out
     }
 

@@ -1,27 +1,44 @@
-//! The indices [`gather`] made for each node, kept for the view and tests they were made under,
-//! so that a later pass of the same frame that draws the node again copies them instead of
-//! testing its clusters and triangles again. In prev, OR draws the last visible sets from the
-//! new camera and RVG then draws the new visible set from the same camera: the set changes by
-//! a few nodes a frame, so RVG tests almost nothing. In the switch OR and RVG run in different
-//! processes, and each gathers its own.
+//! What [`gather`] made of each node's clusters, kept for the view and tests it was made
+//! under, so that a later pass of the same frame that draws the node again copies it instead of
+//! testing its clusters and triangles again: each cluster is tested once a view, and its
+//! triangles once, when a pass first takes it. In prev, OR draws the last visible sets from the
+//! new camera (with HC's notes, only the clusters found visible two frames back), HC its
+//! additions, and RVG the new visible set (with this frame's notes) from the same camera: the
+//! set changes by a few nodes a frame and the notes by a few clusters, so RVG tests almost
+//! nothing. In the switch OR and RVG run in different processes, and each gathers its own.
 //!
 //! It also remembers, per node, whether the small-triangle test paid: where it dropped few of
 //! the triangles it tested, drawing them costs lavapipe less than testing them, and the node
 //! is drawn without the test for a few views (the frame is the same: such triangles make no
 //! fragment).
 
-use crate::cluster::{ClusterStats, ClusterTests, gather};
+use crate::cluster::{ClusterStats, ClusterTests, cluster_indices, push_triangles, test_cluster};
+use crate::triangle::TriangleView;
 use crate::view::View;
 use osw_scene::NodeId;
-use osw_scene::format::ClusterRecord;
+use osw_scene::file::{Geometry, Indices};
 use std::collections::{HashMap, hash_map};
 use std::ops::Range;
 
-/// One node's gathered indices (`Gathered::indices`), what they were offset by, and its counts.
+/// One node under the kept view: what its indices were offset by, its clusters past the
+/// cluster tests (a range of `Gathered::kept`) and those tests' counts, whether its
+/// small-triangle test runs, and the triangles that test has seen and dropped so far.
 struct Entry {
     base: u32,
-    range: Range<usize>,
+    kept: Range<usize>,
     stats: ClusterStats,
+    small: bool,
+    small_tested: u64,
+    small_culled: u64,
+}
+
+/// A cluster past the cluster tests: its index among the node's opaque clusters, whether its
+/// triangles may face away, and, once a pass took it, its triangles past the triangle tests (a
+/// range of `Gathered::indices`) with those tests' counts.
+struct Kept {
+    k: usize,
+    backface: bool,
+    triangles: Option<(Range<usize>, ClusterStats)>,
 }
 
 /// A node whose small-triangle test dropped less than this share of the triangles it tested
@@ -35,84 +52,154 @@ const SMALL_SKIP_VIEWS: u32 = 8;
 pub struct Gathered {
     key: Option<(View, ClusterTests)>,
     nodes: HashMap<NodeId, Entry>,
+    kept: Vec<Kept>,
     indices: Vec<u32>,
     /// Per node whose small-triangle test did not pay, the views left before it runs again.
     small_skipped: HashMap<NodeId, u32>,
 }
 
 impl Gathered {
-    /// Appends to `out`, and adds to `stats`, what [`gather`] made for `node` (its id, and what
-    /// its vertex indices are offset by) under `view` and `tests` since the view last changed; false,
-    /// appending nothing, when it has not (the caller then reads the node's geometry, which
-    /// for an instance is placed at each read, and calls [`Gathered::gather`]).
-    pub fn copy(
+    /// Appends to `out`, and adds to `stats`, what [`gather`] makes of node `id`'s opaque
+    /// clusters under `view` and `tests` (its indices offset by `base`), of those past the
+    /// cluster tests only the ones `select` takes (by index). `geometry` reads the node's (an
+    /// instance's is placed at each read): only when something of it was not tested yet.
+    ///
+    /// [`gather`]: crate::cluster::gather
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather<'g, E>(
         &mut self,
         view: &View,
         tests: ClusterTests,
         (id, base): (NodeId, u32),
+        mut geometry: impl FnMut() -> Result<Geometry<'g>, E>,
+        select: &mut dyn FnMut(usize) -> bool,
         stats: &mut ClusterStats,
         out: &mut Vec<u32>,
-    ) -> bool {
-        if self.key.as_ref().is_none_or(|(v, t)| v != view || *t != tests) {
-            self.key = Some((view.clone(), tests));
-            self.nodes.clear();
-            self.indices.clear();
-        }
-        let Some(e) = self.nodes.get(&id) else { return false };
-        let indices = &self.indices[e.range.clone()];
-        match base.wrapping_sub(e.base) {
-            0 => out.extend_from_slice(indices),
-            by => out.extend(indices.iter().map(|&i| i.wrapping_add(by))),
-        }
+    ) -> Result<(), E> {
+        self.begin(view, tests);
+        let mut g = None;
+        let e = match self.nodes.entry(id) {
+            hash_map::Entry::Occupied(e) => e.into_mut(),
+            hash_map::Entry::Vacant(e) => {
+                let g = g.insert(geometry()?);
+                let (from, mut s) = (self.kept.len(), ClusterStats::default());
+                for (k, c) in g.clusters[..g.opaque].iter().enumerate() {
+                    if let Some(backface) = test_cluster(view, tests, c, &mut s) {
+                        self.kept.push(Kept { k, backface, triangles: None });
+                    }
+                }
+                let small = tests.small && !skips_small(&mut self.small_skipped, id);
+                e.insert(Entry { base, kept: from..self.kept.len(), stats: s, small, small_tested: 0, small_culled: 0 })
+            }
+        };
         *stats = *stats + e.stats;
-        true
+        let triangles = TriangleView::new(view);
+        for c in &mut self.kept[e.kept.clone()] {
+            if !select(c.k) {
+                continue;
+            }
+            if c.triangles.is_none() {
+                if g.is_none() {
+                    g = Some(geometry()?);
+                }
+                let Some(g) = &g else { continue };
+                let (from, mut s) = (self.indices.len(), ClusterStats::default());
+                let (tests, positions, cluster) = ((c.backface, e.small), &g.positions[..], &g.clusters[c.k]);
+                let out = &mut self.indices;
+                match &g.indices {
+                    Indices::U16(ix) => push_triangles(&triangles, tests, (positions, cluster_indices(ix, cluster)), &mut s, e.base, out),
+                    Indices::U32(ix) => push_triangles(&triangles, tests, (positions, cluster_indices(ix, cluster)), &mut s, e.base, out),
+                }
+                e.small_tested += (out.len() - from) as u64 / 3 + s.small_culled;
+                e.small_culled += s.small_culled;
+                c.triangles = Some((from..out.len(), s));
+            }
+            let Some((range, s)) = &c.triangles else { continue };
+            match base.wrapping_sub(e.base) {
+                0 => out.extend_from_slice(&self.indices[range.clone()]),
+                by => out.extend(self.indices[range.clone()].iter().map(|&i| i.wrapping_add(by))),
+            }
+            *stats = *stats + *s;
+        }
+        Ok(())
     }
 
-    /// Appends to `out`, and adds to `stats`, what [`gather`] would for `node`, taking every
-    /// cluster that passes `tests`: copied when the node was gathered under the same view and
-    /// tests since the view last changed.
-    pub fn gather<I: Copy + Into<u32>>(
-        &mut self,
-        view: &View,
-        tests: ClusterTests,
-        (id, base): (NodeId, u32),
-        geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
-        stats: &mut ClusterStats,
-        out: &mut Vec<u32>,
-    ) {
-        if self.copy(view, tests, (id, base), stats, out) {
+    /// Keeps what is made for `view` and `tests` from now on, forgetting what was made for
+    /// others; the nodes whose small-triangle test did not pay under the last view skip it.
+    fn begin(&mut self, view: &View, tests: ClusterTests) {
+        if self.key.as_ref().is_some_and(|(v, t)| v == view && *t == tests) {
             return;
         }
-        let (start, mut s) = (out.len(), ClusterStats::default());
-        let skip = match self.small_skipped.entry(id) {
-            hash_map::Entry::Occupied(mut left) if tests.small => {
-                *left.get_mut() -= 1;
-                if *left.get() == 0 {
-                    left.remove();
-                }
-                true
+        for (&id, e) in &self.nodes {
+            if e.small && e.small_tested > 0 && (e.small_culled as f64) < SMALL_PAYS * e.small_tested as f64 {
+                self.small_skipped.insert(id, SMALL_SKIP_VIEWS);
             }
-            _ => false,
-        };
-        gather(view, ClusterTests { small: tests.small && !skip, ..tests }, geometry, &mut s, |_, _| true, base, out);
-        let tested = (out.len() - start) as f64 / 3.0 + s.small_culled as f64;
-        if tests.small && !skip && (s.small_culled as f64) < SMALL_PAYS * tested {
-            self.small_skipped.insert(id, SMALL_SKIP_VIEWS);
         }
-        let from = self.indices.len();
-        self.indices.extend_from_slice(&out[start..]);
-        self.nodes.insert(id, Entry { base, range: from..self.indices.len(), stats: s });
-        *stats = *stats + s;
+        self.key = Some((view.clone(), tests));
+        self.nodes.clear();
+        self.kept.clear();
+        self.indices.clear();
     }
+}
+
+/// Whether node `id` skips the small-triangle test under a new view, counting the view.
+fn skips_small(small_skipped: &mut HashMap<NodeId, u32>, id: NodeId) -> bool {
+    let hash_map::Entry::Occupied(mut left) = small_skipped.entry(id) else { return false };
+    *left.get_mut() -= 1;
+    if *left.get() == 0 {
+        left.remove();
+    }
+    true
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cluster::gather;
     use glam::DVec3;
     use osw_scene::Camera;
+    use osw_scene::format::ClusterRecord;
     use osw_scene::generators::shapes::add_box;
     use osw_scene::mesh::Mesh;
+    use std::borrow::Cow;
+    use std::convert::Infallible;
+
+    /// A mesh's vertices, indices in cluster order and clusters.
+    type Block<'a> = (&'a [[f32; 3]], &'a [u32], &'a [ClusterRecord]);
+
+    /// What `gather` appends of `b` under `view`, and its counts.
+    fn direct(view: &View, tests: ClusterTests, b: Block, base: u32) -> (Vec<u32>, ClusterStats) {
+        let (mut out, mut s) = (Vec::new(), ClusterStats::default());
+        gather(view, tests, b, &mut s, base, &mut out);
+        (out, s)
+    }
+
+    /// What `cache` appends of block `b` as node `id`, of the clusters `select` takes, and its
+    /// counts; `reads` counts the reads of the block.
+    fn cached(
+        cache: &mut Gathered,
+        view: &View,
+        tests: ClusterTests,
+        (id, base): (NodeId, u32),
+        b: Block,
+        select: &mut dyn FnMut(usize) -> bool,
+        reads: &mut u32,
+    ) -> (Vec<u32>, ClusterStats) {
+        let (mut out, mut s) = (vec![7], ClusterStats::default());
+        let read = || {
+            *reads += 1;
+            Ok::<_, Infallible>(Geometry {
+                positions: Cow::Borrowed(b.0),
+                colors: &[],
+                indices: Indices::U32(Cow::Borrowed(b.1)),
+                clusters: Cow::Borrowed(b.2),
+                opaque: b.2.len(),
+            })
+        };
+        let Ok(()) = cache.gather(view, tests, (id, base), read, select, &mut s, &mut out);
+        assert_eq!(out[0], 7, "appends");
+        (out[1..].to_vec(), s)
+    }
 
     #[test]
     fn a_node_whose_small_test_drops_little_skips_it_for_a_few_views() {
@@ -128,21 +215,15 @@ mod tests {
             add_box(&mut m, o, o + glam::Vec3::splat(1e-4));
         }
         let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
-        let geometry = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
+        let b = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
         let all = ClusterTests::default();
-        let direct = |view: &View, tests: ClusterTests| {
-            let (mut out, mut s) = (Vec::new(), ClusterStats::default());
-            gather(view, tests, geometry, &mut s, |_, _| true, 0, &mut out);
-            (out, s)
-        };
         let mut cache = Gathered::default();
         for k in 0..=SMALL_SKIP_VIEWS + 1 {
             // A new view each time, as each frame's camera.
             let eye = DVec3::new(14.0, 3.0, 25.0 + k as f64 * 0.01);
             let view = View::new(&Camera::look_at(eye, DVec3::new(14.0, 1.0, 0.0), 60.0), DVec3::ZERO, 512, 384, 0.05);
-            let (mut out, mut s) = (Vec::new(), ClusterStats::default());
-            cache.gather(&view, all, (3, 0), geometry, &mut s, &mut out);
-            let (tested, without) = (direct(&view, all), direct(&view, ClusterTests { small: false, ..all }));
+            let (out, s) = cached(&mut cache, &view, all, (3, 0), b, &mut |_| true, &mut 0);
+            let (tested, without) = (direct(&view, all, b, 0), direct(&view, ClusterTests { small: false, ..all }, b, 0));
             assert!(tested.1.small_culled > 0 && tested.0.len() < without.0.len(), "view {k}: the small boxes are culled");
             let kept = tested.0.len() / 3;
             assert!(
@@ -157,6 +238,9 @@ mod tests {
         }
     }
 
+    /// Each pass takes some clusters of the node (OR those visible two frames back, RVG those
+    /// visible now and not drawn yet): what it gets is what `gather` gives of those, the node
+    /// read only while something it takes was not tested yet.
     #[test]
     fn a_node_gathered_again_under_the_same_view_gives_what_gather_gives() {
         let mut m = Mesh::default();
@@ -165,28 +249,46 @@ mod tests {
             add_box(&mut m, o, o + glam::Vec3::new(1.0, 0.5 + (i % 3) as f32, 1.5));
         }
         let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
-        let geometry = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
+        let b = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
         let view_at = |eye: DVec3| View::new(&Camera::look_at(eye, DVec3::new(15.0, 5.0, 2.0), 60.0), DVec3::ZERO, 128, 96, 0.05);
-        let direct = |view: &View, tests: ClusterTests, base: u32| {
-            let (mut out, mut s) = (Vec::new(), ClusterStats::default());
-            gather(view, tests, geometry, &mut s, |_, _| true, base, &mut out);
+        // gather's of the clusters `take` takes: each cluster alone, the counts of the
+        // cluster tests from all of them.
+        let want = |view: &View, tests: ClusterTests, base: u32, take: &dyn Fn(usize) -> bool| {
+            let (mut out, mut s) = (Vec::new(), direct(view, tests, b, base).1);
+            (s.backface_culled, s.small_culled) = (0, 0);
+            for k in (0..clusters.len()).filter(|&k| take(k)) {
+                let (one, t) = direct(view, tests, (b.0, b.1, &clusters[k..=k]), base);
+                out.extend(one);
+                (s.backface_culled, s.small_culled) = (s.backface_culled + t.backface_culled, s.small_culled + t.small_culled);
+            }
             (out, s)
         };
         let mut cache = Gathered::default();
-        let mut via_cache = |view: &View, tests: ClusterTests, base: u32| {
-            let (mut out, mut s) = (vec![7], ClusterStats::default());
-            cache.gather(view, tests, (3, base), geometry, &mut s, &mut out);
-            assert_eq!(out[0], 7, "appends");
-            (out[1..].to_vec(), s)
-        };
-        let (a, b) = (view_at(DVec3::new(10.0, 5.0, 40.0)), view_at(DVec3::new(-20.0, 3.0, 30.0)));
+        let (a, c) = (view_at(DVec3::new(10.0, 5.0, 40.0)), view_at(DVec3::new(-20.0, 3.0, 30.0)));
         let all = ClusterTests::default();
-        // First, again (copied), another view, another base, other tests, the first view back.
-        for (view, tests, base) in [(&a, all, 0), (&a, all, 0), (&b, all, 0), (&b, all, 100), (&b, ClusterTests::NONE, 100), (&a, all, 0)] {
-            let want = direct(view, tests, base);
-            assert!(!want.0.is_empty(), "the camera sees the boxes");
-            assert_eq!(via_cache(view, tests, base), want);
+        type Take<'a> = &'a dyn Fn(usize) -> bool;
+        let (even, odd, every): (Take, Take, Take) = (&|k| k % 2 == 0, &|k| k % 2 == 1, &|_| true);
+        // Some clusters, the others (tested now), all (copied), another view, another base,
+        // other tests, the first view back: with whether the node is read.
+        for (view, tests, base, take, read) in [
+            (&a, all, 0, even, true),
+            (&a, all, 0, odd, true),
+            (&a, all, 0, every, false),
+            (&a, all, 0, even, false),
+            (&c, all, 0, every, true),
+            (&c, all, 100, every, false),
+            (&c, ClusterTests::NONE, 100, odd, true),
+            (&a, all, 0, every, true),
+        ] {
+            let mut reads = 0;
+            let got = cached(&mut cache, view, tests, (3, base), b, &mut |k| take(k), &mut reads);
+            assert!(!got.0.is_empty(), "the camera sees the boxes");
+            assert_eq!(got, want(view, tests, base, take));
+            assert_eq!(reads, u32::from(read));
+            if std::ptr::eq(take, every) {
+                assert_eq!(got, direct(view, tests, b, base), "all: gather's");
+            }
         }
-        assert_ne!(direct(&a, all, 0), direct(&b, all, 0), "the two views cull differently");
+        assert_ne!(direct(&a, all, b, 0), direct(&c, all, b, 0), "the two views cull differently");
     }
 }

@@ -9,34 +9,12 @@ use crate::draw::{Layer, Pass};
 use crate::renderer::{DrawStats, RenderError, Renderer};
 use crate::residency::ResidencyError;
 use osw_cull::View;
-use osw_cull::cluster::{ClusterStats, ClusterTests, gather};
-use osw_cull::gathered::Gathered;
+use osw_cull::cluster::{ClusterTests, gather};
 use osw_scene::file::Indices;
-use osw_scene::format::ClusterRecord;
 use osw_scene::{NodeId, SceneFile};
 
-/// Which clusters of a node a pass takes (node, cluster index, cluster), after the tests.
-pub type Select<'a> = dyn FnMut(NodeId, usize, &ClusterRecord) -> bool + 'a;
-
-/// One node's part of [`Renderer::gather`]: every cluster that passes `tests` through the
-/// indices kept for this view, or those that `select` takes.
-#[allow(clippy::too_many_arguments)]
-fn gather_node<I: Copy + Into<u32>>(
-    view: &View,
-    tests: ClusterTests,
-    id: NodeId,
-    geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
-    select: Option<&mut Select>,
-    gathered: &mut Gathered,
-    base: u32,
-    stats: &mut ClusterStats,
-    out: &mut Vec<u32>,
-) {
-    match select {
-        None => gathered.gather(view, tests, (id, base), geometry, stats, out),
-        Some(select) => gather(view, tests, geometry, stats, |k, c| select(id, k, c), base, out),
-    }
-}
+/// Which clusters of a node a pass takes (node, cluster index), of those past the tests.
+pub type Select<'a> = dyn FnMut(NodeId, usize) -> bool + 'a;
 
 impl Renderer {
     /// Draws LOD nodes `ids` (in the given order) for `view`. `clear` clears the pass's
@@ -132,8 +110,8 @@ impl Renderer {
             let g = scene.geometry(id)?;
             let (out, s, clusters) = (&mut self.indices, &mut gathered.clusters, &g.clusters[g.opaque..]);
             match &g.indices {
-                Indices::U16(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
-                Indices::U32(ix) => gather(view, tests, (&g.positions, ix, clusters), s, |_, _| true, base, out),
+                Indices::U16(ix) => gather(view, tests, (&g.positions, ix, clusters), s, base, out),
+                Indices::U32(ix) => gather(view, tests, (&g.positions, ix, clusters), s, base, out),
             }
             gathered.nodes += 1;
         }
@@ -158,9 +136,9 @@ impl Renderer {
     }
 
     /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`
-    /// and `select(node, cluster index, cluster)` (all, through the indices kept for this view,
-    /// when `None`), less the triangles `tests` drop, making the nodes' meshes resident and
-    /// listing the nodes in `self.uses`; returns their counts.
+    /// and `select(node, cluster index)` (all when `None`), less the triangles `tests` drop,
+    /// making the nodes' meshes resident and listing the nodes in `self.uses`; returns their
+    /// counts. What was tested under this view and tests is copied ([`osw_cull::gathered::Gathered`]).
     pub fn gather(
         &mut self,
         scene: &SceneFile,
@@ -177,17 +155,13 @@ impl Renderer {
             stats.nodes += 1;
             let arena = self.arena_base(scene, id)?;
             let base = self.uses.push(scene, view, id, arena)?;
-            let (out, s, gathered) = (&mut self.indices, &mut stats.clusters, &mut self.gathered);
-            if select.is_none() && gathered.copy(view, tests, (id, base), s, out) {
-                continue;
-            }
-            // Read once: an instance's geometry is placed at each read.
-            let g = scene.geometry(id)?;
-            let (select, clusters) = (select.as_deref_mut(), &g.clusters[..g.opaque]);
-            match &g.indices {
-                Indices::U16(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),
-                Indices::U32(ix) => gather_node(view, tests, id, (&g.positions, ix, clusters), select, gathered, base, s, out),
-            }
+            let mut all = |_| true;
+            let select: &mut dyn FnMut(usize) -> bool = match select.as_deref_mut() {
+                Some(select) => &mut move |k| select(id, k),
+                None => &mut all,
+            };
+            // An instance's geometry is placed at each read: read only when needed.
+            self.gathered.gather(view, tests, (id, base), || scene.geometry(id), select, &mut stats.clusters, &mut self.indices)?;
         }
         stats.triangles = self.indices.len() as u64 / 3;
         Ok(stats)

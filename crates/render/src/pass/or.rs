@@ -29,7 +29,7 @@ pub fn or(
 ) -> Result<DrawStats, RenderError> {
     update_front(scene.nodes(), ids, view, tau, front);
     let Some(notes) = notes else { return r.draw_opaque(scene, view, front, writes, clear) };
-    let mut drawn = r.gather(scene, view, front, r.options().cluster_tests, Some(&mut |id, k, _| notes.takes(id, k)))?;
+    let mut drawn = r.gather(scene, view, front, r.options().cluster_tests, Some(&mut |id, k| notes.takes(id, k)))?;
     r.submit(view, writes, Layer::Opaque, clear, &mut drawn)?;
     Ok(drawn)
 }

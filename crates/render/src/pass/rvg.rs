@@ -38,7 +38,7 @@ fn gather_noted(
         view,
         pvs,
         r.options().cluster_tests,
-        Some(&mut |id, k, _| {
+        Some(&mut |id, k| {
             let take = notes.takes(id, k);
             hidden += u64::from(!take);
             take
@@ -86,7 +86,7 @@ pub fn rvg_over(
             None => r.gather(scene, view, pvs, r.options().cluster_tests, None)?,
         };
         let visible = |id: NodeId, k: usize| notes.is_none_or(|n| n.takes(id, k));
-        let mut rest = r.gather(scene, view, pvs, r.options().cluster_tests, Some(&mut |id, k, _| visible(id, k) && !drawn(id, k)))?;
+        let mut rest = r.gather(scene, view, pvs, r.options().cluster_tests, Some(&mut |id, k| visible(id, k) && !drawn(id, k)))?;
         r.submit(view, Pass::Color, Layer::Opaque, false, &mut rest)?;
         DrawStats { draws: rest.draws, gpu_ns: rest.gpu_ns, ..counts }
     };
