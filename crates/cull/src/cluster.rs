@@ -123,8 +123,9 @@ pub struct VisibleClusters {
 }
 
 impl VisibleClusters {
-    /// Whether cluster `cluster` of node `id` is drawn: found visible, or of a node not looked
-    /// at (one HC did not find, or a LOD that OR's front update chose anew), drawn whole.
+    /// Whether cluster `cluster` of node `id` is drawn: found visible, or not looked at (of a
+    /// node HC did not find, or a LOD that OR's front update chose anew, drawn whole; or outside
+    /// the cut HC's camera took).
     pub fn takes(&self, id: NodeId, cluster: usize) -> bool {
         let Ok(i) = self.nodes.binary_search_by_key(&id, |n| n.0) else { return true };
         let end = self.nodes.get(i + 1).map_or(self.len, |n| n.1);
