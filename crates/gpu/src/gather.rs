@@ -1,9 +1,11 @@
 //! A pass's index list: the opaque or translucent clusters of its nodes, read from the mapped
 //! scene and offset to each node's slot in the pass's use table ([`crate::uses`]), less what
-//! the cluster and triangle tests drop (osw_cull::cluster). The tests run on a node's geometry
-//! as placed in the scene (an instance's placed on the CPU at each read); the GPU draws its
-//! mesh as stored, placed by the use table. Drawing is this step and [`Renderer::submit`]; RVG's two-pass
-//! cluster occlusion culling (osw_render::pass::rvg) calls the two itself.
+//! the cluster and triangle tests drop (osw_cull::cluster), the opaque ones copied where the
+//! process tested them under the same camera already (osw_cull::gathered). The tests run on a
+//! node's geometry as placed in the scene (an instance's placed on the CPU at each read); the
+//! GPU draws its mesh as stored, placed by the use table. Drawing is this step and
+//! [`Renderer::submit`]; OR and RVG, which take only the clusters HC's notes take
+//! (osw_render::pass), call the two themselves.
 
 use crate::draw::{Layer, Pass};
 use crate::renderer::{DrawStats, RenderError, Renderer};
