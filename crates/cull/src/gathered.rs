@@ -33,12 +33,19 @@ struct Entry {
 }
 
 /// A cluster past the cluster tests: its index among the node's opaque clusters, whether its
-/// triangles may face away, and, once a pass took it, its triangles past the triangle tests (a
-/// range of `Gathered::indices`) with those tests' counts.
+/// triangles may face away, and, once a pass took it, its triangles past the triangle tests.
 struct Kept {
-    k: usize,
+    k: u32,
     backface: bool,
-    triangles: Option<(Range<usize>, ClusterStats)>,
+    triangles: Option<Tested>,
+}
+
+/// A cluster's triangles past the triangle tests (a range of `Gathered::indices`), and how many
+/// faced away and covered no pixel centre.
+struct Tested {
+    range: Range<usize>,
+    backface_culled: u32,
+    small_culled: u32,
 }
 
 /// A node whose small-triangle test dropped less than this share of the triangles it tested
@@ -85,7 +92,7 @@ impl Gathered {
                 let (from, mut s) = (self.kept.len(), ClusterStats::default());
                 for (k, c) in g.clusters[..g.opaque].iter().enumerate() {
                     if let Some(backface) = test_cluster(view, tests, c, &mut s) {
-                        self.kept.push(Kept { k, backface, triangles: None });
+                        self.kept.push(Kept { k: k as u32, backface, triangles: None });
                     }
                 }
                 let small = tests.small && !skips_small(&mut self.small_skipped, id);
@@ -95,7 +102,7 @@ impl Gathered {
         *stats = *stats + e.stats;
         let triangles = TriangleView::new(view);
         for c in &mut self.kept[e.kept.clone()] {
-            if !select(c.k) {
+            if !select(c.k as usize) {
                 continue;
             }
             if c.triangles.is_none() {
@@ -104,7 +111,7 @@ impl Gathered {
                 }
                 let Some(g) = &g else { continue };
                 let (from, mut s) = (self.indices.len(), ClusterStats::default());
-                let (tests, positions, cluster) = ((c.backface, e.small), &g.positions[..], &g.clusters[c.k]);
+                let (tests, positions, cluster) = ((c.backface, e.small), &g.positions[..], &g.clusters[c.k as usize]);
                 let out = &mut self.indices;
                 match &g.indices {
                     Indices::U16(ix) => push_triangles(&triangles, tests, (positions, cluster_indices(ix, cluster)), &mut s, e.base, out),
@@ -112,14 +119,17 @@ impl Gathered {
                 }
                 e.small_tested += (out.len() - from) as u64 / 3 + s.small_culled;
                 e.small_culled += s.small_culled;
-                c.triangles = Some((from..out.len(), s));
+                // At most the cluster's triangles, whose index count is a u32.
+                let (backface_culled, small_culled) = (s.backface_culled as u32, s.small_culled as u32);
+                c.triangles = Some(Tested { range: from..out.len(), backface_culled, small_culled });
             }
-            let Some((range, s)) = &c.triangles else { continue };
+            let Some(t) = &c.triangles else { continue };
             match base.wrapping_sub(e.base) {
-                0 => out.extend_from_slice(&self.indices[range.clone()]),
-                by => out.extend(self.indices[range.clone()].iter().map(|&i| i.wrapping_add(by))),
+                0 => out.extend_from_slice(&self.indices[t.range.clone()]),
+                by => out.extend(self.indices[t.range.clone()].iter().map(|&i| i.wrapping_add(by))),
             }
-            *stats = *stats + *s;
+            stats.backface_culled += u64::from(t.backface_culled);
+            stats.small_culled += u64::from(t.small_culled);
         }
         Ok(())
     }
