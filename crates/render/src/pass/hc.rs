@@ -16,9 +16,9 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum HcTest {
     /// The depth read back once and a farthest-depth pyramid on the CPU (every traversal
-    /// round tested without a round trip), then the PVS's boxes that are small on screen
-    /// tested again against the same pyramid read finer. Large boxes stay visible: they are
-    /// nearly always visible, and their children are tested.
+    /// round tested without a round trip), then the PVS's boxes that are small on screen or
+    /// not in V(i-1) tested again against the same pyramid read finer. Large boxes of V(i-1)
+    /// stay visible: they are nearly always visible, and their children are tested.
     #[default]
     Hybrid,
     /// [`BoxTest::Exact`], with pixel counts when tau > 0 (the LOD stop of sec. 4.7.2).
@@ -192,7 +192,7 @@ fn ms(t: Instant) -> f64 {
 ///    batches a level per round trip because a 2003 query cost more than the trip; here a trip
 ///    (a few ms on lavapipe, with the GPU pyramid's dispatches) costs more than a thousand CPU
 ///    box tests.
-/// 2. The hybrid's second look ([`second_look`]): the PVS's small boxes against its pyramid
+/// 2. The hybrid's second look ([`second_look`]): the PVS's small and new boxes against its pyramid
 ///    read finer.
 /// 3. The retest ([`retest`]), as in two-phase occlusion culling (niagara): nodes found
 ///    visible that are not in V(i-1) had nothing drawn for them. Where a region comes into
@@ -342,18 +342,18 @@ fn second_look(
 ) -> Result<Dropped, RenderError> {
     let nodes = scene.nodes();
     let vp = view.view_proj().as_dmat4();
-    let looked = |id: NodeId| previous.binary_search(&id).is_err() || Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_SECOND_PX;
-    let small: Vec<NodeId> = pvs.iter().copied().filter(|&id| looked(id)).collect();
+    let again = |id: NodeId| previous.binary_search(&id).is_err() || Footprint::of(nodes, &vp, view, id).span_px() <= HYBRID_SECOND_PX;
+    let looked: Vec<NodeId> = pvs.iter().copied().filter(|&id| again(id)).collect();
     let (hidden, adaptive_culled) = if adaptive > 0.0 {
-        drop_hidden(r, scene, view, &small, adaptive, pvs)?
+        drop_hidden(r, scene, view, &looked, adaptive, pvs)?
     } else {
-        let mut seen = Vec::with_capacity(small.len());
-        let Ok(()) = HzbTester { nodes, pyramid, read: SECOND_LOOK_READ }.test(view, &small, &mut seen);
-        let dropped: Vec<NodeId> = small.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
+        let mut seen = Vec::with_capacity(looked.len());
+        let Ok(()) = HzbTester { nodes, pyramid, read: SECOND_LOOK_READ }.test(view, &looked, &mut seen);
+        let dropped: Vec<NodeId> = looked.iter().zip(&seen).filter(|(_, v)| !v.visible).map(|(&id, _)| id).collect();
         pvs.retain(|id| dropped.binary_search(id).is_err());
         (dropped.len() as u32, 0)
     };
-    Ok(Dropped { tests: small.len() as u32, hidden, adaptive: adaptive_culled })
+    Ok(Dropped { tests: looked.len() as u32, hidden, adaptive: adaptive_culled })
 }
 
 /// The third pass, as in two-phase occlusion culling (niagara): the PVS's nodes not in V(i-1)
