@@ -246,7 +246,6 @@ impl ModeState {
                 let t = Instant::now();
                 let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, writes, ..HcOptions::default() };
                 let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[parity], &mut pvs)?;
-                s.hc_ms = ms(t);
                 (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
                     (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
                 // A node that sec. 4.7.2's pixel count stopped at a coarser LOD than OR drew
@@ -258,6 +257,8 @@ impl ModeState {
                     }
                     r.give_back(p);
                 }
+                // HC's time includes its notes: RVG of this frame waits for them.
+                s.hc_ms = ms(t);
                 if writes == Pass::Color && hc.stats.pixel_stops == 0 {
                     reused = Some(hc.drawn);
                 }
