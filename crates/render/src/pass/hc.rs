@@ -109,14 +109,11 @@ impl HybridTester<'_> {
 /// the 20M plant walk 256, 64, 32 and 16 left 1,224, 1,028, 895 and 800 tests a frame (CHC:
 /// 797) for HC means of 19.2, 21.9, 23.2 and 21.4 ms, and 16 was taken. Since each pixel is
 /// read by the box's own depth and each cluster tested once a view, a round (a draw, a
-/// read-back, a pyramid) costs more than the tests it saves: on the same walk at tau 1 (prev,
-/// three rounds in turn, median HC ms) 16, 32, 64, 128 and 256 took 9.5, 7.0, 7.0, 8.2 and 7.3
-/// with the static chains and 12.7, 10.3, 8.8, 9.6 and 9.7 with the cluster hierarchy, for
-/// 1,414 / 1,552 / 1,800 / 2,150 / 2,241 tests a frame (the hierarchy: 1,310 to 1,437), the
-/// triangles drawn within 0.1% at 32 and up to 0.5% more above; on the 100M plant 16, 32 and 64 took 5.1 /
-/// 5.2, 4.7 / 4.6 and 4.8 / 4.2 ms, 64 with 1% more triangles; the 2M instanced plant, the
-/// 2.4M isosurface and the OpenArena maps the same within noise
-/// (docs/measurements/2026-12-06-same-tau.md).
+/// read-back, a pyramid) costs more than the tests it saves: on the same walk at tau 1, 32
+/// took HC from 9.5 to 7.0 ms with the static chains and from 12.7 to 10.3 with the cluster
+/// hierarchy, the triangles drawn within 0.1% (above 32, up to 0.5% more); the 100M plant
+/// 5.1 to 4.7 ms, the other scenes the same within noise
+/// (docs/measurements/2026-12-06-same-tau.md, "Fewer rounds").
 pub const NEW_OCCLUDERS_MIN: usize = 32;
 
 impl VisibilityTester for HybridTester<'_> {
