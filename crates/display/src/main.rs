@@ -182,7 +182,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
             ),
             None => None,
         };
-        let drawn = osw_render::pass::rvg(&mut r, &scene, &view, &frames.visible, notes.as_ref())?;
+        let drawn = osw_render::pass::rvg(&mut r, &scene, &view, &frames.visible, notes.as_ref(), osw_gpu::draw::Pass::Color)?;
         (row.rvg_ms, row.rvg_gpu_ms) = (t.elapsed().as_secs_f64() * 1e3, drawn.gpu_ms());
         (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
         [

@@ -17,6 +17,13 @@ pub enum Pass {
     Color,
     /// Colour and depth, every node in this RGB colour (shaded): nodes coloured by state.
     Tinted([u8; 3]),
+    /// Colour over the depth buffer as earlier passes left it (prev's RVG over its OR's and
+    /// HC's depth): the opaque layer tested `GreaterEqual`, so that a surface drawn before
+    /// passes again, its triangles submitted last to first. The last of surfaces tied in depth
+    /// then keeps the pixel, which is the first in submission order, as under `Greater` in
+    /// order: the image is the one a [`Pass::Color`] draw on a cleared buffer makes, whatever
+    /// was drawn into the depth before. Clearing clears the colour only.
+    ColorOver,
     Depth,
     Item,
 }
@@ -59,6 +66,7 @@ impl Pass {
 pub struct DrawPipelines {
     pub layout: wgpu::BindGroupLayout,
     pub color: wgpu::RenderPipeline,
+    pub color_over: wgpu::RenderPipeline,
     pub depth: wgpu::RenderPipeline,
     pub item: wgpu::RenderPipeline,
     pub blend: wgpu::RenderPipeline,
@@ -111,7 +119,7 @@ impl DrawPipelines {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>, layer: Layer| {
+        let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>, layer: Layer, compare| {
             let blend = (layer == Layer::Translucent && fs.is_some_and(|(_, f)| f == COLOR)).then_some(wgpu::BlendState::ALPHA_BLENDING);
             let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend, write_mask: wgpu::ColorWrites::ALL })]);
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -120,7 +128,7 @@ impl DrawPipelines {
                 vertex: wgpu::VertexState { module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
                 // No back-face culling: imported models are not reliably closed or wound.
                 primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
-                depth_stencil: Some(depth_state(layer == Layer::Opaque, wgpu::CompareFunction::Greater)),
+                depth_stencil: Some(depth_state(layer == Layer::Opaque, compare)),
                 multisample: Default::default(),
                 fragment: fs.map(|(entry, _)| wgpu::FragmentState {
                     module,
@@ -132,12 +140,14 @@ impl DrawPipelines {
                 cache: None,
             })
         };
+        use wgpu::CompareFunction::{Greater, GreaterEqual};
         DrawPipelines {
-            color: make("draw color", &module, Some(("fs_color", COLOR)), Layer::Opaque),
-            depth: make("draw depth", &module, None, Layer::Opaque),
-            item: make("draw item", &item_module, Some(("fs_item", ITEM)), Layer::Opaque),
-            blend: make("draw blend", &module, Some(("fs_blend", COLOR)), Layer::Translucent),
-            item_over: make("draw item over", &item_module, Some(("fs_item", ITEM)), Layer::Translucent),
+            color: make("draw color", &module, Some(("fs_color", COLOR)), Layer::Opaque, Greater),
+            color_over: make("draw color over", &module, Some(("fs_color", COLOR)), Layer::Opaque, GreaterEqual),
+            depth: make("draw depth", &module, None, Layer::Opaque, Greater),
+            item: make("draw item", &item_module, Some(("fs_item", ITEM)), Layer::Opaque, Greater),
+            blend: make("draw blend", &module, Some(("fs_blend", COLOR)), Layer::Translucent, Greater),
+            item_over: make("draw item over", &item_module, Some(("fs_item", ITEM)), Layer::Translucent, Greater),
             layout,
         }
     }
@@ -147,7 +157,8 @@ impl DrawPipelines {
     pub fn pipeline(&self, pass: Pass, layer: Layer) -> &wgpu::RenderPipeline {
         match (pass, layer) {
             (Pass::Color | Pass::Tinted(_), Layer::Opaque) => &self.color,
-            (Pass::Color | Pass::Tinted(_), Layer::Translucent) => &self.blend,
+            (Pass::ColorOver, Layer::Opaque) => &self.color_over,
+            (Pass::Color | Pass::Tinted(_) | Pass::ColorOver, Layer::Translucent) => &self.blend,
             (Pass::Depth, _) => &self.depth,
             (Pass::Item, Layer::Opaque) => &self.item,
             (Pass::Item, Layer::Translucent) => &self.item_over,

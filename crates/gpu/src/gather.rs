@@ -31,13 +31,13 @@ impl Renderer {
     pub fn draw(&mut self, scene: &SceneFile, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
         let opaque = self.draw_opaque(scene, view, ids, pass, clear)?;
         match pass {
-            Pass::Color | Pass::Tinted(_) => Ok(opaque + self.draw_translucent(scene, view, ids, pass, false)?),
+            Pass::Color | Pass::Tinted(_) | Pass::ColorOver => Ok(opaque + self.draw_translucent(scene, view, ids, pass, false)?),
             Pass::Depth | Pass::Item => Ok(opaque),
         }
     }
 
     /// [`Renderer::draw`]'s first half: the opaque clusters of `ids` only, in any pass. OR and
-    /// HC draw their occluders with it, into the depth buffer or, in prev, into the image too.
+    /// HC draw their occluders into the depth buffer with it.
     pub fn draw_opaque(
         &mut self,
         scene: &SceneFile,
@@ -57,7 +57,11 @@ impl Renderer {
             Err(RenderError::Residency(ResidencyError::TooLarge(_)) | RenderError::TooManyTriangles(..) | RenderError::TooManyNodes(_))
                 if ids.len() > 1 =>
             {
-                let (a, b) = ids.split_at(ids.len() / 2);
+                let (mut a, mut b) = ids.split_at(ids.len() / 2);
+                if pass == Pass::ColorOver {
+                    // Submitted last to first, as each half's triangles are.
+                    (a, b) = (b, a);
+                }
                 // Nothing of the failed attempt was submitted, and everything submitted before
                 // it precedes any upload on the queue: all of it may make room now.
                 self.residency.next_epoch();

@@ -337,6 +337,11 @@ impl Renderer {
             let size = use_bytes.next_power_of_two();
             self.uses_buf = storage(&self.gpu, "pass uses", size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
         }
+        if pass == Pass::ColorOver && layer == Layer::Opaque {
+            // Last triangle first, each triangle's corners in their order (see Pass::ColorOver).
+            self.indices.reverse();
+            self.indices.chunks_exact_mut(3).for_each(<[u32]>::reverse);
+        }
         let q = &self.gpu.queue;
         let draw = [pass.tint(), self.uses.shift, 0, 0];
         q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform { draw, ..ViewUniform::new(view) }));
@@ -350,7 +355,7 @@ impl Renderer {
         {
             let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
             let color_view = match pass {
-                Pass::Color | Pass::Tinted(_) => Some(&self.target.color),
+                Pass::Color | Pass::Tinted(_) | Pass::ColorOver => Some(&self.target.color),
                 Pass::Item => Some(&self.target.item),
                 Pass::Depth => None,
             };
@@ -371,7 +376,11 @@ impl Renderer {
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &self.target.depth,
                     depth_ops: Some(wgpu::Operations {
-                        load: if clear && layer == Layer::Opaque { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load },
+                        load: if clear && layer == Layer::Opaque && pass != Pass::ColorOver {
+                            wgpu::LoadOp::Clear(0.0)
+                        } else {
+                            wgpu::LoadOp::Load
+                        },
                         store: wgpu::StoreOp::Store,
                     }),
                     stencil_ops: None,

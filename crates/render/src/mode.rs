@@ -13,8 +13,8 @@
 //!   4.2), exactly as the two switch nodes run it: the OR of frame i happens while HC of frame
 //!   i-1 is still streaming, so it draws the front of V(i-2) updated for camera i (sec. 4.6),
 //!   then the additions of frame i-1 as they arrive, into the depth buffer; HC tests the
-//!   hierarchy against it (alg. 4.1); RVG draws V(i). On one GPU OR and HC draw into the
-//!   image as well, and RVG draws only the rest (Yoon 2003 sec. 5.4).
+//!   hierarchy against it (alg. 4.1); RVG draws V(i), on one GPU over the depth OR and HC
+//!   left (Yoon 2003 sec. 5.4).
 //! - `switch`: the same on two nodes and a display (`osw run`, crates/node); not a mode of
 //!   [`ModeState`], named here so that runs, reports and results share one enum.
 
@@ -110,9 +110,6 @@ pub struct ModeState {
     added: Vec<NodeId>,
     removed: Vec<NodeId>,
     occluders: Vec<NodeId>,
-    /// prev: the nodes OR drew into the image this frame (sorted), which RVG does not draw
-    /// again (Yoon 2003 sec. 5.4).
-    image: Vec<NodeId>,
     /// The nodes HC found visible (osw_cull::hardware_cull_seen), one set per parity of the
     /// frame: the switch's two HC nodes each keep their own, from two frames back, and prev
     /// takes the same sets so that its visible sets are the switch's.
@@ -148,7 +145,6 @@ impl ModeState {
             added: Vec::new(),
             removed: Vec::new(),
             occluders: Vec::new(),
-            image: Vec::new(),
             seen: [Vec::new(), Vec::new()],
             chc: None,
             notes: Default::default(),
@@ -170,9 +166,8 @@ impl ModeState {
         let mut s = FrameStats::default();
         let nodes = scene.nodes();
         let mut pvs = Vec::new();
-        // HC's additions and pyramid where prev's OR and HC drew the image (Yoon 2003 sec.
-        // 5.4, below).
-        let mut reused = None;
+        // Whether prev's RVG draws over the depth its OR and HC left (below).
+        let mut over = false;
         // HC's notes of which clusters of the visible set are hidden (prev).
         let mut notes = None;
         let parity = self.frames as usize % 2;
@@ -224,33 +219,20 @@ impl ModeState {
             Mode::Prev | Mode::Switch => {
                 let t = Instant::now();
                 diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
-                // Yoon 2003 sec. 5.4: OR's occluders are drawn into the image too, and so are
-                // HC's additions, so that RVG does not draw them again. A node drawn there that
-                // HC then dropped is hidden behind what was drawn, or outside the frustum; but
-                // adaptive culling drops visible nodes, so it draws the image as the switch's
-                // display does, and so does a run that counts the fragments of the visible set
-                // (RVG's draws alone). With the cluster occlusion test, HC notes which clusters
-                // of its visible set are hidden (pass::note_clusters): RVG draws only the others,
-                // and OR of two frames later draws only those, as the switch's nodes do.
-                let writes = if self.ovc.adaptive == 0.0 && !r.counts_fragments() { Pass::Color } else { Pass::Depth };
+                // With the cluster occlusion test, HC notes which clusters of its visible set
+                // are hidden (pass::note_clusters): RVG draws only the others, and OR of two
+                // frames later draws only those, as the switch's nodes do.
                 let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[parity]);
-                self.image.clear();
                 let mut or = DrawStats::default();
                 for (ids, clear) in [(&self.older, true), (&self.added, false)] {
-                    or = or + pass::or(r, scene, view, ids, self.tau, (writes, clear, or_notes), &mut self.occluders)?;
-                    self.image.extend_from_slice(&self.occluders);
+                    or = or + pass::or(r, scene, view, ids, self.tau, (clear, or_notes), &mut self.occluders)?;
                 }
-                self.image.sort_unstable();
-                self.image.dedup();
                 (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
                 let t = Instant::now();
-                let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, writes, ..HcOptions::default() };
+                let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
                 let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[parity], &mut pvs)?;
                 (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
                     (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
-                // A node that sec. 4.7.2's pixel count stopped at a coarser LOD than OR drew
-                // for it would be drawn twice (sec. 5.4 redraws such faces): the image is
-                // drawn anew.
                 if let Some(p) = hc.pyramid {
                     if or_notes.is_some() {
                         notes = Some(pass::note_clusters(scene, view, &pvs, &p)?);
@@ -259,9 +241,14 @@ impl ModeState {
                 }
                 // HC's time includes its notes: RVG of this frame waits for them.
                 s.hc_ms = ms(t);
-                if writes == Pass::Color && hc.stats.pixel_stops == 0 {
-                    reused = Some(hc.drawn);
-                }
+                // On one GPU, RVG draws over the depth OR and HC left (Yoon 2003 sec. 5.4
+                // draws their occluders into the image; here they fill the depth, so that RVG
+                // shades about one fragment a pixel). That depth holds only the PVS's surfaces
+                // or ones behind them, unless adaptive culling dropped visible nodes or sec.
+                // 4.7.2's pixel count stopped a node at a coarser LOD than OR drew: then RVG
+                // draws on a cleared buffer, as the switch's display does. A run that counts
+                // the fragments of the visible set counts them on a cleared buffer too.
+                over = self.ovc.adaptive == 0.0 && !r.counts_fragments() && hc.stats.pixel_stops == 0;
                 hc.stats
             }
         };
@@ -278,11 +265,7 @@ impl ModeState {
         // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
         let drawn = match self.mode {
-            Mode::Prev if let Some(hc) = reused => {
-                let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[parity]);
-                pass::rvg_over(r, scene, view, &pvs, pass::Begun { or: &self.image, or_notes, hc: &hc }, notes.as_ref())?
-            }
-            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, notes.as_ref())?,
+            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, notes.as_ref(), if over { Pass::ColorOver } else { Pass::Color })?,
             _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
         };
         // OR of two frames later draws V(i) with them (the switch's HC node for frame i is OR

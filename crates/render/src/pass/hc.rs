@@ -88,7 +88,6 @@ struct HybridTester<'a> {
     scene: &'a SceneFile,
     pyramid: Pyramid,
     min: usize,
-    writes: Pass,
     /// New occluders not hidden by the pyramid, not drawn yet.
     pending: Vec<NodeId>,
     /// The new occluders drawn so far (the retest need not draw them again).
@@ -132,7 +131,7 @@ impl VisibilityTester for HybridTester<'_> {
         let Ok(()) = self.hzb().test(view, lods, &mut seen);
         self.pending.extend(lods.iter().zip(&seen).filter(|(_, v)| v.visible).map(|(&id, _)| id));
         if self.pending.len() >= self.min {
-            self.r.draw_opaque(self.scene, view, &self.pending, self.writes, false)?;
+            self.r.draw_opaque(self.scene, view, &self.pending, Pass::Depth, false)?;
             self.r.give_back(std::mem::take(&mut self.pyramid));
             self.pyramid = self.r.depth_pyramid()?;
             self.drawn.append(&mut self.pending);
@@ -153,14 +152,11 @@ pub struct HcOptions {
     pub adaptive: f64,
     /// New occluders the hybrid's traversal takes at a time ([`NEW_OCCLUDERS_MIN`]).
     pub new_occluders_min: usize,
-    /// What the additions drawn as occluders write: the depth buffer, or the image too (prev:
-    /// see [`crate::pass::or()`]).
-    pub writes: Pass,
 }
 
 impl Default for HcOptions {
     fn default() -> HcOptions {
-        HcOptions { test: HcTest::Hybrid, adaptive: 0.0, new_occluders_min: NEW_OCCLUDERS_MIN, writes: Pass::Depth }
+        HcOptions { test: HcTest::Hybrid, adaptive: 0.0, new_occluders_min: NEW_OCCLUDERS_MIN }
     }
 }
 
@@ -229,7 +225,7 @@ pub fn hc(
     }
     let second_look_ms = ms(t);
     let t = Instant::now();
-    let (again, retest_drawn) = retest(r, scene, view, (opts.adaptive, opts.writes), previous, &traversal.drawn, pvs)?;
+    let (again, retest_drawn) = retest(r, scene, view, opts.adaptive, previous, &traversal.drawn, pvs)?;
     let retest_ms = ms(t);
     let stats = traversal.stats;
     let retests = look.tests + again.tests;
@@ -282,7 +278,7 @@ fn traverse(
     let previous = match previous.is_empty() && opts.test == HcTest::Hybrid {
         true => {
             nearest = nearest_in_view(nodes, view, tau, FIRST_OCCLUDER_TRIANGLES);
-            r.draw_opaque(scene, view, &nearest, opts.writes, false)?;
+            r.draw_opaque(scene, view, &nearest, Pass::Depth, false)?;
             t.drawn.extend_from_slice(&nearest);
             &nearest[..]
         }
@@ -293,8 +289,8 @@ fn traverse(
         t.stats = frustum_cull(nodes, view, tau, pvs);
     } else if opts.test == HcTest::Hybrid {
         let pyramid = r.depth_pyramid()?;
-        let (min, writes) = (opts.new_occluders_min, opts.writes);
-        let mut tester = HybridTester { r, scene, pyramid, min, writes, pending: Vec::new(), drawn: std::mem::take(&mut t.drawn) };
+        let min = opts.new_occluders_min;
+        let mut tester = HybridTester { r, scene, pyramid, min, pending: Vec::new(), drawn: std::mem::take(&mut t.drawn) };
         t.stats = hardware_cull_seen(nodes, view, tau, previous, seen, &mut tester, pvs)?;
         t.drawn = tester.drawn;
         t.drawn.sort_unstable();
@@ -363,7 +359,7 @@ fn second_look(
 }
 
 /// The third pass, as in two-phase occlusion culling (niagara): the PVS's nodes not in V(i-1)
-/// had nothing drawn for them. They are drawn in `writes` (but for the hybrid's new
+/// had nothing drawn for them. They are drawn into the depth buffer (but for the hybrid's new
 /// occluders, drawn already) and tested again, exactly; the ones hidden behind others are
 /// dropped. Only geometry of this frame's PVS is added as occluder: conservative. Returns
 /// also the nodes it drew.
@@ -371,7 +367,7 @@ fn retest(
     r: &mut Renderer,
     scene: &SceneFile,
     view: &View,
-    (adaptive, writes): (f64, Pass),
+    adaptive: f64,
     previous: &[NodeId],
     drawn: &[NodeId],
     pvs: &mut Vec<NodeId>,
@@ -382,7 +378,7 @@ fn retest(
     }
     let undrawn: Vec<NodeId> = added.iter().copied().filter(|id| drawn.binary_search(id).is_err()).collect();
     if !undrawn.is_empty() {
-        r.draw_opaque(scene, view, &undrawn, writes, false)?;
+        r.draw_opaque(scene, view, &undrawn, Pass::Depth, false)?;
     }
     // Box by box when few (one round trip), or where Bartz 1999's eq. 1 scores each addition's own
     // pixels; through the hierarchy when many (a region came into view). Exactly on the GPU,

@@ -4,8 +4,7 @@
 //! - [`or()`]: OR, the last visible set's front drawn into the depth buffer for the new camera;
 //! - [`hc()`]: HC, in three passes, each timed: the traversal against that depth, the
 //!   hybrid's second look at small boxes, and the retest of additions drawn as occluders;
-//! - [`rvg()`]: RVG, the visible set drawn in colour; in prev, [`rvg_over()`] draws only what
-//!   OR and HC did not draw into the image already.
+//! - [`rvg()`]: RVG, the visible set drawn in colour; in prev over the depth OR and HC left.
 
 mod hc;
 mod or;
@@ -13,4 +12,4 @@ mod rvg;
 
 pub use hc::{HcOptions, HcPass, HcTest, HcTimes, NEW_OCCLUDERS_MIN, hc};
 pub use or::{note_clusters, or};
-pub use rvg::{Begun, rvg, rvg_over};
+pub use rvg::rvg;

@@ -9,12 +9,11 @@ use osw_gpu::draw::{Layer, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
 
-/// Draws the opaque clusters of `ids` re-selected for `view` at `tau` (the front update of
-/// sec. 4.6) in `writes`: into the depth buffer (the switch's nodes), or into the image too
-/// (prev: RVG then draws only what OR and HC did not, Yoon 2003 sec. 5.4); `clear` starts a
-/// new one. OR draws the front of V(i-2), then HC's additions of frame i-1 as they arrive:
-/// HC chose those for camera i-1, so they are re-selected too and every occluder is geometry
-/// at tau for camera i (tau may also change between frames).
+/// Draws into the depth buffer the opaque clusters of `ids` re-selected for `view` at `tau`
+/// (the front update of sec. 4.6); `clear` starts a new one. OR draws the front of V(i-2),
+/// then HC's additions of frame i-1 as they arrive: HC chose those for camera i-1, so they are
+/// re-selected too and every occluder is geometry at tau for camera i (tau may also change
+/// between frames).
 /// With `notes` (of the frame that found `ids`), only the clusters they take are drawn (paper
 /// 004 sec. 5.3.1: the clusters visible in the last frame are the occluders; see
 /// [`note_clusters`]). `front` is scratch space kept across frames.
@@ -24,13 +23,13 @@ pub fn or(
     view: &View,
     ids: &[NodeId],
     tau: f64,
-    (writes, clear, notes): (Pass, bool, Option<&VisibleClusters>),
+    (clear, notes): (bool, Option<&VisibleClusters>),
     front: &mut Vec<NodeId>,
 ) -> Result<DrawStats, RenderError> {
     update_front(scene.nodes(), ids, view, tau, front);
-    let Some(notes) = notes else { return r.draw_opaque(scene, view, front, writes, clear) };
+    let Some(notes) = notes else { return r.draw_opaque(scene, view, front, Pass::Depth, clear) };
     let mut drawn = r.gather(scene, view, front, r.options().cluster_tests, Some(&mut |id, k| notes.takes(id, k)))?;
-    r.submit(view, writes, Layer::Opaque, clear, &mut drawn)?;
+    r.submit(view, Pass::Depth, Layer::Opaque, clear, &mut drawn)?;
     Ok(drawn)
 }
 
