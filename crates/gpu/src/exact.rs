@@ -47,6 +47,9 @@ pub struct ExactFrame {
     /// The same for the triangles of `cluster_triangles`: the least culling whole clusters
     /// lets RVG's draw take.
     pub cluster_draw_ms: Option<f64>,
+    /// The opaque item buffer, rows top first: the LOD node id + 1 nearest at each pixel, 0
+    /// where nothing is (translucent surfaces over a pixel are left out).
+    pub pixels: Vec<u32>,
 }
 
 /// The LOD nodes the item buffer draws.
@@ -73,7 +76,9 @@ impl Renderer {
         let ids = drawn(scene, view, tau, reference);
         let drawn = self.draw(scene, view, &ids, Pass::Item, true)?;
         let pass = std::mem::take(&mut self.indices);
-        let items = self.read_items()?;
+        let read = self.target.read_item(&self.gpu)?;
+        let pixels: Vec<u32> = read.iter().map(|i| i[0]).collect();
+        let items = distinct(read);
         let mut leaves: Vec<NodeId> = items.iter().map(|i| scene.node(i[0] - 1).parent).collect();
         // Translucent surfaces are not in the depth buffer: what lies behind them was found
         // above. They are visible where a triangle of theirs passes the depth test; a pass
@@ -112,15 +117,13 @@ impl Renderer {
             drawn_triangles,
             visible_draw_ms,
             cluster_draw_ms,
+            pixels,
         })
     }
 
     /// The distinct [node id + 1, triangle index] pairs left in the item buffer, sorted.
     fn read_items(&self) -> Result<Vec<[u32; 2]>, RenderError> {
-        let mut items: Vec<[u32; 2]> = self.target.read_item(&self.gpu)?.into_iter().filter(|i| i[0] != 0).collect();
-        items.sort_unstable();
-        items.dedup();
-        Ok(items)
+        Ok(distinct(self.target.read_item(&self.gpu)?))
     }
 
     /// Draws in colour the triangles of the item pass (its indices `pass`) that `triangles`
@@ -137,6 +140,15 @@ impl Renderer {
         self.gpu.wait()?;
         Ok(start.elapsed().as_secs_f64() * 1e3)
     }
+}
+
+/// The distinct [node id + 1, triangle index] pairs of an item buffer, sorted, less the empty
+/// pixels.
+fn distinct(mut items: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
+    items.retain(|i| i[0] != 0);
+    items.sort_unstable();
+    items.dedup();
+    items
 }
 
 /// The triangles, numbered as in the one draw of `ids` (which drew each block's opaque

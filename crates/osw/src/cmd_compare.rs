@@ -4,13 +4,14 @@
 
 use crate::walk_args::WalkArgs;
 use anyhow::{Context, bail};
-use osw_render::compare::{CullError, ImageError, cull_error, image_error};
-use osw_render::output::{frame_path, read_ids, read_png};
+use osw_render::compare::{CullError, ImageError, cull_error, drawn_as, image_error, unexplained_pixels};
+use osw_render::output::{frame_path, items_path, read_ids, read_items, read_png};
 use osw_render::popping::popping;
 use osw_render::results::{self, Compare, Culling, DisplayFrame, ExactFrame, Popping, Summary};
 use osw_render::stats::mean;
 use osw_render::{FrameStats, Mode};
 use osw_scene::format::NodeKind;
+use osw_scene::{NodeId, SceneFile};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -21,7 +22,9 @@ pub struct Args {
     /// The run to compare it with (e.g. vfc at tau 0, the reference image).
     #[arg(long)]
     b: PathBuf,
-    /// `osw exact` output for the same scene and path: adds culling error.
+    /// `osw exact` output for the same scene and path: adds culling error, and which
+    /// differing pixels neither run's culling or LOD explains (`unexplained_pixels`: the node
+    /// nearest there in the item buffer was drawn as the same LOD by both).
     #[arg(long)]
     exact: Option<PathBuf>,
     /// `osw exact --tau T` output at the runs' tau: false culling counted against what is
@@ -42,6 +45,7 @@ pub struct Args {
 struct FrameRow {
     frame: usize,
     image: Option<ImageError>,
+    unexplained: Option<u64>,
     a: Option<CullError>,
     b: Option<CullError>,
     popping: [Option<f64>; 2],
@@ -55,6 +59,7 @@ struct CompareRow {
     psnr_db: Option<f64>,
     differing_fraction: f64,
     max_channel_diff: u8,
+    unexplained_pixels: Option<u64>,
     a_false_culled: Option<u32>,
     a_leaf_ratio: Option<f64>,
     a_triangle_ratio: Option<f64>,
@@ -125,6 +130,50 @@ fn popping_of(dir: &Path, s: &Summary, frames: usize) -> anyhow::Result<Vec<Opti
     Ok(out)
 }
 
+/// What tells the two runs' drawing differences from their culling and LOD differences
+/// (osw_render::compare::unexplained_pixels): the reference's item buffers and each run's
+/// visible sets.
+struct Attribution {
+    scene: SceneFile,
+    items: PathBuf,
+    pvs: [Vec<Vec<NodeId>>; 2],
+}
+
+impl Attribution {
+    /// None when `reference` has no item buffers (written by an osw before they were).
+    fn of(scene: &Path, reference: &Path, runs: [&Path; 2], frames: usize) -> anyhow::Result<Option<Attribution>> {
+        if !items_path(reference, 0).exists() {
+            return Ok(None);
+        }
+        let pvs = runs.map(|dir| read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg));
+        let [a, b] = pvs;
+        let pvs = [a?, b?];
+        if let Some((dir, p)) = runs.iter().zip(&pvs).find(|(_, p)| p.len() < frames) {
+            bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), p.len());
+        }
+        Ok(Some(Attribution { scene: SceneFile::open(scene)?, items: reference.to_path_buf(), pvs }))
+    }
+
+    /// Frame `i`'s unexplained pixels between RGBA8 images `a` and `b` of `size`.
+    fn frame(&self, i: usize, (a, b): (&[u8], &[u8]), size: (u32, u32)) -> anyhow::Result<u64> {
+        let path = items_path(&self.items, i as u64);
+        let (w, h, items) = read_items(&path).map_err(anyhow::Error::msg)?;
+        if (w, h) != size {
+            bail!("{}: {w}x{h}, the frames are {}x{}", path.display(), size.0, size.1);
+        }
+        let nodes = self.scene.nodes();
+        let bvh = self.scene.bvh_count() as usize;
+        let (pa, pb) = (&self.pvs[0][i], &self.pvs[1][i]);
+        let drawn = [drawn_as(nodes, bvh, pa), drawn_as(nodes, bvh, pb)].map(|d| d.map_err(anyhow::Error::msg));
+        let [da, db] = drawn;
+        let simplified = |p: &[NodeId]| p.iter().copied().filter(|&id| nodes[id as usize].error > 0.0).collect::<Vec<_>>();
+        let empty_explained = simplified(pa) != simplified(pb);
+        unexplained_pixels((a, b), &items, nodes, [&da?, &db?], empty_explained)
+            .map_err(anyhow::Error::msg)
+            .with_context(|| path.display().to_string())
+    }
+}
+
 /// `osw exact` output: the visible nodes and the exact.csv row of each of `frames` frames.
 fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<ExactFrame>)> {
     let leaves = read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
@@ -143,6 +192,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let frames = sa.frames.min(sb.frames) as usize;
     let mut rows: Vec<FrameRow> = (0..frames).map(|frame| FrameRow { frame, ..Default::default() }).collect();
     let have_frames = frame_path(&a.a, 0).exists() && frame_path(&a.b, 0).exists();
+    let reference = a.exact_lod.as_deref().or(a.exact.as_deref());
+    let attribution = match reference.filter(|_| have_frames) {
+        Some(reference) => Attribution::of(Path::new(&sa.scene), reference, [&a.a, &a.b], frames)?,
+        None => None,
+    };
     if have_frames {
         for row in &mut rows {
             let (wa, ha, pa) = read_png(&frame_path(&a.a, row.frame as u64)).map_err(anyhow::Error::msg)?;
@@ -151,6 +205,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 bail!("frame {}: {wa}x{ha} in {} but {wb}x{hb} in {}", row.frame, a.a.display(), a.b.display());
             }
             row.image = Some(image_error(&pa, &pb));
+            row.unexplained = attribution.as_ref().map(|at| at.frame(row.frame, (&pa, &pb), (wa, ha))).transpose()?;
         }
     }
     let (ms_a, ms_b) = (sa.frame_ms_median, sb.frame_ms_median);
@@ -231,6 +286,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     report.differing_fraction_mean = images.iter().map(|i| i.differing_fraction).sum::<f64>() / images.len().max(1) as f64;
     report.differing_fraction_max = images.iter().map(|i| i.differing_fraction).fold(0.0, f64::max);
     report.max_channel_diff = images.iter().map(|i| i.max_channel_diff).max().unwrap_or(0);
+    report.unexplained_pixels = attribution.is_some().then(|| rows.iter().filter_map(|r| r.unexplained).sum());
 
     std::fs::create_dir_all(&a.out)?;
     results::write_json(&a.out.join("compare.json"), &report)?;
@@ -244,6 +300,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 psnr_db: r.image.map(|i| i.psnr_db.unwrap_or(f64::INFINITY)),
                 differing_fraction: i.differing_fraction,
                 max_channel_diff: i.max_channel_diff,
+                unexplained_pixels: r.unexplained,
                 a_false_culled: r.a.map(|e| e.false_culled_leaves),
                 a_leaf_ratio: r.a.map(|e| e.leaf_ratio()),
                 a_triangle_ratio: r.a.map(|e| e.triangle_ratio()),
@@ -260,10 +317,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "no frames to compare".to_string()
     } else {
         format!(
-            "{} identical, PSNR min {}, differing pixels up to {:.4}%",
+            "{} identical, PSNR min {}, differing pixels up to {:.4}%{}",
             report.identical_frames,
             report.psnr_db_min.map_or("inf".into(), |p| format!("{p:.1} dB")),
-            report.differing_fraction_max * 100.0
+            report.differing_fraction_max * 100.0,
+            report.unexplained_pixels.map_or(String::new(), |n| format!(" ({n} drawn differently, not culled)"))
         )
     };
     out!(

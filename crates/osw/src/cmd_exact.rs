@@ -21,7 +21,9 @@ pub struct Args {
     frustum_cut: bool,
     /// Output directory: exact.csv (frame, visible_leaves, visible_triangles, drawn_triangles) and
     /// exact_leaves.txt (the visible leaves of each frame, one line per frame; at tau > 0 also
-    /// groups whose HLOD is visible).
+    /// groups whose HLOD is visible) and items/NNNNN.png (each frame's item buffer: at each
+    /// pixel one more than the nearest LOD's id, in its four bytes, least significant in red;
+    /// `osw compare` reads it to tell drawing differences from culling differences).
     #[arg(long)]
     out: PathBuf,
 }

@@ -1,7 +1,7 @@
 //! `osw compare`: per-frame image error between two runs, and culling error of each run
 //! against exact visibility (occlusion switch sec. 5: "PVS / exactly visible", false culling).
 
-use osw_scene::format::NodeKind;
+use osw_scene::format::{NodeKind, NodeRecord};
 use osw_scene::{NodeId, SceneFile};
 use serde::Serialize;
 
@@ -42,6 +42,62 @@ pub fn image_error(a: &[u8], b: &[u8]) -> ImageError {
 /// `above` levels.
 pub fn changed_pixels(a: &[u8], b: &[u8], above: u8) -> u64 {
     a.chunks_exact(4).zip(b.chunks_exact(4)).filter(|(p, q)| (0..3).any(|k| p[k].abs_diff(q[k]) > above)).count() as u64
+}
+
+/// The LOD node each BVH node of `nodes` is drawn as in a run that drew `pvs` (LOD ids): its
+/// own LOD, else the nearest ancestor's (an HLOD standing for it); `None` where neither is
+/// drawn. A run's culling and LOD choice of a node are both read from this.
+pub fn drawn_as(nodes: &[NodeRecord], bvh_count: usize, pvs: &[NodeId]) -> Result<Vec<Option<NodeId>>, String> {
+    let mut drawn = vec![None; bvh_count];
+    for &id in pvs {
+        let node = nodes.get(id as usize).filter(|n| n.kind() == NodeKind::Lod).ok_or_else(|| not_a_lod(id, nodes.len()))?;
+        drawn[node.parent as usize] = Some(id);
+    }
+    // BVH ids are breadth first: parents before children.
+    for id in 1..bvh_count {
+        if drawn[id].is_none() {
+            drawn[id] = drawn[nodes[id].parent as usize];
+        }
+    }
+    Ok(drawn)
+}
+
+fn not_a_lod(id: NodeId, nodes: usize) -> String {
+    format!("id {id} is not a LOD node of this scene ({nodes} nodes): wrong scene?")
+}
+
+/// Pixels where RGBA8 images `a` and `b` differ (in RGB) that neither culling nor LOD choice
+/// explains: the nearest node there in the item buffer `items` (LOD id + 1 a pixel, 0 where
+/// empty, [`crate::output::write_items`]) is drawn as the same LOD by both runs (`drawn`, by
+/// BVH node, from [`drawn_as`]), so the two drew it differently. An empty pixel of the item
+/// buffer can be painted only by a simplified LOD's larger outline: `empty_explained` says
+/// whether the runs drew different simplified LODs.
+pub fn unexplained_pixels(
+    (a, b): (&[u8], &[u8]),
+    items: &[u32],
+    nodes: &[NodeRecord],
+    drawn: [&[Option<NodeId>]; 2],
+    empty_explained: bool,
+) -> Result<u64, String> {
+    if a.len() != items.len() * 4 || b.len() != items.len() * 4 {
+        return Err(format!("an item buffer of {} pixels for images of {} and {}", items.len(), a.len() / 4, b.len() / 4));
+    }
+    let mut unexplained = 0;
+    for ((p, q), &item) in a.chunks_exact(4).zip(b.chunks_exact(4)).zip(items) {
+        if p[..3] == q[..3] {
+            continue;
+        }
+        let explained = match item.checked_sub(1) {
+            None => empty_explained,
+            Some(id) => {
+                let owner = nodes.get(id as usize).filter(|n| n.kind() == NodeKind::Lod).ok_or_else(|| not_a_lod(id, nodes.len()))?.parent;
+                let of = |d: &[Option<NodeId>]| d.get(owner as usize).copied().flatten();
+                of(drawn[0]) != of(drawn[1])
+            }
+        };
+        unexplained += u64::from(!explained);
+    }
+    Ok(unexplained)
 }
 
 /// Culling error of one frame against exact visibility.
@@ -124,6 +180,55 @@ mod tests {
         assert_eq!(e.differing_fraction, 0.5);
         assert_eq!(e.max_channel_diff, 3);
         assert!((e.psnr_db.unwrap() - 10.0 * (255.0f64 * 255.0 / 1.5).log10()).abs() < 1e-9);
+    }
+
+    /// A root group (0) over leaves 1 and 2, with LODs 3 and 4 of the leaves and the root's
+    /// HLOD 5.
+    fn tree() -> Vec<NodeRecord> {
+        let node =
+            |kind: NodeKind, parent: u32, error: f32| NodeRecord { kind: kind as u32, parent, error, ..bytemuck::Zeroable::zeroed() };
+        let leaf = NodeKind::Leaf;
+        vec![
+            NodeRecord { first_child: 1, child_count: 2, first_lod: 5, lod_count: 1, ..node(NodeKind::Group, u32::MAX, 1.0) },
+            NodeRecord { first_lod: 3, lod_count: 1, ..node(leaf, 0, 0.0) },
+            NodeRecord { first_lod: 4, lod_count: 1, ..node(leaf, 0, 0.0) },
+            node(NodeKind::Lod, 1, 0.0),
+            node(NodeKind::Lod, 2, 0.0),
+            node(NodeKind::Lod, 0, 1.0),
+        ]
+    }
+
+    #[test]
+    fn a_node_is_drawn_as_its_own_lod_or_its_nearest_ancestors() {
+        let n = tree();
+        assert_eq!(drawn_as(&n, 3, &[3, 4]).unwrap(), [None, Some(3), Some(4)]);
+        assert_eq!(drawn_as(&n, 3, &[4]).unwrap(), [None, None, Some(4)]);
+        assert_eq!(drawn_as(&n, 3, &[5]).unwrap(), [Some(5); 3]);
+        assert!(drawn_as(&n, 3, &[1]).unwrap_err().contains("not a LOD"));
+    }
+
+    #[test]
+    fn differing_pixels_are_unexplained_where_both_runs_drew_the_node_there_alike() {
+        let n = tree();
+        // Three pixels, all differing: leaf 1's LOD (item 3 + 1), leaf 2's, and an empty one;
+        // and a fourth, equal in both images.
+        let a = [[10u8, 10, 10, 255]; 4].concat();
+        let mut b = [[20u8, 10, 10, 255]; 4].concat();
+        b[12..16].copy_from_slice(&[10, 10, 10, 0]);
+        let items = [4, 5, 0, 4];
+        let both = drawn_as(&n, 3, &[3, 4]).unwrap();
+        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&both, &both], false), Ok(3));
+        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&both, &both], true), Ok(2));
+        // a culled leaf 2: its pixel is culling's.
+        let culled = drawn_as(&n, 3, &[3]).unwrap();
+        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&culled, &both], false), Ok(2));
+        // a drew the root's HLOD: every pixel is LOD's.
+        let hlod = drawn_as(&n, 3, &[5]).unwrap();
+        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&hlod, &both], true), Ok(0));
+        // Identical images: nothing to explain.
+        assert_eq!(unexplained_pixels((&a, &a), &items, &n, [&both, &both], false), Ok(0));
+        assert!(unexplained_pixels((&a, &b), &items[..3], &n, [&both, &both], false).is_err());
+        assert!(unexplained_pixels((&a, &b), &[2, 0, 0, 0], &n, [&both, &both], false).unwrap_err().contains("not a LOD"));
     }
 
     #[test]

@@ -1,5 +1,6 @@
-//! Files a run writes: `frames/NNNNN.png`, and id lists one line per frame (`pvs.txt`: the LOD
-//! ids drawn; `exact_leaves.txt`: the exactly visible leaves), read back by `osw compare`.
+//! Files a run writes: `frames/NNNNN.png`, `osw exact`'s item buffers `items/NNNNN.png`, and id
+//! lists one line per frame (`pvs.txt`: the LOD ids drawn; `exact_leaves.txt`: the exactly
+//! visible leaves), read back by `osw compare`.
 
 use osw_scene::NodeId;
 use std::fmt::Write as _;
@@ -8,6 +9,24 @@ use std::path::{Path, PathBuf};
 /// The PNG of frame `i` in run directory `dir`.
 pub fn frame_path(dir: &Path, i: u64) -> PathBuf {
     dir.join("frames").join(format!("{i:05}.png"))
+}
+
+/// The item buffer of frame `i` in `osw exact`'s output directory `dir`.
+pub fn items_path(dir: &Path, i: u64) -> PathBuf {
+    dir.join("items").join(format!("{i:05}.png"))
+}
+
+/// Writes an item buffer (a u32 a pixel, rows top first) as an RGBA8 PNG, each pixel's id in
+/// its four bytes, least significant in red.
+pub fn write_items(path: &Path, width: u32, height: u32, ids: &[u32]) -> Result<(), String> {
+    let bytes: Vec<u8> = ids.iter().flat_map(|id| id.to_le_bytes()).collect();
+    write_png(path, width, height, &bytes)
+}
+
+/// Reads an item buffer [`write_items`] wrote: (width, height, ids).
+pub fn read_items(path: &Path) -> Result<(u32, u32, Vec<u32>), String> {
+    let (w, h, bytes) = read_png(path)?;
+    Ok((w, h, bytes.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()))
 }
 
 /// Writes an RGBA8 image as PNG.

@@ -1,7 +1,7 @@
 //! Loops over a camera path: `osw render` (one mode) and `osw exact` (item buffer).
 
 use crate::mode::{Mode, ModeState};
-use crate::output::{frame_path, push_ids, write_png};
+use crate::output::{frame_path, items_path, push_ids, write_items, write_png};
 use crate::pass::HcTest;
 use crate::results::{self, Details, ExactFrame, RenderSummary, Summary};
 use crate::stats::FrameStats;
@@ -103,7 +103,8 @@ pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &
 
 /// Exact visibility for every camera: `exact.csv` (frame, visible leaves, visible triangles,
 /// triangles of the clusters holding them, triangles drawn into the item buffer, ms to draw only
-/// the visible ones, and only their clusters) and `exact_leaves.txt` (the visible leaves of each frame).
+/// the visible ones, and only their clusters), `exact_leaves.txt` (the visible leaves of each
+/// frame) and `items/NNNNN.png` (each frame's opaque item buffer, [`crate::output::write_items`]).
 pub fn exact_path(
     r: &mut Renderer,
     scene: &SceneFile,
@@ -115,6 +116,7 @@ pub fn exact_path(
 ) -> Result<(), RunError> {
     let mut rows = Vec::with_capacity(cams.len());
     let mut leaves = String::new();
+    std::fs::create_dir_all(out.join("items")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
     for (i, cam) in cams.iter().enumerate() {
         r.begin_frame();
         let view = r.view(cam, tau);
@@ -129,6 +131,7 @@ pub fn exact_path(
             visible_cluster_draw_ms: e.cluster_draw_ms,
         });
         push_ids(&mut leaves, &e.leaves);
+        write_items(&items_path(out, i as u64), r.target.width, r.target.height, &e.pixels).map_err(RunError::Output)?;
         tick();
     }
     results::csv::write(&out.join("exact.csv"), &rows).map_err(|e| RunError::Output(e.to_string()))?;

@@ -20,6 +20,12 @@ pub struct Compare {
     pub differing_fraction_mean: f64,
     pub differing_fraction_max: f64,
     pub max_channel_diff: u8,
+    /// Differing pixels whose nearest node in the item buffer (`--exact-lod`'s if given, else
+    /// `--exact`'s) both runs drew as the same LOD: drawing differences, not culling or LOD
+    /// (osw_render::compare::unexplained_pixels); 0 for runs that draw what they cull alike.
+    /// None without `--exact`, frames, or the reference's item buffers.
+    #[serde(default)]
+    pub unexplained_pixels: Option<u64>,
     /// Run time next to the error: each run's median frame time, and b's over a's.
     pub frame_ms_median_a: f64,
     pub frame_ms_median_b: f64,
