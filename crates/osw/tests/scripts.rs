@@ -162,6 +162,7 @@ fn real_models_tabulates_every_shared_model_against_vfc_and_exact_visibility() {
         let (same, frames) = r[7].split_once(" of ").unwrap_or_else(|| panic!("{table}"));
         assert_eq!(same, frames, "{r:?}: frames differ from vfc's");
         assert_eq!(r[8], "0", "{r:?}: false culling");
+        assert_eq!(r[9], "0", "{r:?}: pixels drawn differently from the same nodes");
     }
 }
 

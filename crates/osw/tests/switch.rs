@@ -29,9 +29,8 @@ fn the_switch_is_prev_split_across_processes() {
         assert!(f(&run) == f(&prev), "frame {i} differs from prev");
         assert!(f(&full) == f(&prev), "frame {i} with --full differs from prev");
     }
-    osw_ok(&["compare", "--a", s(&run), "--b", s(&vfc), "--exact", s(&exact), "--out", s(&d.path().join("cmp"))]);
-    let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("cmp/compare.json")).unwrap()).unwrap();
-    assert_eq!(c["identical_frames"], 16, "{c}");
+    let c = compare(&run, &vfc, &exact, &d.path().join("cmp"));
+    assert_same_frames(&c, 16, "the switch against vfc");
     assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{c}");
     // The statistics: deltas send fewer ids and bytes than full sets, and say how many fewer.
     let ((sd, d_sw), (_, f_sw)) = (switch_summary(&run), switch_summary(&full));

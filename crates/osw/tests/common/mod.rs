@@ -218,6 +218,27 @@ pub fn compare(a: &Path, b: &Path, exact: &Path, out: &Path) -> serde_json::Valu
     serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap()
 }
 
+/// A comparison (with `--exact`) of runs that must draw the same frames (every run at tau 0
+/// against vfc, or two runs of the same visible sets): no pixel drawn differently where both
+/// drew the node the item buffer finds there, and every frame identical.
+pub fn assert_same_frames(c: &serde_json::Value, frames: usize, label: &str) {
+    assert_eq!(c["unexplained_pixels"], 0, "{label}: pixels drawn differently from the same nodes: {c}");
+    assert_eq!(c["identical_frames"], frames, "{label}: frames differ: {c}");
+}
+
+/// prev, culling every frame, against vfc on `path` at `size` and tau 0, attributed through
+/// the item buffer of vfc's cut: the same frames, no pixel drawn differently.
+pub fn check_prev_draws_vfcs_frames(scene: &Path, path: &Path, size: &str, dir: &Path, label: &str) {
+    let walk = ["--scene", s(scene), "--path", s(path), "--size", size];
+    let [exact, vfc, prev] = ["exact", "vfc", "prev"].map(|n| dir.join(n));
+    osw_ok(&[&["exact", "--frustum-cut"], &walk[..], &["--out", s(&exact)]].concat());
+    osw_ok(&[&["render", "--mode", "vfc"], &walk[..], &["--out", s(&vfc)]].concat());
+    osw_ok(&[&["render", "--mode", "prev", "--always-cull"], &walk[..], &["--out", s(&prev)]].concat());
+    let c = compare(&prev, &vfc, &exact, &dir.join("cmp"));
+    let frames = osw_scene::path::read(path).unwrap().len();
+    assert_same_frames(&c, frames, &format!("{label}: prev against vfc"));
+}
+
 /// Renders `path` with vfc and every mode at tau 0, computes exact visibility, and checks
 /// each mode against both, and vfc against itself without the small-triangle test. Returns the
 /// run directory.
@@ -238,7 +259,7 @@ pub fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) ->
         let name = format!("{mode}-{hc}");
         render(scene, path, (mode, hc), "0", &run.join(&name));
         let c = compare(&run.join(&name), &run.join("vfc"), &exact, &run.join(format!("cmp-{name}")));
-        assert_eq!(c["identical_frames"], frames, "{label} {mode}: frames differ from vfc: {c}");
+        assert_same_frames(&c, frames, &format!("{label} {mode} against vfc"));
         assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{label} {mode}: false culling: {c}");
         // vfc draws every leaf in the frustum: it cannot miss one either (checks the checker).
         assert_eq!(c["culling_b"]["false_culled_leaves_total"], 0, "{label} vfc: {c}");
