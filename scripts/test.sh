@@ -4,6 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
+# README's length, and measured figures in docs/measurements/ rather than in code comments.
+scripts/check-shape.sh
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 # The switch tests start the node and display binaries: build every binary first.
 cargo build --release --workspace --locked --bins

@@ -84,9 +84,9 @@ impl Pyramid {
     }
 
     /// Builds the pyramid again, in this one's storage, from the `width` x `height` reversed-Z
-    /// depth image that `fill` writes into level 0 (given empty). A 1024x1024 pyramid is 5.6 MB,
-    /// which a fresh allocation faults in page by page: measured, page faults took about 8% of
-    /// a frame's CPU on the 10B instanced plant's walk when every pyramid was new.
+    /// depth image that `fill` writes into level 0 (given empty). A fresh allocation of a
+    /// screen's pyramid is faulted in page by page, a cost every frame would pay again
+    /// (docs/measurements/2026-12-07-constants.md, "Pyramid::rebuild").
     pub fn rebuild<E>(&mut self, width: u32, height: u32, fill: impl FnOnce(&mut Vec<f32>) -> Result<(), E>) -> Result<(), E> {
         let mut storage = std::mem::take(&mut self.levels).into_iter().map(|(_, _, d)| d);
         let mut depth = storage.next().unwrap_or_default();

@@ -28,12 +28,10 @@ pub struct CullCost {
 }
 
 impl CullCost {
-    /// The cost at an image of `pixels`. Measured on lavapipe (one run of
-    /// `scripts/real-models.sh` at 512x512, tau 1, on the FZK house): prev's HC took 2.0 ms a
-    /// frame (the depth read back, its pyramid, the second look's round trips), while vfc's RVG
-    /// drew 5,232 triangles in 5.6 ms, about 930 a ms: some 1,900 triangles' worth, which
-    /// grows with the pixels read back (512x512 / 128 = 2,048). OR's depth pass draws a
-    /// triangle at about RVG's cost; a box test on the CPU pyramid costs about a quarter of one.
+    /// The cost at an image of `pixels`: a culled frame's fixed work (the depth read back, its
+    /// pyramid, the second look's round trips) grows with the pixels read back, OR draws a
+    /// triangle at about RVG's cost, and a box test on the CPU pyramid costs about a quarter of
+    /// one (docs/measurements/2026-12-07-constants.md, "CullCost").
     pub fn at(pixels: u64) -> CullCost {
         CullCost { frame: pixels as f64 / 128.0, occluder: 1.0, test: 0.25 }
     }
@@ -58,9 +56,8 @@ pub fn triangles(nodes: &[osw_scene::NodeRecord], ids: &[osw_scene::NodeId]) -> 
 /// Most frames skipped between two probes.
 pub const MAX_SKIP: u32 = 64;
 /// Frames skipped after the first frame that does not pay; each probe that does not pay
-/// skips this many times more. Measured on OpenArena's walk (60 frames at 512x512, tau 1):
-/// probes after 2, 4, 8 ... frames culled 9 frames of 60 and left prev at 0.89x vfc, after
-/// 4, 16, 64 frames 7 and 0.93x (the culled frames cost 19-26 ms, the skipped ones vfc's).
+/// skips this many times more: probes that grow faster waste fewer culled frames where culling
+/// never pays (docs/measurements/2026-12-07-constants.md, "FIRST_SKIP").
 const FIRST_SKIP: u32 = 8;
 const GROWTH: u32 = 4;
 

@@ -125,9 +125,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
     } else {
         (None, osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?)
     };
-    // The next frame's gather overlaps this frame's draw (5M plant walk, tau 5: four pairs of
-    // runs took 57.8 / 64.4, 56.3 / 59.9, 57.5 / 56.4 and 58.4 / 59.2 ms a frame, with /
-    // without). RVG's stage time then ends when its draw is submitted, the previous one done.
+    // The next frame's gather overlaps this frame's draw (measured in
+    // docs/measurements/2026-12-07-constants.md, "The display's overlap"). RVG's stage time then
+    // ends when its draw is submitted, the previous one done.
     let options = RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, overlap: true, ..RenderOptions::default() };
     let mut r = osw_gpu::Renderer::new(gpu, &scene, w, h, osw_gpu::limits::RESIDENCY_BYTES, options)?;
     if a.gpu_times && !r.times_gpu() {

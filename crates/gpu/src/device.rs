@@ -48,9 +48,8 @@ pub const OPTIONAL: wgpu::Features =
 /// A software adapter (lavapipe) mallocs each draw's vertex and binning memory and frees it
 /// when the draw is done; glibc then hands the freed top of its heaps back to the kernel, and
 /// the next draw takes every page again as a zeroed page fault. Heaps are kept instead (their
-/// peak stays resident, as it would be on a GPU). The 10B instanced plant's walk in the switch,
-/// 100 frames: 1.16M page faults in its three processes, 0.37M with the heaps kept, and the
-/// display's CPU a frame 85.6 -> 70.1 ms (docs/measurements/2026-12-04-instances.md).
+/// peak stays resident, as it would be on a GPU): a third of the page faults
+/// (docs/measurements/2026-12-04-instances.md).
 fn keep_freed_heap() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt sets one of glibc's malloc parameters; every value of this one is valid.

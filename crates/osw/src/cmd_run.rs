@@ -7,14 +7,10 @@
 //! Three processes on one host share its cores: unless `LP_NUM_THREADS` is set, the nodes run
 //! Mesa lavapipe without raster threads (`LP_NUM_THREADS=0`; ignored by other drivers) and
 //! the display with lavapipe's default (a raster thread a core). Raster threads in every
-//! process would compete for the cores the other two need: on the 100M plant walk at tau 1,
-//! three pairs of runs took 42.8 / 40.5, 44.7 / 42.3 and 41.4 / 39.1 ms a frame (default / 0
-//! everywhere). But RVG draws the whole visible set with colour, the frame's largest pass,
-//! and alone in one thread it set the pace (5M plant walk, tau 5: the display's thread busy
-//! 95% of the time, the nodes' core 82%): with the display's raster threads, four pairs took
-//! 62.9 / 64.9, 59.1 / 62.9, 58.4 / 61.3 and 56.1 / 58.9 ms a frame, and on the 100M walk at
-//! tau 1 80.6 / 79.6, 76.7 / 79.6 and 67.9 / 76.6 (display default / 0). A single process
-//! keeps lavapipe's default too (chc: 53.6 against 74.1 ms with 0).
+//! process would compete for the cores the other two need, but RVG draws the whole visible set
+//! with colour, the frame's largest pass, and alone in one thread it set the pace; a single
+//! process keeps lavapipe's default too (docs/measurements/2026-12-07-constants.md, "Raster
+//! threads").
 
 use anyhow::{Context, bail};
 use osw_render::Mode;

@@ -357,10 +357,9 @@ pub fn build(
 /// Subtrees built between two hand-backs of freed memory to the kernel. glibc keeps the pages
 /// a subtree's meshes freed in its heaps while a smaller allocation that outlives the subtree
 /// (an LOD record, the coarsest level its parent merges) sits above them, so the resident
-/// memory grew with the model: the 10B instanced plant's build peaked at 8.03 GB, 5.25 GB with
-/// this. A hand-back after every subtree cost the 1B instanced plant's build 1.08x its time
-/// (the pages are taken again), every 16th 1.03x, for a peak 0.65x and 0.70x as high.
-/// docs/measurements/2026-12-04-instances.md, "The 10B build's memory"
+/// memory grew with the model. A hand-back after every subtree costs time (the pages are
+/// taken again) for little lower a peak than one every 16th
+/// (docs/measurements/2026-12-04-instances.md, "The 10B build's memory").
 const SUBTREES_PER_TRIM: usize = 16;
 
 fn return_freed_memory() {

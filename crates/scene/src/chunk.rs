@@ -14,7 +14,7 @@ use glam::Vec3;
 pub struct SplitOptions {
     /// Largest chunk, triangles (>= 1).
     pub max_triangles: u32,
-    /// A chunk of at least 2 x [`LOOSE_MIN_TRIANGLES`] is split at its median when its
+    /// A chunk of at least twice [`LOOSE_MIN_TRIANGLES`] is split at its median when its
     /// halves' boxes have less than this fraction of its box's surface area (0: never).
     pub loose: f32,
 }
@@ -134,7 +134,7 @@ mod tests {
 
     #[test]
     fn an_elbowed_pipe_is_split_where_its_box_is_loose() {
-        // An L of two 20 m pipes, 0.2 m across: its box is 20 x 0.2 x 20, its legs' boxes thin.
+        // An L of two 20 m pipes, 0.2 m across: its box is 20 by 0.2 by 20, its legs' boxes thin.
         let mut m = Mesh::default();
         let l = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(20.0, 0.0, 0.0), Vec3::new(20.0, 0.0, 20.0)];
         shapes::tube(&mut m, &l, 0.1, 48, false);

@@ -101,16 +101,15 @@ struct GroupShape {
 }
 
 /// Groups of 16 clusters of 128 triangles (meshoptimizer's defaults: 32 triangles, 16
-/// clusters). On the 20M plant against those: the build 1.7x as fast, 0.77x the bytes, less
-/// popping at tau 1. docs/measurements/2026-12-03-cluster-hierarchy.md
+/// clusters): a faster build, a smaller file and less popping on the plant
+/// (docs/measurements/2026-12-03-cluster-hierarchy.md).
 const GROUPS: GroupShape = GroupShape { cluster_triangles: 128, clusters: 16 };
 
 /// Groups of an object of at least [`LARGE_OBJECT`] triangles: 128 clusters of 256 (the most
 /// triangles clod_build takes a cluster). Each group locks its border while it is simplified;
 /// in an object that fills the view from near (paper 004's isosurface, 2.4M triangles) large
-/// groups lock less of it and switch less of it as the eye moves: at the static chains' tau
-/// 0.5 PSNR 0.72x their triangles (0.70x with 32 clusters, 0.75x with [`GROUPS`]), and at tau
-/// 0.5 0.25x their popping (0.86x with 32 clusters). Larger groups fold more fans into fins
+/// groups lock less of it and switch less of it as the eye moves: fewer triangles at the
+/// same PSNR and much less popping. Larger groups fold more fans into fins
 /// ([`crate::fins`]). On the plant's small objects they cost triangles at every PSNR.
 /// docs/measurements/2026-12-03-cluster-hierarchy.md, "Larger groups for a large object" and
 /// "Fins dropped: groups of 128 clusters"
@@ -147,8 +146,8 @@ fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy
         };
     }
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte vertices");
-    // Each level aiming at 0.4x the triangles of the one below (meshoptimizer's default: 0.5;
-    // measured with the group shape). Clusters are made again for drawing anyway
+    // Each level aiming at 40% of the triangles of the one below (meshoptimizer's default:
+    // half; measured with the group shape). Clusters are made again for drawing anyway
     // (crate::cluster), so the shape only sizes the groups a cut switches.
     let mut config = meshopt::clod_default_config(shape.cluster_triangles);
     config.partition_size = shape.clusters;
@@ -157,13 +156,11 @@ fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy
     config.cluster_spatial = true;
     // No attributes are given, so permissive collapses across colour seams are not wanted.
     config.simplify_permissive = false;
-    // A group's error: max(the largest error below, its step) + 2 x its step. At least the
+    // A group's error: max(the largest error below, its step) + twice its step. At least the
     // triangle inequality's sum (below + step, as the static chains sum theirs), so a bound on
     // the distance to the original; the extra weight on the step spends a cut's triangles
-    // where a step removed much for little error. On the 20M plant's walk, at the chains' PSNR
-    // (40.4 dB) vfc draws 0.69x their triangles with this, 0.76x with one step added, 0.87x
-    // with meshoptimizer's default (the larger of the two), 0.93x with the exact sum.
-    // docs/measurements/2026-12-03-cluster-hierarchy.md, "The groups' error"
+    // where a step removed much for little error
+    // (docs/measurements/2026-12-03-cluster-hierarchy.md, "The groups' error").
     config.simplify_error_merge_additive = 2.0;
     // The build clusters each block again its own way (crate::cluster): meshoptimizer's
     // reordering of each cluster for locality would be thrown away.
@@ -328,7 +325,7 @@ mod tests {
         sphere_of(64)
     }
 
-    /// A sphere of radius 10 in `rings` rings of 2 x `rings` segments.
+    /// A sphere of radius 10 in `rings` rings of twice `rings` segments.
     fn sphere_of(rings: u32) -> Mesh {
         let mut m = Mesh::default();
         shapes::lathe(&mut m, Vec3::ZERO, &shapes::sphere_profile(10.0, rings), 2 * rings);
@@ -358,7 +355,7 @@ mod tests {
         let original: usize = h.chunks.iter().map(|p| p.mesh.triangle_count()).sum();
         assert_eq!(original, m.triangle_count());
         assert!(h.chunks.iter().all(|p| p.cuts.iter().all(|c| c.lo.error == 0.0 && c.hi.error > 0.0)));
-        // Chunks of whole groups (clod_build's groups are about 16 x 128 triangles).
+        // Chunks of whole groups (clod_build's groups are about 16 clusters of 128 triangles).
         assert!(h.chunks.len() >= m.triangle_count() / (GROUPS.clusters * GROUPS.cluster_triangles), "{} chunks", h.chunks.len());
         // Each lo bound is some group's hi bound, enclosed by it with an error no larger.
         let his: Vec<ErrorBound> = triangles(&h).iter().map(|t| t.1.hi).collect();

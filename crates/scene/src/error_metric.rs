@@ -41,15 +41,9 @@ pub fn projected_error_px(error: f32, b: &Aabb, eye: DVec3, focal_px: f64) -> f6
 /// projected error says. The weight only refines (conservative), and it grows with the radius
 /// and with nearness, as the distance does: a sphere that encloses another with an error at
 /// least as large still projects to at least as many pixels from every eye, so a cut stays
-/// consistent. On the 20M plant's walk, at the static chains' tau 0.5 and 1 PSNRs, vfc draws
-/// 0.67x / 0.54x their triangles with a weight of 11 (without: 0.79x / 0.68x), and pops 1.02x
-/// / 0.73x as much (without: 2.23x / 1.09x); on the isosurface's orbit, one object filling the
-/// view, 0.75-0.76x with or without it (crate::clod's larger groups bring it to 0.72x, with
-/// weights of 4, 11 and 20 alike). Projecting from nearer than the nearest point (the centre
-/// less 4 radii) did as well on both, but left a group within 3 radii of the eye never
-/// simplified, and with 8 radii the isosurface never coarser than the chains' tau 0.5 image.
-/// Weights of 8 and 16 did about as well on the plant's curve; 16 left a small isosurface seen
-/// from its orbit drawn as its original at tau 1.
+/// consistent. The weight takes fewer triangles for the same PSNR on the plant and pops less;
+/// projecting from nearer than the nearest point instead left groups near the eye never
+/// simplified.
 /// docs/measurements/2026-12-03-cluster-hierarchy.md, "How much a group's size on screen counts"
 pub const SIZE_WEIGHT: f64 = 11.0;
 

@@ -22,10 +22,10 @@ pub struct Encoded {
 /// the block's object when that is closed (see [`crate::cluster::clusterize`]).
 ///
 /// Vertices of bit-identical position and colour are stored once: osw draws neither normals
-/// nor texture coordinates, so the seams a model splits its vertices at are not needed
-/// (openarena's levels: 39.6 → 30.9 MB), and a cluster hierarchy's node gathers pieces that
-/// share their borders and the original corners of simplified triangles (the 20M plant:
-/// 696.2 → 608.3 MB). Connected parts are joined by position already ([`crate::cluster`]).
+/// nor texture coordinates, so the seams a model splits its vertices at are not needed, and a
+/// cluster hierarchy's node gathers pieces that share their borders and the original corners
+/// of simplified triangles (docs/measurements/2026-12-07-constants.md, "encode"). Connected
+/// parts are joined by position already ([`crate::cluster`]).
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
     let mesh = mesh.welded();
     encode_with(&mesh, crate::cluster::clusterize(&mesh, object))

@@ -2,7 +2,7 @@
 // one camera-relative box, takes the level where its screen rectangle spans at most
 // 2^(1 + finer) texels a side, and compares the box's nearest depth with the farthest occluder
 // depth over the texels covering the rectangle. Same rule as osw-cull's HzbTester (the CPU
-// reference). finer = 0 is Peng 2014's 2x2 texels; each step finer reads 4x the texels and
+// reference). finer = 0 is Peng 2014's 2x2 texels; each step finer reads four times the texels and
 // culls more. Set from osw_cull::hzb::PYRAMID_FINER when the pipeline is made.
 
 override finer: u32;

@@ -57,12 +57,9 @@ impl std::str::FromStr for HcTest {
 const HYBRID_SECOND_PX: f64 = 512.0;
 
 /// How the second look reads the pyramid: from 4 levels finer than Peng 2014's 2x2 texels (at
-/// most 32 texels a side) down to the pixels, block by block. Measured on the 5M plant walk at
-/// tau 5, against the exact GPU test it replaced, 6 levels without the pixels dropped 85 boxes
-/// a frame where the exact test dropped 102, for 0.8 ms against 10 (one core). Reading down
-/// to the pixels, 6 levels left the 2M instanced plant's near parts behind a wall to the
-/// retest (a part 880 px across spans too many texels there for the budget); 3 and 4 levels
-/// hid them, 4 for 1.0 ms a frame at 10B against 1.2 (docs/measurements/2026-12-04-instances.md).
+/// most 32 texels a side) down to the pixels, block by block: nearly the exact GPU test's
+/// culling at a tenth of its time, and fine enough that a large near box stays within the
+/// pixel budget (docs/measurements/2026-12-07-constants.md, "SECOND_LOOK_READ").
 const SECOND_LOOK_READ: Read = Read { finer: 4, budget: PIXELS_BUDGET, by_block: true };
 
 /// How the hybrid's traversal tests a box against its pyramid: texels read below the box's
@@ -70,13 +67,9 @@ const SECOND_LOOK_READ: Read = Read { finer: 4, budget: PIXELS_BUDGET, by_block:
 /// box's own depth at the pixel centres it covers ([`osw_cull::hzb::PixelRays`], as the exact
 /// GPU test draws it). The coarse test let through boxes that the retest's exact GPU test
 /// then hid, the same ones every frame, each reached by a chain of tests from a visible
-/// ancestor. On the 20M plant walk (tau 1, 1024x1024, every frame culled) the traversal's
-/// tests went from 1,524 a frame to 1,258 with the pixels, and HC from 22 to 11 ms
-/// (docs/measurements/2026-12-03-hc-tests.md). With each pixel read by the box's own depth,
-/// halving a box that passes (which had taken 1,258 to 1,158 there) no longer pays: on the
-/// 10B instanced plant walk the traversal's tests went from 4,182 to 3,075 a frame, its
-/// additions drawn as occluders from 404 to 16 nodes, and its time from 19-23 to 11 ms
-/// (docs/measurements/2026-12-04-instances.md).
+/// ancestor; read to the pixels, HC makes fewer tests in less time, and halving a box that
+/// passes no longer pays (docs/measurements/2026-12-03-hc-tests.md,
+/// docs/measurements/2026-12-04-instances.md).
 const TRAVERSAL_READ: Read = Read { finer: PYRAMID_FINER, budget: PIXELS_BUDGET, by_block: false };
 const PIXELS_BUDGET: u32 = 1024;
 
@@ -100,18 +93,9 @@ impl HybridTester<'_> {
     }
 }
 
-/// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]). With the
-/// coarse box test, 64 and 128 halved HC's tests at 100M but read back on most frames (HC 13
-/// → 23 ms at 20M), so 256 were taken. With the tests read to the pixels
-/// ([`PIXELS_BUDGET`]), few boxes pass where nothing came into view, and a region coming into
-/// view is what the tests are spent on (2,000 of a frame's 2,200 there, 200 elsewhere): on
-/// the 20M plant walk 256, 64, 32 and 16 left 1,224, 1,028, 895 and 800 tests a frame (CHC:
-/// 797) for HC means of 19.2, 21.9, 23.2 and 21.4 ms, and 16 was taken. Since each pixel is
-/// read by the box's own depth and each cluster tested once a view, a round (a draw, a
-/// read-back, a pyramid) costs more than the tests it saves: on the same walk at tau 1, 32
-/// took HC from 9.5 to 7.0 ms with the static chains and from 12.7 to 10.3 with the cluster
-/// hierarchy, the triangles drawn within 0.1% (above 32, up to 0.5% more); the 100M plant
-/// 5.1 to 4.7 ms, the other scenes the same within noise
+/// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]): a round (a
+/// draw, a read-back, a pyramid) must save more tests than it costs, and with each pixel read
+/// by the box's own depth few boxes pass but where a region comes into view
 /// (docs/measurements/2026-12-06-same-tau.md, "Fewer rounds").
 pub const NEW_OCCLUDERS_MIN: usize = 32;
 
@@ -331,9 +315,8 @@ struct Dropped {
 /// (`previous`), tested again before the additions are drawn, against the traversal's pyramid
 /// read finer and block by block (or, with adaptive culling, which scores pixel counts,
 /// exactly on the GPU): what the traversal's coarse rectangles let through would otherwise be
-/// drawn as an addition, dropped by the retest, and found again the next frame. On the 2M
-/// instanced plant walk those were three near parts a frame behind a wall, each box reaching
-/// off the image: the retest's 4-5 ms a frame (docs/measurements/2026-12-04-instances.md).
+/// drawn as an addition, dropped by the retest, and found again the next frame: near parts
+/// behind a wall whose boxes reach off the image (docs/measurements/2026-12-04-instances.md).
 fn second_look(
     r: &mut Renderer,
     scene: &SceneFile,

@@ -41,14 +41,12 @@ pub fn or(
 /// no depth, and one still hidden a frame or two later writes none either (the temporal
 /// coherence that sec. 4.6 draws V(i-1) on). Fewer occluders can only make HC find more
 /// visible: conservative. Clusters at the frustum's edge, hidden on the image, were kept for
-/// OR at first (they may come into view for its later camera): on the 10B instanced plant's
-/// walk they changed no PVS and cost OR 1-3 ms a frame, on the 2M one they hid one node.
+/// OR at first (they may come into view for its later camera): they changed almost no PVS
+/// and cost OR time (docs/measurements/2026-12-07-constants.md, "note_clusters").
 /// A cluster the cut does not take for this camera is noted as one not looked at, drawn: when
 /// the camera nears a surface its cut node keeps its id and takes finer clusters, which OR two
 /// frames later draws as occluders as it draws a static LOD chosen anew (any geometry of the
-/// cut for its camera is a fair occluder); RVG of this frame never draws it. On the 2.4M
-/// isosurface's orbit at tau 0.5 prev's OR then draws 542K triangles a frame instead of 509K,
-/// RVG 44 ms instead of 47-51; the 20M plant's walk changes by 18 triangles.
+/// cut for its camera is a fair occluder); RVG of this frame never draws it.
 pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &Pyramid) -> Result<VisibleClusters, RenderError> {
     let vp = view.view_proj().as_dmat4();
     let mut notes = VisibleClusters::default();
