@@ -75,6 +75,7 @@ struct Args {
 }
 
 fn main() -> std::process::ExitCode {
+    osw_gpu::device::quiet_device_select();
     osw_render::log::init();
     match run(&Args::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -58,6 +58,19 @@ fn keep_freed_heap() {
     }
 }
 
+/// Mesa's implicit device-select layer asks a Wayland compositor which GPU drives the display,
+/// and on a host without `XDG_RUNTIME_DIR` (a headless server) libwayland prints "error:
+/// XDG_RUNTIME_DIR is invalid or not set" for every adapter list, though nothing failed. osw
+/// picks its adapter itself (`--adapter`) and its window is X11, so where no compositor can be
+/// reached the loader is told to leave the layer out (`NODEVICE_SELECT=1`, the layer's own
+/// switch). Processes osw starts inherit it. Call first in `main`, before any other thread.
+pub fn quiet_device_select() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() && std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: called first in main, while no other thread can read the environment.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
 impl Gpu {
     /// Opens an adapter: `name` picks the first whose name contains it (case-insensitive);
     /// `None` prefers a hardware adapter and falls back to a software one.

@@ -54,6 +54,7 @@ struct Args {
 }
 
 fn main() -> std::process::ExitCode {
+    osw_gpu::device::quiet_device_select();
     osw_render::log::init();
     let a = Args::parse();
     match run(&a) {

@@ -71,6 +71,7 @@ enum Cmd {
 }
 
 fn main() -> std::process::ExitCode {
+    osw_gpu::device::quiet_device_select();
     osw_render::log::init();
     let cli = Cli::parse();
     let r = match cli.cmd {
