@@ -287,7 +287,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::write(a.out.join("report.md"), markdown(&report, &a))?;
     let failed: Vec<String> = report.runs.iter().filter(|e| e.error.is_some()).map(|e| run_name(e.mode, e.tau, e.adaptive)).collect();
     if failed.len() < report.runs.len() {
-        crate::plot::write(&error_chart(&report), &a.out.join("error_vs_time"))?;
+        crate::plot::write_log_x(&error_chart(&report), &a.out.join("error_vs_time"))?;
     }
     if !failed.is_empty() {
         bail!(
@@ -363,7 +363,7 @@ fn error_chart<'a>(r: &Report) -> Chart<'a> {
     });
     Chart {
         title: "Image error against frame time (one point per tau)",
-        x: "frame time, median (ms)",
+        x: "frame time, median (ms, logarithmic)",
         y: "pixels differing from full-detail vfc, mean (%)",
         series,
     }

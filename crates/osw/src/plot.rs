@@ -47,17 +47,31 @@ fn register_font() -> anyhow::Result<()> {
     .map_err(anyhow::Error::msg)
 }
 
+/// Which axes are logarithmic.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Axes {
+    Linear,
+    /// Times that span decades (the modes of a report, 5 ms to 1 s) on x.
+    LogX,
+    LogLog,
+}
+
 /// Writes the chart to `stem.png` and `stem.svg`.
 pub fn write(chart: &Chart, stem: &Path) -> anyhow::Result<()> {
-    write_panels(std::slice::from_ref(chart), false, stem)
+    write_panels(std::slice::from_ref(chart), Axes::Linear, stem)
+}
+
+/// Writes the chart with a logarithmic x axis to `stem.png` and `stem.svg`.
+pub fn write_log_x(chart: &Chart, stem: &Path) -> anyhow::Result<()> {
+    write_panels(std::slice::from_ref(chart), Axes::LogX, stem)
 }
 
 /// Writes the charts side by side, both axes logarithmic, to `stem.png` and `stem.svg`.
 pub fn write_log_log(charts: &[Chart], stem: &Path) -> anyhow::Result<()> {
-    write_panels(charts, true, stem)
+    write_panels(charts, Axes::LogLog, stem)
 }
 
-fn write_panels(charts: &[Chart], log: bool, stem: &Path) -> anyhow::Result<()> {
+fn write_panels(charts: &[Chart], log: Axes, stem: &Path) -> anyhow::Result<()> {
     register_font()?;
     let (png, svg) = (stem.with_extension("png"), stem.with_extension("svg"));
     let size = (1000 * charts.len() as u32, 650);
@@ -66,7 +80,7 @@ fn write_panels(charts: &[Chart], log: bool, stem: &Path) -> anyhow::Result<()> 
     Ok(())
 }
 
-fn draw_all<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, charts: &[Chart], log: bool) -> anyhow::Result<()>
+fn draw_all<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, charts: &[Chart], log: Axes) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -78,10 +92,10 @@ where
         }
         let xs = c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
         let ys = c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
-        if log {
-            draw(area, c, log_range(xs).log_scale(), log_range(ys).log_scale())?;
-        } else {
-            draw(area, c, range(xs), range(ys))?;
+        match log {
+            Axes::Linear => draw(area, c, range(xs), range(ys))?,
+            Axes::LogX => draw(area, c, log_range(xs).log_scale(), range(ys))?,
+            Axes::LogLog => draw(area, c, log_range(xs).log_scale(), log_range(ys).log_scale())?,
         }
     }
     root.present().map_err(err)?;
@@ -160,9 +174,13 @@ where
             .label(&s.name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(width)));
         if !s.point_labels.is_empty() {
+            // Each series' labels at their own height, above or below its points, so that
+            // series whose points lie close (prev and the switch) do not print theirs over
+            // each other.
+            let above = [-16, 6, -30, 20][i % 4];
             chart
                 .draw_series(s.points.iter().zip(&s.point_labels).map(|(&p, l)| {
-                    EmptyElement::at(p) + Circle::new((0, 0), 4, color.filled()) + Text::new(l.clone(), (6, -16), ("sans-serif", 14))
+                    EmptyElement::at(p) + Circle::new((0, 0), 4, color.filled()) + Text::new(l.clone(), (6, above), ("sans-serif", 14))
                 }))
                 .map_err(err)?;
         }
