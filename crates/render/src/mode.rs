@@ -160,97 +160,24 @@ impl ModeState {
         &self.visible
     }
 
-    /// Renders one frame for `view` into the renderer's colour target.
+    /// Renders one frame for `view` into the renderer's colour target: the mode's culling,
+    /// each pass timed, then RVG.
     pub fn frame(&mut self, r: &mut Renderer, scene: &SceneFile, view: &View) -> Result<FrameStats, RenderError> {
         r.begin_frame();
         let mut s = FrameStats::default();
-        let nodes = scene.nodes();
         let mut pvs = Vec::new();
-        // Whether prev's RVG draws over the depth its OR and HC left (below).
-        let mut over = false;
-        // HC's notes of which clusters of the visible set are hidden (prev).
-        let mut notes = None;
-        let parity = self.frames as usize % 2;
         // Whether this frame's occlusion culling is expected to pay (prev and chc; see
         // osw_cull::payoff), from the counts of the last frame judged.
         let frame = self.frames as u64;
         let cull = !matches!(self.mode, Mode::Prev | Mode::Chc) || self.payoff.as_mut().is_none_or(|p| p.of(frame).cull());
         s.cull_skipped = u32::from(!cull);
         // A frame that skips occlusion culling is frustum culled.
-        let hc: HcStats = match if cull { self.mode } else { Mode::Vfc } {
-            Mode::Vfc => {
-                let t = Instant::now();
-                let hc = frustum_cull(nodes, view, self.tau, &mut pvs);
-                s.hc_ms = ms(t);
-                hc
-            }
-            Mode::Sw | Mode::Chc | Mode::Ovc => {
-                let t = Instant::now();
-                r.draw(scene, view, &[], Pass::Depth, true)?;
-                let chc = self.chc.get_or_insert_with(|| ChcState::new(scene.bvh_count()));
-                let opts = if self.mode == Mode::Ovc { self.ovc } else { OvcOptions::default() };
-                // Eq. 2: T_budget = T_render of the previous frame times F (none on the first).
-                let budget_ms = opts.budget.zip(self.last_render_ms).map(|(f, render)| f * render);
-                let test = if opts.adaptive > 0.0 { BoxTest::ExactCount } else { BoxTest::Exact };
-                let lines = opts.sampling.max(1);
-                let sampling = Sampling { lines, first: self.frames % lines };
-                let mut occ = InterleavedTester::new(GpuTester { sampling, ..GpuTester::new(r, scene, test) });
-                let hc = match self.mode {
-                    Mode::Chc => chc.frame(nodes, view, self.tau, &mut occ, &mut pvs),
-                    _ => ovc(nodes, view, self.tau, &opts, budget_ms, &mut occ, &mut || ms(t), &mut pvs),
-                };
-                let hc = hc.and_then(|hc| occ.finish(view).map(|()| hc))?;
-                s.hc_ms = ms(t);
-                hc
-            }
-            Mode::Hzb => {
-                let t = Instant::now();
-                let occluders = select_occluders(nodes, scene.bvh_count(), view, ACTIVE_OCCLUDERS);
-                let or = r.draw(scene, view, &occluders, Pass::Depth, true)?;
-                let depth = r.read_depth()?;
-                (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
-                let t = Instant::now();
-                let pyramid = Pyramid::new(view.width, view.height, depth);
-                let Ok(hc) = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, read: Read::at(0) }, &mut pvs);
-                s.hc_ms = ms(t);
-                hc
-            }
+        let (hc, rvg) = match if cull { self.mode } else { Mode::Vfc } {
+            Mode::Vfc => (self.vfc(scene, view, &mut s, &mut pvs), Rvg::Plain),
+            Mode::Sw | Mode::Chc | Mode::Ovc => (self.ordered(r, scene, view, &mut s, &mut pvs)?, Rvg::Plain),
+            Mode::Hzb => (self.hzb(r, scene, view, &mut s, &mut pvs)?, Rvg::Plain),
             // The switch's algorithm on one GPU (`new` refuses the switch itself).
-            Mode::Prev | Mode::Switch => {
-                let t = Instant::now();
-                diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
-                // With the cluster occlusion test, HC notes which clusters of its visible set
-                // are hidden (pass::note_clusters): RVG draws only the others, and OR of two
-                // frames later draws only those, as the switch's nodes do.
-                let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[parity]);
-                let mut or = DrawStats::default();
-                for (ids, clear) in [(&self.older, true), (&self.added, false)] {
-                    or = or + pass::or(r, scene, view, ids, self.tau, (clear, or_notes), &mut self.occluders)?;
-                }
-                (s.or_ms, s.or_nodes, s.or_triangles, s.or_gpu_ms) = (ms(t), or.nodes, or.triangles, or.gpu_ms());
-                let t = Instant::now();
-                let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
-                let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[parity], &mut pvs)?;
-                (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) =
-                    (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
-                if let Some(p) = hc.pyramid {
-                    if or_notes.is_some() {
-                        notes = Some(pass::note_clusters(scene, view, &pvs, &p)?);
-                    }
-                    r.give_back(p);
-                }
-                // HC's time includes its notes: RVG of this frame waits for them.
-                s.hc_ms = ms(t);
-                // On one GPU, RVG draws over the depth OR and HC left (Yoon 2003 sec. 5.4
-                // draws their occluders into the image; here they fill the depth, so that RVG
-                // shades about one fragment a pixel). That depth holds only the PVS's surfaces
-                // or ones behind them, unless adaptive culling dropped visible nodes or sec.
-                // 4.7.2's pixel count stopped a node at a coarser LOD than OR drew: then RVG
-                // draws on a cleared buffer, as the switch's display does. A run that counts
-                // the fragments of the visible set counts them on a cleared buffer too.
-                over = self.ovc.adaptive == 0.0 && !r.counts_fragments() && hc.stats.pixel_stops == 0;
-                hc.stats
-            }
+            Mode::Prev | Mode::Switch => self.prev(r, scene, view, &mut s, &mut pvs)?,
         };
         // One draw order for every mode: sorted ids, so equal sets give equal pixels even
         // where surfaces tie in depth.
@@ -260,35 +187,136 @@ impl ModeState {
         // nothing, whatever culling would save: it is not judged.
         let judged = cull && (self.mode == Mode::Chc || (self.mode == Mode::Prev && !self.visible.is_empty()));
         if let Some(p) = self.payoff.as_mut().filter(|_| judged) {
-            p.of(frame).judge_hc(nodes, &hc, &pvs);
+            p.of(frame).judge_hc(scene.nodes(), &hc, &pvs);
         }
-        // RVG: the switch's (prev) culls hidden clusters too; the baselines draw as their papers.
         let t = Instant::now();
-        let drawn = match self.mode {
-            Mode::Prev | Mode::Switch => pass::rvg(r, scene, view, &pvs, notes.as_ref(), if over { Pass::ColorOver } else { Pass::Color })?,
-            _ => r.draw(scene, view, &pvs, Pass::Color, true)?,
+        let (drawn, notes) = match rvg {
+            Rvg::Plain => (r.draw(scene, view, &pvs, Pass::Color, true)?, None),
+            Rvg::Switch { notes, pass } => (pass::rvg(r, scene, view, &pvs, notes.as_ref(), pass)?, notes),
         };
+        (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
         // OR of two frames later draws V(i) with them (the switch's HC node for frame i is OR
         // for frame i+1 on camera i+2).
-        self.notes[parity] = notes.unwrap_or_default();
-        (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
+        self.notes[self.frames as usize % 2] = notes.unwrap_or_default();
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
+        s.take_hc(&hc);
+        s.take_rvg(&drawn, r.counts_fragments());
         (self.last_render_ms, self.frames) = (Some(s.rvg_ms), self.frames + 1);
-        (s.pvs_nodes, s.triangles_drawn) = (drawn.nodes, drawn.triangles);
-        s.fragments = r.counts_fragments().then_some(drawn.fragments);
-        [
-            s.clusters,
-            s.clusters_frustum_culled,
-            s.clusters_cone_culled,
-            s.clusters_occlusion_culled,
-            s.triangles_backface_culled,
-            s.triangles_small_culled,
-        ] = crate::stats::cluster_columns(&drawn.clusters);
-        (s.tests, s.retests, s.levels, s.frustum_culled, s.occlusion_culled, s.pixel_stops) =
-            (hc.tests, hc.retests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
-        (s.tests_front, s.tests_siblings, s.tests_new) = (hc.tests_front, hc.tests_siblings, hc.tests_new);
-        (s.adaptive_culled, s.over_budget) = (hc.adaptive_culled, hc.over_budget);
         self.older = std::mem::replace(&mut self.visible, pvs);
         Ok(s)
     }
+
+    /// vfc: frustum culling only.
+    fn vfc(&self, scene: &SceneFile, view: &View, s: &mut FrameStats, pvs: &mut Vec<NodeId>) -> HcStats {
+        let t = Instant::now();
+        let hc = frustum_cull(scene.nodes(), view, self.tau, pvs);
+        s.hc_ms = ms(t);
+        hc
+    }
+
+    /// sw, chc and ovc: the hierarchy front to back, each box tested against the depth drawn
+    /// so far (CHC fig. 2; Bartz 1999 sec. 3.3-3.5 with ovc's knobs).
+    fn ordered(
+        &mut self,
+        r: &mut Renderer,
+        scene: &SceneFile,
+        view: &View,
+        s: &mut FrameStats,
+        pvs: &mut Vec<NodeId>,
+    ) -> Result<HcStats, RenderError> {
+        let t = Instant::now();
+        r.draw(scene, view, &[], Pass::Depth, true)?;
+        let nodes = scene.nodes();
+        let chc = self.chc.get_or_insert_with(|| ChcState::new(scene.bvh_count()));
+        let opts = if self.mode == Mode::Ovc { self.ovc } else { OvcOptions::default() };
+        // Eq. 2: T_budget = T_render of the previous frame times F (none on the first).
+        let budget_ms = opts.budget.zip(self.last_render_ms).map(|(f, render)| f * render);
+        let test = if opts.adaptive > 0.0 { BoxTest::ExactCount } else { BoxTest::Exact };
+        let lines = opts.sampling.max(1);
+        let sampling = Sampling { lines, first: self.frames % lines };
+        let mut occ = InterleavedTester::new(GpuTester { sampling, ..GpuTester::new(r, scene, test) });
+        let hc = match self.mode {
+            Mode::Chc => chc.frame(nodes, view, self.tau, &mut occ, pvs),
+            _ => ovc(nodes, view, self.tau, &opts, budget_ms, &mut occ, &mut || ms(t), pvs),
+        };
+        let hc = hc.and_then(|hc| occ.finish(view).map(|()| hc))?;
+        s.hc_ms = ms(t);
+        Ok(hc)
+    }
+
+    /// hzb: Peng 2014's occluders drawn, the depth read back, boxes tested on its pyramid.
+    fn hzb(
+        &self,
+        r: &mut Renderer,
+        scene: &SceneFile,
+        view: &View,
+        s: &mut FrameStats,
+        pvs: &mut Vec<NodeId>,
+    ) -> Result<HcStats, RenderError> {
+        let t = Instant::now();
+        let nodes = scene.nodes();
+        let occluders = select_occluders(nodes, scene.bvh_count(), view, ACTIVE_OCCLUDERS);
+        let or = r.draw(scene, view, &occluders, Pass::Depth, true)?;
+        let depth = r.read_depth()?;
+        s.take_or(&or, ms(t));
+        let t = Instant::now();
+        let pyramid = Pyramid::new(view.width, view.height, depth);
+        let Ok(hc) = hardware_cull(nodes, view, self.tau, &mut HzbTester { nodes, pyramid: &pyramid, read: Read::at(0) }, pvs);
+        s.hc_ms = ms(t);
+        Ok(hc)
+    }
+
+    /// prev: the switch's OR and HC on one GPU (occlusion switch alg. 4.2), and how its RVG
+    /// draws.
+    fn prev(
+        &mut self,
+        r: &mut Renderer,
+        scene: &SceneFile,
+        view: &View,
+        s: &mut FrameStats,
+        pvs: &mut Vec<NodeId>,
+    ) -> Result<(HcStats, Rvg), RenderError> {
+        let t = Instant::now();
+        diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
+        // With the cluster occlusion test, HC notes which clusters of its visible set are
+        // hidden (pass::note_clusters): RVG draws only the others, and OR of two frames later
+        // draws only those, as the switch's nodes do.
+        let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[self.frames as usize % 2]);
+        let mut or = DrawStats::default();
+        for (ids, clear) in [(&self.older, true), (&self.added, false)] {
+            or = or + pass::or(r, scene, view, ids, self.tau, (clear, or_notes), &mut self.occluders)?;
+        }
+        s.take_or(&or, ms(t));
+        let t = Instant::now();
+        let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
+        let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[self.frames as usize % 2], pvs)?;
+        (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) = (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
+        let mut notes = None;
+        if let Some(p) = hc.pyramid {
+            if or_notes.is_some() {
+                notes = Some(pass::note_clusters(scene, view, pvs, &p)?);
+            }
+            r.give_back(p);
+        }
+        // HC's time includes its notes: RVG of this frame waits for them.
+        s.hc_ms = ms(t);
+        // On one GPU, RVG draws over the depth OR and HC left (Yoon 2003 sec. 5.4 draws their
+        // occluders into the image; here they fill the depth, so that RVG shades about one
+        // fragment a pixel). That depth holds only the PVS's surfaces or ones behind them,
+        // unless adaptive culling dropped visible nodes or sec. 4.7.2's pixel count stopped a
+        // node at a coarser LOD than OR drew: then RVG draws on a cleared buffer, as the
+        // switch's display does. A run that counts the fragments of the visible set counts
+        // them on a cleared buffer too.
+        let over = self.ovc.adaptive == 0.0 && !r.counts_fragments() && hc.stats.pixel_stops == 0;
+        Ok((hc.stats, Rvg::Switch { notes, pass: if over { Pass::ColorOver } else { Pass::Color } }))
+    }
+}
+
+/// How RVG draws a frame's visible set.
+enum Rvg {
+    /// The baselines, and frames that skip occlusion culling: the whole set in colour on a
+    /// cleared buffer, as their papers draw it.
+    Plain,
+    /// prev: the switch's RVG ([`pass::rvg`]), of each node the clusters HC's notes take.
+    Switch { notes: Option<VisibleClusters>, pass: Pass },
 }

@@ -2,7 +2,9 @@
 //! they sum up to in `summary.json` ([`Summary::of`], [`RenderSummary::of`]).
 
 use crate::results::{DisplayFrame, RenderSummary, Summary};
+use osw_cull::HcStats;
 use osw_cull::cluster::ClusterStats;
+use osw_gpu::renderer::DrawStats;
 use serde::{Deserialize, Serialize};
 
 /// One frame. Times in milliseconds.
@@ -62,6 +64,36 @@ pub struct FrameStats {
     /// empty otherwise.
     pub or_gpu_ms: Option<f64>,
     pub rvg_gpu_ms: Option<f64>,
+}
+
+impl FrameStats {
+    /// OR's columns from its draws, which took `or_ms`.
+    pub fn take_or(&mut self, or: &DrawStats, or_ms: f64) {
+        (self.or_ms, self.or_nodes, self.or_triangles, self.or_gpu_ms) = (or_ms, or.nodes, or.triangles, or.gpu_ms());
+    }
+
+    /// HC's counts.
+    pub fn take_hc(&mut self, hc: &HcStats) {
+        (self.tests, self.retests, self.levels, self.frustum_culled, self.occlusion_culled, self.pixel_stops) =
+            (hc.tests, hc.retests, hc.levels, hc.frustum_culled, hc.occlusion_culled, hc.pixel_stops);
+        (self.tests_front, self.tests_siblings, self.tests_new) = (hc.tests_front, hc.tests_siblings, hc.tests_new);
+        (self.adaptive_culled, self.over_budget) = (hc.adaptive_culled, hc.over_budget);
+    }
+
+    /// RVG's counts from its draw: nodes, triangles, clusters, and fragments where `fragments`
+    /// were counted.
+    pub fn take_rvg(&mut self, drawn: &DrawStats, fragments: bool) {
+        (self.pvs_nodes, self.triangles_drawn) = (drawn.nodes, drawn.triangles);
+        self.fragments = fragments.then_some(drawn.fragments);
+        [
+            self.clusters,
+            self.clusters_frustum_culled,
+            self.clusters_cone_culled,
+            self.clusters_occlusion_culled,
+            self.triangles_backface_culled,
+            self.triangles_small_culled,
+        ] = cluster_columns(&drawn.clusters);
+    }
 }
 
 /// The six cluster columns that `stats.csv` and the display's rows share, in their order
