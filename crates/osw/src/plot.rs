@@ -51,7 +51,7 @@ fn register_font() -> anyhow::Result<()> {
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Axes {
     Linear,
-    /// Times that span decades (the modes of a report, 5 ms to 1 s) on x.
+    /// Times that span decades (the modes of a report) on x.
     LogX,
     LogLog,
 }
