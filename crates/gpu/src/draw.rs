@@ -21,8 +21,10 @@ pub enum Pass {
     /// HC's depth): the opaque layer tested `GreaterEqual`, so that a surface drawn before
     /// passes again, its triangles submitted last to first. The last of surfaces tied in depth
     /// then keeps the pixel, which is the first in submission order, as under `Greater` in
-    /// order: the image is the one a [`Pass::Color`] draw on a cleared buffer makes, whatever
-    /// was drawn into the depth before. Clearing clears the colour only.
+    /// order: the image is the one a [`Pass::Color`] draw on a cleared buffer makes, provided
+    /// what was drawn into the depth before is nowhere nearer than the nearest surface drawn
+    /// now (it was drawn from the same set, or is hidden behind it). Clearing clears the colour
+    /// only.
     ColorOver,
     Depth,
     Item,

@@ -145,6 +145,9 @@ impl Attribution {
         if !items_path(reference, 0).exists() {
             return Ok(None);
         }
+        if frames > 0 && !items_path(reference, frames as u64 - 1).exists() {
+            bail!("{}: item buffers for fewer frames than the runs' {frames}", reference.display());
+        }
         let pvs = runs.map(|dir| read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg));
         let [a, b] = pvs;
         let pvs = [a?, b?];
@@ -191,23 +194,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let frames = sa.frames.min(sb.frames) as usize;
     let mut rows: Vec<FrameRow> = (0..frames).map(|frame| FrameRow { frame, ..Default::default() }).collect();
-    let have_frames = frame_path(&a.a, 0).exists() && frame_path(&a.b, 0).exists();
-    let reference = a.exact_lod.as_deref().or(a.exact.as_deref());
-    let attribution = match reference.filter(|_| have_frames) {
-        Some(reference) => Attribution::of(Path::new(&sa.scene), reference, [&a.a, &a.b], frames)?,
-        None => None,
-    };
-    if have_frames {
-        for row in &mut rows {
-            let (wa, ha, pa) = read_png(&frame_path(&a.a, row.frame as u64)).map_err(anyhow::Error::msg)?;
-            let (wb, hb, pb) = read_png(&frame_path(&a.b, row.frame as u64)).map_err(anyhow::Error::msg)?;
-            if (wa, ha) != (wb, hb) {
-                bail!("frame {}: {wa}x{ha} in {} but {wb}x{hb} in {}", row.frame, a.a.display(), a.b.display());
-            }
-            row.image = Some(image_error(&pa, &pb));
-            row.unexplained = attribution.as_ref().map(|at| at.frame(row.frame, (&pa, &pb), (wa, ha))).transpose()?;
-        }
-    }
     let (ms_a, ms_b) = (sa.frame_ms_median, sb.frame_ms_median);
     let mut report = Compare {
         a: a.a.display().to_string(),
@@ -218,53 +204,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         speedup_a_over_b: ms_b / ms_a.max(1e-9),
         ..Default::default()
     };
+    compare_images(&a, &sa, &mut rows, &mut report)?;
     if let Some(exact) = &a.exact {
-        let scene = osw_scene::SceneFile::open(Path::new(&sa.scene))?;
-        let (leaves, rows_exact) = read_exact(exact, frames)?;
-        let tris: Vec<u64> = rows_exact.iter().map(|r| r.visible_triangles).collect();
-        let floor: Option<Vec<f64>> = rows_exact[..frames]
-            .iter()
-            .map(|r| r.visible_cluster_triangles.map(|c| c as f64 / r.visible_triangles.max(1) as f64))
-            .collect();
-        report.cluster_exact_triangles_ratio_mean = floor.map(|f| f.iter().sum::<f64>() / frames.max(1) as f64);
-        let lod = a.exact_lod.as_deref().map(|d| read_exact(d, frames)).transpose()?;
-        // RVG's floor at the runs' tau: the LOD reference's, if given.
-        let floor_rows = lod.as_ref().map_or(&rows_exact, |(_, rows)| rows);
-        let median = |ms: Option<Vec<f64>>| ms.filter(|v| !v.is_empty()).map(|v| osw_render::stats::quantile(&v, 0.5));
-        report.visible_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_draw_ms).collect());
-        report.visible_cluster_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_cluster_draw_ms).collect());
-        for (which, dir) in [(0, &a.a), (1, &a.b)] {
-            let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
-            if pvs.len() < frames {
-                bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), pvs.len());
-            }
-            let mut errs = Vec::with_capacity(frames);
-            for row in rows.iter_mut() {
-                let e = cull_error(&scene, &pvs[row.frame], &leaves[row.frame], tris[row.frame]).map_err(anyhow::Error::msg)?;
-                errs.push(e);
-                if which == 0 { row.a = Some(e) } else { row.b = Some(e) }
-            }
-            let mut s = side(&errs);
-            if let Some(drawn) = triangles_drawn(dir, if which == 0 { &sa } else { &sb })? {
-                s.drawn_exact_triangles_ratio_mean = Some(
-                    drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d as f64 / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64,
-                );
-            }
-            if let Some((lod_leaves, lod_rows)) = &lod {
-                let mut missed = Vec::with_capacity(frames);
-                for f in 0..frames {
-                    missed.push(
-                        cull_error(&scene, &pvs[f], &lod_leaves[f], lod_rows[f].visible_triangles)
-                            .map_err(anyhow::Error::msg)?
-                            .false_culled_leaves as u64,
-                    );
-                }
-                s.lod_false_culled_total = Some(missed.iter().sum());
-                s.lod_frames_with_false_culling = Some(missed.iter().filter(|&&m| m > 0).count() as u64);
-            }
-            if which == 0 { report.culling_a = Some(s) } else { report.culling_b = Some(s) }
-        }
-        report.exact = Some(exact.display().to_string());
+        compare_culling(&a, exact, [&sa, &sb], &mut rows, &mut report)?;
     }
     if a.popping {
         for (k, (dir, s)) in [(&a.a, &sa), (&a.b, &sb)].into_iter().enumerate() {
@@ -277,6 +219,34 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             if k == 0 { report.popping_a = Some(side) } else { report.popping_b = Some(side) }
         }
     }
+    std::fs::create_dir_all(&a.out)?;
+    results::write_json(&a.out.join("compare.json"), &report)?;
+    let csv: Vec<CompareRow> = rows.iter().map(FrameRow::csv).collect();
+    results::csv::write(&a.out.join("compare.csv"), &csv)?;
+    print(&report, [&sa, &sb], rows.iter().any(|r| r.image.is_some()), &a.out);
+    Ok(())
+}
+
+/// Image error frame by frame, where both runs wrote frames, and with a reference's item
+/// buffers the pixels that neither culling nor LOD explains.
+fn compare_images(a: &Args, sa: &Summary, rows: &mut [FrameRow], report: &mut Compare) -> anyhow::Result<()> {
+    if !(frame_path(&a.a, 0).exists() && frame_path(&a.b, 0).exists()) {
+        return Ok(());
+    }
+    // The reference at the runs' tau where it has item buffers, else the one at full detail.
+    let mut attribution = None;
+    for reference in [a.exact_lod.as_deref(), a.exact.as_deref()].into_iter().flatten() {
+        attribution = attribution.or(Attribution::of(Path::new(&sa.scene), reference, [&a.a, &a.b], rows.len())?);
+    }
+    for row in rows.iter_mut() {
+        let (wa, ha, pa) = read_png(&frame_path(&a.a, row.frame as u64)).map_err(anyhow::Error::msg)?;
+        let (wb, hb, pb) = read_png(&frame_path(&a.b, row.frame as u64)).map_err(anyhow::Error::msg)?;
+        if (wa, ha) != (wb, hb) {
+            bail!("frame {}: {wa}x{ha} in {} but {wb}x{hb} in {}", row.frame, a.a.display(), a.b.display());
+        }
+        row.image = Some(image_error(&pa, &pb));
+        row.unexplained = attribution.as_ref().map(|at| at.frame(row.frame, (&pa, &pb), (wa, ha))).transpose()?;
+    }
     let images: Vec<ImageError> = rows.iter().filter_map(|r| r.image).collect();
     let mut psnr: Vec<f64> = images.iter().filter_map(|i| i.psnr_db).collect();
     psnr.sort_by(f64::total_cmp);
@@ -287,33 +257,82 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     report.differing_fraction_max = images.iter().map(|i| i.differing_fraction).fold(0.0, f64::max);
     report.max_channel_diff = images.iter().map(|i| i.max_channel_diff).max().unwrap_or(0);
     report.unexplained_pixels = attribution.is_some().then(|| rows.iter().filter_map(|r| r.unexplained).sum());
+    Ok(())
+}
 
-    std::fs::create_dir_all(&a.out)?;
-    results::write_json(&a.out.join("compare.json"), &report)?;
-    let csv: Vec<CompareRow> = rows
-        .iter()
-        .map(|r| {
-            let i = r.image.unwrap_or_default();
-            CompareRow {
-                frame: r.frame,
-                // Identical frames: infinite PSNR; no image to compare: empty.
-                psnr_db: r.image.map(|i| i.psnr_db.unwrap_or(f64::INFINITY)),
-                differing_fraction: i.differing_fraction,
-                max_channel_diff: i.max_channel_diff,
-                unexplained_pixels: r.unexplained,
-                a_false_culled: r.a.map(|e| e.false_culled_leaves),
-                a_leaf_ratio: r.a.map(|e| e.leaf_ratio()),
-                a_triangle_ratio: r.a.map(|e| e.triangle_ratio()),
-                b_false_culled: r.b.map(|e| e.false_culled_leaves),
-                b_leaf_ratio: r.b.map(|e| e.leaf_ratio()),
-                b_triangle_ratio: r.b.map(|e| e.triangle_ratio()),
-                a_popping_fraction: r.popping[0],
-                b_popping_fraction: r.popping[1],
+/// Each run's culling error against `exact` (and `--exact-lod`), frame by frame, and the
+/// floors exact visibility gives.
+fn compare_culling(a: &Args, exact: &Path, summaries: [&Summary; 2], rows: &mut [FrameRow], report: &mut Compare) -> anyhow::Result<()> {
+    let frames = rows.len();
+    let scene = osw_scene::SceneFile::open(Path::new(&summaries[0].scene))?;
+    let (leaves, rows_exact) = read_exact(exact, frames)?;
+    let tris: Vec<u64> = rows_exact.iter().map(|r| r.visible_triangles).collect();
+    let floor: Option<Vec<f64>> =
+        rows_exact[..frames].iter().map(|r| r.visible_cluster_triangles.map(|c| c as f64 / r.visible_triangles.max(1) as f64)).collect();
+    report.cluster_exact_triangles_ratio_mean = floor.map(|f| f.iter().sum::<f64>() / frames.max(1) as f64);
+    let lod = a.exact_lod.as_deref().map(|d| read_exact(d, frames)).transpose()?;
+    // RVG's floor at the runs' tau: the LOD reference's, if given.
+    let floor_rows = lod.as_ref().map_or(&rows_exact, |(_, rows)| rows);
+    let median = |ms: Option<Vec<f64>>| ms.filter(|v| !v.is_empty()).map(|v| osw_render::stats::quantile(&v, 0.5));
+    report.visible_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_draw_ms).collect());
+    report.visible_cluster_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_cluster_draw_ms).collect());
+    for (which, dir) in [(0, &a.a), (1, &a.b)] {
+        let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
+        if pvs.len() < frames {
+            bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), pvs.len());
+        }
+        let mut errs = Vec::with_capacity(frames);
+        for row in rows.iter_mut() {
+            let e = cull_error(&scene, &pvs[row.frame], &leaves[row.frame], tris[row.frame]).map_err(anyhow::Error::msg)?;
+            errs.push(e);
+            if which == 0 { row.a = Some(e) } else { row.b = Some(e) }
+        }
+        let mut s = side(&errs);
+        if let Some(drawn) = triangles_drawn(dir, summaries[which])? {
+            s.drawn_exact_triangles_ratio_mean =
+                Some(drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d as f64 / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64);
+        }
+        if let Some((lod_leaves, lod_rows)) = &lod {
+            let mut missed = Vec::with_capacity(frames);
+            for f in 0..frames {
+                let e = cull_error(&scene, &pvs[f], &lod_leaves[f], lod_rows[f].visible_triangles).map_err(anyhow::Error::msg)?;
+                missed.push(e.false_culled_leaves as u64);
             }
-        })
-        .collect();
-    results::csv::write(&a.out.join("compare.csv"), &csv)?;
-    let image = if images.is_empty() {
+            s.lod_false_culled_total = Some(missed.iter().sum());
+            s.lod_frames_with_false_culling = Some(missed.iter().filter(|&&m| m > 0).count() as u64);
+        }
+        if which == 0 { report.culling_a = Some(s) } else { report.culling_b = Some(s) }
+    }
+    report.exact = Some(exact.display().to_string());
+    Ok(())
+}
+
+impl FrameRow {
+    /// The frame's line of compare.csv.
+    fn csv(&self) -> CompareRow {
+        let i = self.image.unwrap_or_default();
+        CompareRow {
+            frame: self.frame,
+            // Identical frames: infinite PSNR; no image to compare: empty.
+            psnr_db: self.image.map(|i| i.psnr_db.unwrap_or(f64::INFINITY)),
+            differing_fraction: i.differing_fraction,
+            max_channel_diff: i.max_channel_diff,
+            unexplained_pixels: self.unexplained,
+            a_false_culled: self.a.map(|e| e.false_culled_leaves),
+            a_leaf_ratio: self.a.map(|e| e.leaf_ratio()),
+            a_triangle_ratio: self.a.map(|e| e.triangle_ratio()),
+            b_false_culled: self.b.map(|e| e.false_culled_leaves),
+            b_leaf_ratio: self.b.map(|e| e.leaf_ratio()),
+            b_triangle_ratio: self.b.map(|e| e.triangle_ratio()),
+            a_popping_fraction: self.popping[0],
+            b_popping_fraction: self.popping[1],
+        }
+    }
+}
+
+/// The comparison in one line.
+fn print(report: &Compare, [sa, sb]: [&Summary; 2], images: bool, out: &Path) {
+    let image = if !images {
         "no frames to compare".to_string()
     } else {
         format!(
@@ -325,7 +344,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         )
     };
     out!(
-        "compare: {frames} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{}{}{}{} → {}",
+        "compare: {} frames, {image}; a {:.1} ms a frame (median), b {:.1} ms: a is {:.2}x as fast{}{}{}{} → {}",
+        report.frames,
         report.frame_ms_median_a,
         report.frame_ms_median_b,
         report.speedup_a_over_b,
@@ -348,7 +368,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 format!("; popping a {:.3}% of pixels a frame (mean), b {:.3}%", pa.fraction_mean * 100.0, pb.fraction_mean * 100.0),
             _ => String::new(),
         },
-        a.out.display()
+        out.display()
     );
-    Ok(())
 }

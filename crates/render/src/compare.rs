@@ -68,8 +68,9 @@ fn not_a_lod(id: NodeId, nodes: usize) -> String {
 
 /// Pixels where RGBA8 images `a` and `b` differ (in RGB) that neither culling nor LOD choice
 /// explains: the nearest node there in the item buffer `items` (LOD id + 1 a pixel, 0 where
-/// empty, [`crate::output::write_items`]) is drawn as the same LOD by both runs (`drawn`, by
-/// BVH node, from [`drawn_as`]), so the two drew it differently. An empty pixel of the item
+/// empty, [`crate::output::write_items`]) is drawn, and as the same LOD, by both runs
+/// (`drawn`, by BVH node, from [`drawn_as`]), so the two drew it differently. Where either run
+/// culled it, what lies behind shows: culling's difference. An empty pixel of the item
 /// buffer can be painted only by a simplified LOD's larger outline: `empty_explained` says
 /// whether the runs drew different simplified LODs.
 pub fn unexplained_pixels(
@@ -92,7 +93,7 @@ pub fn unexplained_pixels(
             Some(id) => {
                 let owner = nodes.get(id as usize).filter(|n| n.kind() == NodeKind::Lod).ok_or_else(|| not_a_lod(id, nodes.len()))?.parent;
                 let of = |d: &[Option<NodeId>]| d.get(owner as usize).copied().flatten();
-                of(drawn[0]) != of(drawn[1])
+                of(drawn[0]).is_none() || of(drawn[0]) != of(drawn[1])
             }
         };
         unexplained += u64::from(!explained);
@@ -219,9 +220,10 @@ mod tests {
         let both = drawn_as(&n, 3, &[3, 4]).unwrap();
         assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&both, &both], false), Ok(3));
         assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&both, &both], true), Ok(2));
-        // a culled leaf 2: its pixel is culling's.
+        // a culled leaf 2: its pixel is culling's; so it is where both culled it.
         let culled = drawn_as(&n, 3, &[3]).unwrap();
         assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&culled, &both], false), Ok(2));
+        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&culled, &culled], false), Ok(2));
         // a drew the root's HLOD: every pixel is LOD's.
         let hlod = drawn_as(&n, 3, &[5]).unwrap();
         assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&hlod, &both], true), Ok(0));

@@ -28,7 +28,9 @@ struct Use {
 @group(0) @binding(2) var<storage, read> arena: array<Vertex>;
 
 struct VertexOut {
-    @builtin(position) clip: vec4<f32>,
+    // Invariant: the colour, depth and item pipelines compute the same depth for a vertex, so
+    // that prev's RVG over OR's depth (GreaterEqual) passes the surface OR drew.
+    @builtin(position) @invariant clip: vec4<f32>,
     @location(0) rel: vec3<f32>,
     @location(1) @interpolate(flat) node: u32,
     // The model's colour; alpha 0 where it has none, below 1 where it is translucent.
