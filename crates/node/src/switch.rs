@@ -24,7 +24,7 @@ use osw_cull::frustum_cull;
 use osw_cull::payoff::Payoff;
 use osw_gpu::renderer::{DrawStats, Renderer};
 use osw_render::packet;
-use osw_render::pass::{self, HcOptions, HcPass};
+use osw_render::pass::{self, HcOptions, HcPass, Occluders};
 use osw_render::results::NodeFrame;
 use osw_scene::{NodeId, SceneFile};
 use osw_wire::clock::now_us;
@@ -153,7 +153,13 @@ impl Switch {
         if duty == Duty::Solo && cull {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let t = Instant::now();
-            let or = pass::or(r, &self.scene, &view, &self.visible, cam.tau_px, (true, Some(&self.notes)), &mut self.occluders)?;
+            let or = pass::or(
+                r,
+                &self.scene,
+                &view,
+                Occluders { ids: &self.visible, tau: cam.tau_px, clear: true, notes: Some(&self.notes) },
+                &mut self.occluders,
+            )?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
         }
         let mut pvs = Vec::new();
@@ -263,7 +269,7 @@ impl Switch {
         let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn = drawn + pass::or(r, scene, &view, ids, cam.tau_px, (clear, Some(notes)), scratch)?;
+                drawn = drawn + pass::or(r, scene, &view, Occluders { ids, tau: cam.tau_px, clear, notes: Some(notes) }, scratch)?;
                 or_ms += ms(t);
             }
             Ok(())

@@ -157,8 +157,8 @@ impl Attribution {
         Ok(Some(Attribution { scene: SceneFile::open(scene)?, items: reference.to_path_buf(), pvs }))
     }
 
-    /// Frame `i`'s unexplained pixels between RGBA8 images `a` and `b` of `size`.
-    fn frame(&self, i: usize, (a, b): (&[u8], &[u8]), size: (u32, u32)) -> anyhow::Result<u64> {
+    /// Frame `i`'s unexplained pixels between the two runs' RGBA8 `images` of `size`.
+    fn frame(&self, i: usize, images: [&[u8]; 2], size: (u32, u32)) -> anyhow::Result<u64> {
         let path = items_path(&self.items, i as u64);
         let (w, h, items) = read_items(&path).map_err(anyhow::Error::msg)?;
         if (w, h) != size {
@@ -171,7 +171,7 @@ impl Attribution {
         let [da, db] = drawn;
         let simplified = |p: &[NodeId]| p.iter().copied().filter(|&id| nodes[id as usize].error > 0.0).collect::<Vec<_>>();
         let empty_explained = simplified(pa) != simplified(pb);
-        unexplained_pixels((a, b), &items, nodes, [&da?, &db?], empty_explained)
+        unexplained_pixels(images, &items, nodes, [&da?, &db?], empty_explained)
             .map_err(anyhow::Error::msg)
             .with_context(|| path.display().to_string())
     }
@@ -245,7 +245,7 @@ fn compare_images(a: &Args, sa: &Summary, rows: &mut [FrameRow], report: &mut Co
             bail!("frame {}: {wa}x{ha} in {} but {wb}x{hb} in {}", row.frame, a.a.display(), a.b.display());
         }
         row.image = Some(image_error(&pa, &pb));
-        row.unexplained = attribution.as_ref().map(|at| at.frame(row.frame, (&pa, &pb), (wa, ha))).transpose()?;
+        row.unexplained = attribution.as_ref().map(|at| at.frame(row.frame, [&pa, &pb], (wa, ha))).transpose()?;
     }
     let images: Vec<ImageError> = rows.iter().filter_map(|r| r.image).collect();
     let mut psnr: Vec<f64> = images.iter().filter_map(|i| i.psnr_db).collect();

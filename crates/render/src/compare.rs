@@ -66,7 +66,7 @@ fn not_a_lod(id: NodeId, nodes: usize) -> String {
     format!("id {id} is not a LOD node of this scene ({nodes} nodes): wrong scene?")
 }
 
-/// Pixels where RGBA8 images `a` and `b` differ (in RGB) that neither culling nor LOD choice
+/// Pixels where the two runs' RGBA8 `images` differ (in RGB) that neither culling nor LOD choice
 /// explains: the nearest node there in the item buffer `items` (LOD id + 1 a pixel, 0 where
 /// empty, [`crate::output::write_items`]) is drawn, and as the same LOD, by both runs
 /// (`drawn`, by BVH node, from [`drawn_as`]), so the two drew it differently. Where either run
@@ -74,7 +74,7 @@ fn not_a_lod(id: NodeId, nodes: usize) -> String {
 /// buffer can be painted only by a simplified LOD's larger outline: `empty_explained` says
 /// whether the runs drew different simplified LODs.
 pub fn unexplained_pixels(
-    (a, b): (&[u8], &[u8]),
+    [a, b]: [&[u8]; 2],
     items: &[u32],
     nodes: &[NodeRecord],
     drawn: [&[Option<NodeId>]; 2],
@@ -218,19 +218,19 @@ mod tests {
         b[12..16].copy_from_slice(&[10, 10, 10, 0]);
         let items = [4, 5, 0, 4];
         let both = drawn_as(&n, 3, &[3, 4]).unwrap();
-        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&both, &both], false), Ok(3));
-        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&both, &both], true), Ok(2));
+        assert_eq!(unexplained_pixels([&a, &b], &items, &n, [&both, &both], false), Ok(3));
+        assert_eq!(unexplained_pixels([&a, &b], &items, &n, [&both, &both], true), Ok(2));
         // a culled leaf 2: its pixel is culling's; so it is where both culled it.
         let culled = drawn_as(&n, 3, &[3]).unwrap();
-        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&culled, &both], false), Ok(2));
-        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&culled, &culled], false), Ok(2));
+        assert_eq!(unexplained_pixels([&a, &b], &items, &n, [&culled, &both], false), Ok(2));
+        assert_eq!(unexplained_pixels([&a, &b], &items, &n, [&culled, &culled], false), Ok(2));
         // a drew the root's HLOD: every pixel is LOD's.
         let hlod = drawn_as(&n, 3, &[5]).unwrap();
-        assert_eq!(unexplained_pixels((&a, &b), &items, &n, [&hlod, &both], true), Ok(0));
+        assert_eq!(unexplained_pixels([&a, &b], &items, &n, [&hlod, &both], true), Ok(0));
         // Identical images: nothing to explain.
-        assert_eq!(unexplained_pixels((&a, &a), &items, &n, [&both, &both], false), Ok(0));
-        assert!(unexplained_pixels((&a, &b), &items[..3], &n, [&both, &both], false).is_err());
-        assert!(unexplained_pixels((&a, &b), &[2, 0, 0, 0], &n, [&both, &both], false).unwrap_err().contains("not a LOD"));
+        assert_eq!(unexplained_pixels([&a, &a], &items, &n, [&both, &both], false), Ok(0));
+        assert!(unexplained_pixels([&a, &b], &items[..3], &n, [&both, &both], false).is_err());
+        assert!(unexplained_pixels([&a, &b], &[2, 0, 0, 0], &n, [&both, &both], false).unwrap_err().contains("not a LOD"));
     }
 
     #[test]

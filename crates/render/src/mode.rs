@@ -284,7 +284,7 @@ impl ModeState {
         let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[self.frames as usize % 2]);
         let mut or = DrawStats::default();
         for (ids, clear) in [(&self.older, true), (&self.added, false)] {
-            or = or + pass::or(r, scene, view, ids, self.tau, (clear, or_notes), &mut self.occluders)?;
+            or = or + pass::or(r, scene, view, pass::Occluders { ids, tau: self.tau, clear, notes: or_notes }, &mut self.occluders)?;
         }
         s.take_or(&or, ms(t));
         let t = Instant::now();

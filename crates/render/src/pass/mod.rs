@@ -11,5 +11,5 @@ mod or;
 mod rvg;
 
 pub use hc::{HcOptions, HcPass, HcTest, HcTimes, NEW_OCCLUDERS_MIN, hc};
-pub use or::{note_clusters, or};
+pub use or::{Occluders, note_clusters, or};
 pub use rvg::rvg;

@@ -9,27 +9,28 @@ use osw_gpu::draw::{Layer, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
 
-/// Draws into the depth buffer the opaque clusters of `ids` re-selected for `view` at `tau`
-/// (the front update of sec. 4.6); `clear` starts a new one. OR draws the front of V(i-2),
-/// then HC's additions of frame i-1 as they arrive: HC chose those for camera i-1, so they are
-/// re-selected too and every occluder is geometry at tau for camera i (tau may also change
-/// between frames).
-/// With `notes` (of the frame that found `ids`), only the clusters they take are drawn (paper
-/// 004 sec. 5.3.1: the clusters visible in the last frame are the occluders; see
-/// [`note_clusters`]). `front` is scratch space kept across frames.
-pub fn or(
-    r: &mut Renderer,
-    scene: &SceneFile,
-    view: &View,
-    ids: &[NodeId],
-    tau: f64,
-    (clear, notes): (bool, Option<&VisibleClusters>),
-    front: &mut Vec<NodeId>,
-) -> Result<DrawStats, RenderError> {
-    update_front(scene.nodes(), ids, view, tau, front);
-    let Some(notes) = notes else { return r.draw_opaque(scene, view, front, Pass::Depth, clear) };
+/// What OR draws (occlusion switch sec. 4.6): a visible set re-selected for the newest camera.
+pub struct Occluders<'a> {
+    /// The front of V(i-2), or HC's additions of frame i-1 as they arrive: HC chose those for
+    /// camera i-1, so they are re-selected too and every occluder is geometry at tau for
+    /// camera i (tau may also change between frames).
+    pub ids: &'a [NodeId],
+    pub tau: f64,
+    /// Starts a new depth buffer, else draws into the one there is.
+    pub clear: bool,
+    /// HC's notes of the frame that found `ids`: only the clusters they take are drawn (paper
+    /// 004 sec. 5.3.1: the clusters visible in the last frame are the occluders; see
+    /// [`note_clusters`]).
+    pub notes: Option<&'a VisibleClusters>,
+}
+
+/// Draws the opaque clusters of `occ` re-selected for `view` (the front update of sec. 4.6)
+/// into the depth buffer. `front` is scratch space kept across frames.
+pub fn or(r: &mut Renderer, scene: &SceneFile, view: &View, occ: Occluders, front: &mut Vec<NodeId>) -> Result<DrawStats, RenderError> {
+    update_front(scene.nodes(), occ.ids, view, occ.tau, front);
+    let Some(notes) = occ.notes else { return r.draw_opaque(scene, view, front, Pass::Depth, occ.clear) };
     let mut drawn = r.gather(scene, view, front, r.options().cluster_tests, Some(&mut |id, k| notes.takes(id, k)))?;
-    r.submit(view, Pass::Depth, Layer::Opaque, clear, &mut drawn)?;
+    r.submit(view, Pass::Depth, Layer::Opaque, occ.clear, &mut drawn)?;
     Ok(drawn)
 }
 
