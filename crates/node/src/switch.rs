@@ -164,8 +164,8 @@ impl Switch {
         }
         let mut pvs = Vec::new();
         let hc = if cull {
-            let opts = HcOptions { adaptive: self.adaptive, ..HcOptions::default() };
-            pass::hc(r, &self.scene, &view, cam.tau_px, opts, &self.visible, &mut self.seen, &mut pvs)?
+            let opts = HcOptions { tau: cam.tau_px, adaptive: self.adaptive, ..HcOptions::default() };
+            pass::hc(r, &self.scene, &view, opts, &self.visible, &mut self.seen, &mut pvs)?
         } else {
             // Frustum culled only: occlusion culling did not pay where this node last ran it.
             let stats = frustum_cull(self.scene.nodes(), &view, cam.tau_px, &mut pvs);

@@ -288,8 +288,8 @@ impl ModeState {
         }
         s.take_or(&or, ms(t));
         let t = Instant::now();
-        let opts = HcOptions { test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
-        let hc = pass::hc(r, scene, view, self.tau, opts, &self.visible, &mut self.seen[self.frames as usize % 2], pvs)?;
+        let opts = HcOptions { tau: self.tau, test: self.hc, adaptive: self.ovc.adaptive, ..HcOptions::default() };
+        let hc = pass::hc(r, scene, view, opts, &self.visible, &mut self.seen[self.frames as usize % 2], pvs)?;
         (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) = (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
         let mut notes = None;
         if let Some(p) = hc.pyramid {

@@ -24,7 +24,7 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let before = r.view(&Camera::look_at(eye, eye + DVec3::X, 60.0), 0.0);
     r.begin_frame();
     let mut previous = Vec::new();
-    pass::hc(&mut r, &scene, &before, 0.0, HcOptions::default(), &[], &mut Vec::new(), &mut previous).unwrap();
+    pass::hc(&mut r, &scene, &before, HcOptions::default(), &[], &mut Vec::new(), &mut previous).unwrap();
     assert!(!previous.is_empty(), "nothing visible before the turn: OR would draw nothing");
     // Frame i turns to the plant: OR draws V(i-1) for it, then HC.
     let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0), 0.0);
@@ -36,7 +36,6 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
             &mut r,
             &scene,
             &after,
-            0.0,
             HcOptions { new_occluders_min: min, ..HcOptions::default() },
             &previous,
             &mut Vec::new(),

@@ -128,9 +128,11 @@ impl VisibilityTester for HybridTester<'_> {
 /// ([`retest_additions`], a GPU round trip per level) rather than box by box (one round trip).
 const RETEST_HIERARCHY_MIN: usize = 128;
 
-/// How HC tests.
+/// How HC culls a frame.
 #[derive(Clone, Copy, Debug)]
 pub struct HcOptions {
+    /// Pixels of error the LOD selection allows (the camera's, as the frame's).
+    pub tau: f64,
     pub test: HcTest,
     /// Adaptive culling's threshold in the exact tests (Bartz 1999 eq. 1; 0: conservative).
     pub adaptive: f64,
@@ -140,7 +142,7 @@ pub struct HcOptions {
 
 impl Default for HcOptions {
     fn default() -> HcOptions {
-        HcOptions { test: HcTest::Hybrid, adaptive: 0.0, new_occluders_min: NEW_OCCLUDERS_MIN }
+        HcOptions { tau: 0.0, test: HcTest::Hybrid, adaptive: 0.0, new_occluders_min: NEW_OCCLUDERS_MIN }
     }
 }
 
@@ -185,19 +187,17 @@ fn ms(t: Instant) -> f64 {
 ///    view (a turn, a disocclusion) there are no occluders at all, so everything behind it is
 ///    found visible for one frame and gone the next, sent to RVG and the peer twice. Those
 ///    additions are drawn into the depth buffer and tested again, exactly.
-#[allow(clippy::too_many_arguments)]
 pub fn hc(
     r: &mut Renderer,
     scene: &SceneFile,
     view: &View,
-    tau: f64,
     opts: HcOptions,
     previous: &[NodeId],
     seen: &mut Vec<NodeId>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcPass, RenderError> {
     let t = Instant::now();
-    let traversal = traverse(r, scene, view, tau, opts, (previous, seen), pvs)?;
+    let traversal = traverse(r, scene, view, opts, previous, seen, pvs)?;
     let nodes = scene.nodes();
     // The triangles of what the traversal found: the later passes only drop from it.
     let found = osw_cull::payoff::triangles(nodes, pvs);
@@ -205,7 +205,7 @@ pub fn hc(
     let t = Instant::now();
     let mut look = Dropped::default();
     if let Some(pyramid) = &traversal.pyramid {
-        look = second_look(r, scene, view, (opts.adaptive, previous), pyramid, pvs)?;
+        look = second_look(r, scene, view, opts.adaptive, previous, pyramid, pvs)?;
     }
     let second_look_ms = ms(t);
     let t = Instant::now();
@@ -248,12 +248,12 @@ fn traverse(
     r: &mut Renderer,
     scene: &SceneFile,
     view: &View,
-    tau: f64,
     opts: HcOptions,
-    (previous, seen): (&[NodeId], &mut Vec<NodeId>),
+    previous: &[NodeId],
+    seen: &mut Vec<NodeId>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<Traversal, RenderError> {
-    let nodes = scene.nodes();
+    let (nodes, tau) = (scene.nodes(), opts.tau);
     let mut t = Traversal { stats: HcStats::default(), drawn: Vec::new(), pyramid: None };
     // Without V(i-1) OR drew no occluder (the first frame, or one that saw nothing). The
     // hybrid draws the nearest of what the frustum holds first and takes it for V(i-1); the
@@ -321,7 +321,8 @@ fn second_look(
     r: &mut Renderer,
     scene: &SceneFile,
     view: &View,
-    (adaptive, previous): (f64, &[NodeId]),
+    adaptive: f64,
+    previous: &[NodeId],
     pyramid: &Pyramid,
     pvs: &mut Vec<NodeId>,
 ) -> Result<Dropped, RenderError> {
