@@ -13,7 +13,7 @@ use crate::distance_queue::DistanceQueue;
 use crate::frustum::Containment;
 use crate::hc::HcStats;
 use crate::tester::{Occluders, Visibility};
-use crate::view::View;
+use crate::view::{Cut, View};
 use osw_scene::error_metric::select;
 use osw_scene::{NodeId, NodeRecord};
 
@@ -61,7 +61,7 @@ impl ChcState {
                     if a.visible {
                         self.pull_up(nodes, id);
                         if !was_visible {
-                            self.traverse(nodes, view, tau, id, occ, &mut queue, pvs)?;
+                            self.traverse(Cut { nodes, view, tau }, id, occ, &mut queue, pvs)?;
                         }
                     } else {
                         stats.occlusion_culled += 1;
@@ -86,7 +86,7 @@ impl ChcState {
                 // Cannot be queried: visible now.
                 stats.untested += 1;
                 self.pull_up(nodes, id);
-                self.traverse(nodes, view, tau, id, occ, &mut queue, pvs)?;
+                self.traverse(Cut { nodes, view, tau }, id, occ, &mut queue, pvs)?;
                 continue;
             }
             if !opened {
@@ -94,7 +94,7 @@ impl ChcState {
                 stats.tests += 1;
             }
             if was_visible {
-                self.traverse(nodes, view, tau, id, occ, &mut queue, pvs)?;
+                self.traverse(Cut { nodes, view, tau }, id, occ, &mut queue, pvs)?;
             }
         }
         pvs.sort_unstable();
@@ -114,17 +114,15 @@ impl ChcState {
 
     /// Draws a node that meets tau (the paper's leaves), else queues its children (both for a
     /// cluster hierarchy's node).
-    #[allow(clippy::too_many_arguments)]
     fn traverse<E>(
         &self,
-        nodes: &[NodeRecord],
-        view: &View,
-        tau: f64,
+        cut: Cut,
         id: NodeId,
         occ: &mut dyn Occluders<Error = E>,
         queue: &mut DistanceQueue,
         pvs: &mut Vec<NodeId>,
     ) -> Result<(), E> {
+        let Cut { nodes, view, tau } = cut;
         let s = select(nodes, id, &view.lod_at(tau));
         if let Some(lod) = s.draw {
             occ.render(&[lod])?;

@@ -24,7 +24,7 @@
 
 use crate::frustum::Containment;
 use crate::tester::VisibilityTester;
-use crate::view::View;
+use crate::view::{Cut, View};
 use osw_scene::error_metric::{Selection, select};
 use osw_scene::format::NodeKind;
 use osw_scene::{NodeId, NodeRecord};
@@ -72,7 +72,7 @@ pub fn hardware_cull<E>(
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
-    traverse(nodes, view, tau, &[], &Coherence::default(), tester, pvs, &mut Vec::new())
+    traverse(Cut { nodes, view, tau }, &[], &Coherence::default(), tester, pvs, &mut Vec::new())
 }
 
 /// What V(i-1) says of the hierarchy: the BVH nodes above it, taken as visible untested, and
@@ -159,7 +159,7 @@ pub fn hardware_cull_seen<E>(
         insert_with_ancestors(nodes, id, &mut above);
     }
     seen.clear();
-    traverse(nodes, view, tau, previous, &Coherence { above, owners }, tester, pvs, seen)
+    traverse(Cut { nodes, view, tau }, previous, &Coherence { above, owners }, tester, pvs, seen)
 }
 
 /// The BVH node that owns LOD or HLOD `id`: a leaf for its LODs, a group for its HLOD.
@@ -192,17 +192,15 @@ fn insert_with_ancestors(nodes: &[NodeRecord], mut id: NodeId, set: &mut HashSet
 }
 
 /// The traversal; `seen` gets the nodes its tests found visible.
-#[allow(clippy::too_many_arguments)]
 fn traverse<E>(
-    nodes: &[NodeRecord],
-    view: &View,
-    tau: f64,
+    cut: Cut,
     previous: &[NodeId],
     coherence: &Coherence,
     tester: &mut dyn VisibilityTester<Error = E>,
     pvs: &mut Vec<NodeId>,
     seen: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
+    let Cut { nodes, view, tau } = cut;
     let above = &coherence.above;
     let mut stats = HcStats::default();
     let (mut open, mut batch, mut answers) = (vec![0u32], Vec::new(), Vec::new());
@@ -217,7 +215,7 @@ fn traverse<E>(
                 Containment::Outside => stats.frustum_culled += 1,
                 _ if view.frustum.needs_no_test(&b) => {
                     stats.untested += 1;
-                    refine(nodes, view, tau, id, None, &mut stats, pvs, &mut open);
+                    refine(cut, id, None, &mut stats, pvs, &mut open);
                 }
                 // Above V(i-1) and still to be refined; one whose LOD now meets tau is tested,
                 // as it would be from the root, before its LOD joins the PVS.
@@ -246,7 +244,7 @@ fn traverse<E>(
         for (&id, vis) in batch.iter().zip(&answers) {
             if vis.visible {
                 seen.push(id);
-                refine(nodes, view, tau, id, vis.pixels, &mut stats, pvs, &mut open);
+                refine(cut, id, vis.pixels, &mut stats, pvs, &mut open);
             } else {
                 stats.occlusion_culled += 1;
                 stats.culled_triangles += nodes[id as usize].triangles;
@@ -287,17 +285,8 @@ pub(crate) fn test_round<E>(
 
 /// A visible BVH node: its LOD into the PVS, its HLOD when few of its `pixels` show, or its
 /// children into `open` (with its cut node, in a cluster hierarchy).
-#[allow(clippy::too_many_arguments)]
-fn refine(
-    nodes: &[NodeRecord],
-    view: &View,
-    tau: f64,
-    id: NodeId,
-    pixels: Option<u32>,
-    stats: &mut HcStats,
-    pvs: &mut Vec<NodeId>,
-    open: &mut Vec<NodeId>,
-) {
+fn refine(cut: Cut, id: NodeId, pixels: Option<u32>, stats: &mut HcStats, pvs: &mut Vec<NodeId>, open: &mut Vec<NodeId>) {
+    let Cut { nodes, view, tau } = cut;
     let n = &nodes[id as usize];
     let coarsest = n.lods().last().filter(|&l| !nodes[l as usize].is_cut());
     let s = select(nodes, id, &view.lod_at(tau));

@@ -23,9 +23,9 @@ use crate::frustum::Containment;
 use crate::hc::HcStats;
 use crate::hzb::Footprint;
 use crate::tester::Occluders;
-use crate::view::View;
+use crate::view::{Cut, View};
 use osw_scene::error_metric::select;
-use osw_scene::{Aabb, NodeId, NodeRecord};
+use osw_scene::{Aabb, NodeId};
 
 /// Paper 003's knobs. `OvcOptions::default()` is conservative with no budget: the
 /// hierarchical stop-and-wait of CHC sec. 3.3 (the `sw` mode), which is the same
@@ -70,20 +70,18 @@ pub fn adapcull(view: &View, b: &Aabb, footprint: f64) -> f64 {
     footprint / area / ((view.near + dist) / view.near)
 }
 
-/// Runs ovc for `view` at `tau`; appends the PVS to `pvs`. `budget_ms`: eq. 2's T_budget for
+/// Runs ovc for `cut`'s view at its tau; appends the PVS to `pvs`. `budget_ms`: eq. 2's T_budget for
 /// this frame, if any; `elapsed_ms` tells how long the frame's culling has taken so far (a
 /// clock; in tests, a count).
-#[allow(clippy::too_many_arguments)]
 pub fn ovc<E>(
-    nodes: &[NodeRecord],
-    view: &View,
-    tau: f64,
+    cut: Cut,
     opts: &OvcOptions,
     budget_ms: Option<f64>,
     occ: &mut dyn Occluders<Error = E>,
     elapsed_ms: &mut dyn FnMut() -> f64,
     pvs: &mut Vec<NodeId>,
 ) -> Result<HcStats, E> {
+    let Cut { nodes, view, tau } = cut;
     let mut stats = HcStats::default();
     let mut list = DistanceQueue::new();
     list.push(nodes, view.eye, 0);
@@ -170,9 +168,7 @@ mod tests {
         let (mut pvs, mut tests) = (Vec::new(), 0.0);
         // A fake clock: each call after a test has cost 1 ms per test so far.
         let s = ovc(
-            &scene(),
-            &v,
-            tau,
+            Cut { nodes: &scene(), view: &v, tau },
             opts,
             budget_ms,
             t,

@@ -7,7 +7,15 @@
 use crate::frustum::Frustum;
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3};
 use osw_scene::error_metric::LodView;
-use osw_scene::{Aabb, Camera};
+use osw_scene::{Aabb, Camera, NodeRecord};
+
+/// What a traversal cuts the hierarchy by: its nodes, the view, and tau (pixels of error).
+#[derive(Clone, Copy)]
+pub struct Cut<'a> {
+    pub nodes: &'a [NodeRecord],
+    pub view: &'a View,
+    pub tau: f64,
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct View {

@@ -26,6 +26,7 @@ use osw_cull::delta::diff;
 use osw_cull::hzb::{ACTIVE_OCCLUDERS, HzbTester, Pyramid, Read, select_occluders};
 use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::payoff::Alternating;
+use osw_cull::view::Cut;
 use osw_cull::{HcStats, View, frustum_cull, hardware_cull};
 use osw_gpu::draw::Pass;
 use osw_gpu::renderer::{BoxTest, DrawStats, RenderError, Renderer, Sampling};
@@ -237,7 +238,7 @@ impl ModeState {
         let mut occ = InterleavedTester::new(GpuTester { sampling, ..GpuTester::new(r, scene, test) });
         let hc = match self.mode {
             Mode::Chc => chc.frame(nodes, view, self.tau, &mut occ, pvs),
-            _ => ovc(nodes, view, self.tau, &opts, budget_ms, &mut occ, &mut || ms(t), pvs),
+            _ => ovc(Cut { nodes, view, tau: self.tau }, &opts, budget_ms, &mut occ, &mut || ms(t), pvs),
         };
         let hc = hc.and_then(|hc| occ.finish(view).map(|()| hc))?;
         s.hc_ms = ms(t);
