@@ -49,7 +49,7 @@ pub const OPTIONAL: wgpu::Features =
 /// when the draw is done; glibc then hands the freed top of its heaps back to the kernel, and
 /// the next draw takes every page again as a zeroed page fault. Heaps are kept instead (their
 /// peak stays resident, as it would be on a GPU): a third of the page faults
-/// (docs/measurements/2026-12-04-instances.md).
+/// (docs/measurements/2026-12-04-instances-10b-walk.md).
 fn keep_freed_heap() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt sets one of glibc's malloc parameters; every value of this one is valid.

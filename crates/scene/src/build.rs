@@ -359,7 +359,7 @@ pub fn build(
 /// (an LOD record, the coarsest level its parent merges) sits above them, so the resident
 /// memory grew with the model. A hand-back after every subtree costs time (the pages are
 /// taken again) for little lower a peak than one every 16th
-/// (docs/measurements/2026-12-04-instances.md, "The 10B build's memory").
+/// (docs/measurements/2026-12-05-instances-sweep-memory.md, "The 10B build's memory").
 const SUBTREES_PER_TRIM: usize = 16;
 
 fn return_freed_memory() {

@@ -111,7 +111,7 @@ const GROUPS: GroupShape = GroupShape { cluster_triangles: 128, clusters: 16 };
 /// groups lock less of it and switch less of it as the eye moves: fewer triangles at the
 /// same PSNR and much less popping. Larger groups fold more fans into fins
 /// ([`crate::fins`]). On the plant's small objects they cost triangles at every PSNR.
-/// docs/measurements/2026-12-03-cluster-hierarchy.md, "Larger groups for a large object" and
+/// docs/measurements/2026-12-05-cluster-hierarchy-large-groups.md, "Larger groups for a large object" and
 /// "Fins dropped: groups of 128 clusters"
 const LARGE_GROUPS: GroupShape = GroupShape { cluster_triangles: 256, clusters: 128 };
 
@@ -160,7 +160,7 @@ fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy
     // triangle inequality's sum (below + step, as the static chains sum theirs), so a bound on
     // the distance to the original; the extra weight on the step spends a cut's triangles
     // where a step removed much for little error
-    // (docs/measurements/2026-12-03-cluster-hierarchy.md, "The groups' error").
+    // (docs/measurements/2026-12-04-cluster-hierarchy-error.md, "The groups' error").
     config.simplify_error_merge_additive = 2.0;
     // The build clusters each block again its own way (crate::cluster): meshoptimizer's
     // reordering of each cluster for locality would be thrown away.

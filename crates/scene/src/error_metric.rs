@@ -44,7 +44,7 @@ pub fn projected_error_px(error: f32, b: &Aabb, eye: DVec3, focal_px: f64) -> f6
 /// consistent. The weight takes fewer triangles for the same PSNR on the plant and pops less;
 /// projecting from nearer than the nearest point instead left groups near the eye never
 /// simplified.
-/// docs/measurements/2026-12-03-cluster-hierarchy.md, "How much a group's size on screen counts"
+/// docs/measurements/2026-12-05-cluster-hierarchy-size-on-screen.md, "How much a group's size on screen counts"
 pub const SIZE_WEIGHT: f64 = 11.0;
 
 impl ErrorBound {

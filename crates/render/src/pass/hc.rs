@@ -69,7 +69,7 @@ const SECOND_LOOK_READ: Read = Read { finer: 4, budget: PIXELS_BUDGET, by_block:
 /// then hid, the same ones every frame, each reached by a chain of tests from a visible
 /// ancestor; read to the pixels, HC makes fewer tests in less time, and halving a box that
 /// passes no longer pays (docs/measurements/2026-12-03-hc-tests.md,
-/// docs/measurements/2026-12-04-instances.md).
+/// docs/measurements/2026-12-05-hc-notes.md).
 const TRAVERSAL_READ: Read = Read { finer: PYRAMID_FINER, budget: PIXELS_BUDGET, by_block: false };
 const PIXELS_BUDGET: u32 = 1024;
 
@@ -316,7 +316,7 @@ struct Dropped {
 /// read finer and block by block (or, with adaptive culling, which scores pixel counts,
 /// exactly on the GPU): what the traversal's coarse rectangles let through would otherwise be
 /// drawn as an addition, dropped by the retest, and found again the next frame: near parts
-/// behind a wall whose boxes reach off the image (docs/measurements/2026-12-04-instances.md).
+/// behind a wall whose boxes reach off the image (docs/measurements/2026-12-05-hc-notes.md).
 fn second_look(
     r: &mut Renderer,
     scene: &SceneFile,
