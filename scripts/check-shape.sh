@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The shape the project keeps, checked in CI: README.md at most 160 lines of at most 200
-# characters; no comment in crates/*/src carrying a measured figure (milliseconds, megabytes,
+# characters; each measurement page at most 300 lines, naming its commit in its first ten; no
+# comment in crates/*/src carrying a measured figure (milliseconds, megabytes,
 # gigabytes or a ratio written "1.5x"): measured numbers and their history belong in
 # docs/measurements/, and the code says why in a sentence and links there. The figures of
 # settings and limits are what the code sets, and are allowed below by file and text.
@@ -32,4 +33,9 @@ if long=$(awk 'length > 200 { print FNR }' README.md) && [[ -n $long ]]; then
   echo "check-shape: README.md lines over 200 characters: $long" >&2
   bad=1
 fi
+for page in docs/measurements/*.md; do
+  n=$(wc -l <"$page")
+  ((n <= 300)) || { echo "check-shape: $page has $n lines (at most 300: split it by topic)" >&2; bad=1; }
+  head -10 "$page" | grep -qE '\b[0-9a-f]{7,40}\b' || { echo "check-shape: $page names no commit in its first ten lines" >&2; bad=1; }
+done
 exit $bad
