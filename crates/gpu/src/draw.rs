@@ -56,6 +56,19 @@ impl ViewUniform {
 }
 
 impl Pass {
+    /// The name a debugger shows for a draw of this pass and layer.
+    pub fn label(self, layer: Layer) -> &'static str {
+        match (self, layer) {
+            (Pass::Color, Layer::Opaque) => "color",
+            (Pass::Tinted(_), Layer::Opaque) => "color tinted",
+            (Pass::ColorOver, Layer::Opaque) => "color over depth",
+            (Pass::Color | Pass::Tinted(_) | Pass::ColorOver, Layer::Translucent) => "color translucent",
+            (Pass::Depth, _) => "depth",
+            (Pass::Item, Layer::Opaque) => "item",
+            (Pass::Item, Layer::Translucent) => "item translucent",
+        }
+    }
+
     /// The tint of this pass ([`ViewUniform::draw`]'s x).
     pub fn tint(self) -> u32 {
         match self {

@@ -323,11 +323,21 @@ impl Renderer {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
         stats.draws = 1;
+        let bytes = self.upload(view, pass, layer)?;
+        let drawn = bytes > 0 && self.bind_arena();
+        let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+        self.encode(&mut enc, pass, layer, clear, drawn.then_some(bytes));
+        self.finish(enc, stats)
+    }
+
+    /// Writes the view, the pass's indices and its use table to their buffers, each grown to
+    /// fit; returns the indices' bytes.
+    fn upload(&mut self, view: &View, pass: Pass, layer: Layer) -> Result<u64, RenderError> {
         let bytes = self.indices.len() as u64 * 4;
         if bytes > self.index_buf.size() {
             let max = self.gpu.device.limits().max_buffer_size;
             if bytes > max {
-                return Err(RenderError::TooManyTriangles(stats.triangles, max));
+                return Err(RenderError::TooManyTriangles(self.indices.len() as u64 / 3, max));
             }
             let size = bytes.next_power_of_two().min(max);
             self.index_buf = storage(&self.gpu, "pass indices", size, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST);
@@ -349,68 +359,70 @@ impl Renderer {
             q.write_buffer(&self.index_buf, 0, bytemuck::cast_slice(&self.indices));
             q.write_buffer(&self.uses_buf, 0, bytemuck::cast_slice(&self.uses.list));
         }
-        let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+        Ok(bytes)
+    }
+
+    /// Makes the draw's bind group again where the arena or the use table grew since the last
+    /// draw; false while there is no arena (nothing resident to draw).
+    fn bind_arena(&mut self) -> bool {
+        let Some(arena) = self.residency.arena() else { return false };
+        if self.draw_group.as_ref().is_none_or(|(_, a, u)| a != arena || u != &self.uses_buf) {
+            let buffers = [&self.view_buf, &self.uses_buf, arena];
+            self.draw_group = Some((bind(&self.gpu, &self.draw.layout, &buffers), arena.clone(), self.uses_buf.clone()));
+        }
+        true
+    }
+
+    /// Records the pass: its attachments cleared or loaded, the draw of `bytes` of indices
+    /// (none: an empty pass, which still clears), and the queries asked for.
+    fn encode(&self, enc: &mut wgpu::CommandEncoder, pass: Pass, layer: Layer, clear: bool, bytes: Option<u64>) {
         let query = self.fragment_query.as_ref().filter(|_| self.options.count_fragments);
         let times = self.timestamps.as_ref().filter(|_| self.options.time_gpu);
-        {
-            let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
-            let color_view = match pass {
-                Pass::Color | Pass::Tinted(_) | Pass::ColorOver => Some(&self.target.color),
-                Pass::Item => Some(&self.target.item),
-                Pass::Depth => None,
-            };
-            let color = color_view.map(|v| wgpu::RenderPassColorAttachment {
-                view: v,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: load(if pass == Pass::Item { wgpu::Color::BLACK } else { SKY }),
-                    store: wgpu::StoreOp::Store,
-                },
-            });
-            let colors = [color];
-            let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("draw"),
-                // The depth-only pass has no colour attachment at all (not an empty slot).
-                color_attachments: if colors[0].is_some() { &colors } else { &[] },
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.target.depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: if clear && layer == Layer::Opaque && pass != Pass::ColorOver {
-                            wgpu::LoadOp::Clear(0.0)
-                        } else {
-                            wgpu::LoadOp::Load
-                        },
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: times.map(|(set, _, _)| wgpu::RenderPassTimestampWrites {
-                    query_set: set,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
-                }),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            if let Some((set, _, _)) = query {
-                rp.begin_pipeline_statistics_query(set, 0);
-            }
-            if let (Some(arena), true) = (self.residency.arena(), bytes > 0) {
-                // Made again where the arena or the use table grew since the last draw.
-                let buffers = [&self.view_buf, &self.uses_buf, arena];
-                if self.draw_group.as_ref().is_none_or(|(_, a, u)| a != arena || u != &self.uses_buf) {
-                    self.draw_group = Some((bind(&self.gpu, &self.draw.layout, &buffers), arena.clone(), self.uses_buf.clone()));
-                }
-                rp.set_pipeline(self.draw.pipeline(pass, layer));
-                rp.set_bind_group(0, self.draw_group.as_ref().map(|(g, _, _)| g), &[]);
-                rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);
-                rp.draw_indexed(0..self.indices.len() as u32, 0, 0..1);
-            }
-            if query.is_some() {
-                rp.end_pipeline_statistics_query();
-            }
+        let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
+        let color_view = match pass {
+            Pass::Color | Pass::Tinted(_) | Pass::ColorOver => Some(&self.target.color),
+            Pass::Item => Some(&self.target.item),
+            Pass::Depth => None,
+        };
+        let color = color_view.map(|v| wgpu::RenderPassColorAttachment {
+            view: v,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: load(if pass == Pass::Item { wgpu::Color::BLACK } else { SKY }), store: wgpu::StoreOp::Store },
+        });
+        let colors = [color];
+        let depth_load =
+            if clear && layer == Layer::Opaque && pass != Pass::ColorOver { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load };
+        let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(pass.label(layer)),
+            // The depth-only pass has no colour attachment at all (not an empty slot).
+            color_attachments: if colors[0].is_some() { &colors } else { &[] },
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.target.depth,
+                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: times.map(|(set, _, _)| wgpu::RenderPassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(0),
+                end_of_pass_write_index: Some(1),
+            }),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if let Some((set, _, _)) = query {
+            rp.begin_pipeline_statistics_query(set, 0);
         }
+        if let (Some(bytes), Some((group, _, _))) = (bytes, &self.draw_group) {
+            rp.set_pipeline(self.draw.pipeline(pass, layer));
+            rp.set_bind_group(0, group, &[]);
+            rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);
+            rp.draw_indexed(0..self.indices.len() as u32, 0, 0..1);
+        }
+        if query.is_some() {
+            rp.end_pipeline_statistics_query();
+        }
+        drop(rp);
         if let Some((set, resolve, staging)) = query {
             enc.resolve_query_set(set, 0..1, resolve, 0);
             enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(8));
@@ -419,6 +431,13 @@ impl Renderer {
             enc.resolve_query_set(set, 0..2, resolve, 0);
             enc.copy_buffer_to_buffer(resolve, 0, staging, 0, Some(16));
         }
+    }
+
+    /// Submits the recorded pass and reads back what it counted and timed; waits for it unless
+    /// the renderer keeps a draw in flight ([`RenderOptions::overlap`]).
+    fn finish(&mut self, enc: wgpu::CommandEncoder, stats: &mut DrawStats) -> Result<(), RenderError> {
+        let query = self.fragment_query.as_ref().filter(|_| self.options.count_fragments);
+        let times = self.timestamps.as_ref().filter(|_| self.options.time_gpu);
         if self.options.overlap {
             self.gpu.wait()?;
         }
