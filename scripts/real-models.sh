@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Real models against frustum culling and exact visibility: each model of ../shared/models/
-# (and any glTF, OBJ or PLY given) is built, walked (its recorded walk NAME-walk-N.csv beside
+# Real models against frustum culling and exact visibility: each model of $OSW_MODELS, else
+# ../shared/models/ (and any glTF, OBJ or PLY given) is built, walked (its recorded walk NAME-walk-N.csv beside
 # it if there is one; else `osw path --kind walk`, or an orbit where nothing is walkable) and
 # rendered with vfc, prev and the switch at tau 0 and 1. At tau 0 each run is compared with
 # vfc and with exact visibility (identical frames, false-culled leaves, pixels drawn differently
@@ -27,7 +27,7 @@ while (($#)); do
 done
 out=$(realpath -m "$out")
 cd "$(dirname "$0")/.."
-shared=../shared/models
+shared=${OSW_MODELS:-../shared/models}
 for m in "$shared"/*.glb "$shared"/*.gltf "$shared"/*.obj "$shared"/*.ply; do
   [[ -e $m ]] && models=("$(realpath "$m")" "${models[@]}")
 done

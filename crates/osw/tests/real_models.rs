@@ -9,19 +9,7 @@
 
 mod common;
 use common::*;
-use std::path::{Path, PathBuf};
-
-/// The models of `../shared/models/` that `osw build` reads, by name.
-fn models() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e} (the real models are beside the repository, in shared/models)", dir.display()))
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().and_then(|e| e.to_str()).is_some_and(|e| ["glb", "gltf", "obj", "ply"].contains(&e)))
-        .collect();
-    found.sort();
-    found
-}
+use std::path::Path;
 
 /// Checks prev and the switch (culling every frame), prev with RVG's cluster occlusion test
 /// (its OR drawing only the clusters visible in the last frame) and prev as it runs by default
@@ -56,9 +44,9 @@ fn check(scene: &Path, path: &Path, size: &str, out: &Path, label: &str) -> u64 
 
 #[test]
 fn prev_and_the_switch_are_conservative_on_every_real_model() {
+    let Some(models) = real_models("prev_and_the_switch_are_conservative_on_every_real_model") else { return };
     let d = tempfile::tempdir().unwrap();
-    let models = models();
-    assert!(models.len() >= 3, "expected the real models in shared/models, found {models:?}");
+    assert!(models.len() >= 3, "expected the real models, found {models:?}");
     for model in &models {
         let stem = model.file_stem().unwrap().to_str().unwrap().to_owned();
         let scene = d.path().join(format!("{stem}.osw"));
@@ -86,17 +74,23 @@ fn prev_and_the_switch_are_conservative_on_every_real_model() {
 }
 
 /// On OpenArena's 68 maps, orbits where prev once drew a pixel of frame 2 differently from
-/// vfc (a surface tied in depth with another node's, drawn in another order): prev, culling
-/// every frame, draws vfc's frames at tau 0.
+/// vfc (a surface tied in depth with another node's, drawn in another order): prev and the
+/// switch, culling every frame, draw vfc's frames at tau 0.
 #[test]
 fn prev_draws_vfcs_frames_on_openarenas_orbits() {
+    let Some(models) = real_models("prev_draws_vfcs_frames_on_openarenas_orbits") else { return };
     let d = tempfile::tempdir().unwrap();
-    let model = models().into_iter().find(|m| m.ends_with("openarena-all-maps.glb")).expect("openarena-all-maps.glb in shared/models");
+    let model = models.into_iter().find(|m| m.ends_with("openarena-all-maps.glb")).expect("openarena-all-maps.glb among the real models");
     let scene = d.path().join("openarena.osw");
     osw_ok(&["build", s(&model), "-o", s(&scene)]);
     for seed in ["1", "2"] {
         let path = d.path().join(format!("orbit-{seed}.csv"));
         osw_ok(&["path", "--scene", s(&scene), "--kind", "orbit", "--frames", "40", "--seed", seed, "-o", s(&path)]);
-        check_prev_draws_vfcs_frames(&scene, &path, "512x512", &d.path().join(format!("orbit-{seed}")), &format!("orbit {seed}"));
+        let dir = d.path().join(format!("orbit-{seed}"));
+        check_prev_draws_vfcs_frames(&scene, &path, "512x512", &dir, &format!("orbit {seed}"));
+        let switch = dir.join("switch");
+        osw_ok(&["run", "--scene", s(&scene), "--path", s(&path), "--size", "512x512", "--always-cull", "--out", s(&switch)]);
+        let c = compare(&switch, &dir.join("vfc"), &dir.join("exact"), &dir.join("cmp-switch"));
+        assert_same_frames(&c, 40, &format!("orbit {seed}: the switch against vfc"));
     }
 }

@@ -39,6 +39,32 @@ pub fn switch_summary(run: &Path) -> (osw_render::Summary, osw_render::results::
     (s, sw)
 }
 
+/// The folder of real models made by others: `OSW_MODELS`, else `../shared/models` beside the
+/// repository (our machines and CI have it; a user's clone does not). None where neither is:
+/// the test that needs it says so in one line, naming the folders, and checks nothing more.
+pub fn real_models_dir(test: &str) -> Option<PathBuf> {
+    let dir = std::env::var_os("OSW_MODELS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models"));
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    eprintln!("skipped {test}: no real models in {} (set OSW_MODELS to a folder of them)", dir.display());
+    None
+}
+
+/// The models of [`real_models_dir`] that `osw build` reads, sorted.
+pub fn real_models(test: &str) -> Option<Vec<PathBuf>> {
+    let dir = real_models_dir(test)?;
+    let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().and_then(|e| e.to_str()).is_some_and(|e| ["glb", "gltf", "obj", "ply"].contains(&e)))
+        .collect();
+    found.sort();
+    Some(found)
+}
+
 pub fn osw(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_osw")).args(args).env("OSW_MESH_CACHE", "/nonexistent").output().expect("run osw")
 }
