@@ -400,6 +400,25 @@ fn table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
 }
 
 fn markdown(r: &Report, a: &Args) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# osw report\n\nScene `{}`, path `{}` ({} frames), {}x{}. Image error is against `vfc` at tau 0 \
+         (full detail, frustum culling only); culling error against exact visibility (item buffer at full \
+         detail, `osw exact`): on average {:.0} leaves and {:.0} triangles are visible.\n",
+        r.scene, r.path, r.frames, r.width, r.height, r.exact_leaves_mean, r.exact_triangles_mean
+    );
+    paper_tables(&mut md, r, a);
+    method_table(&mut md, r);
+    cluster_table(&mut md, r);
+    error_table(&mut md, r);
+    culling_table(&mut md, r);
+    traffic_table(&mut md, r);
+    md
+}
+
+/// The occlusion switch's tables 1-3: a row per tau, a column per mode.
+fn paper_tables(md: &mut String, r: &Report, a: &Args) {
     let get = |m: Mode, t: f64| r.runs.iter().find(|e| e.mode == m && e.tau == t && e.adaptive == 0.0);
     let cell = |m: Mode, t: f64, f: &dyn Fn(&Entry) -> String| match get(m, t) {
         Some(e) if e.error.is_none() => f(e),
@@ -426,20 +445,12 @@ fn markdown(r: &Report, a: &Args) -> String {
             .collect();
         (header, rows)
     };
-    let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "# osw report\n\nScene `{}`, path `{}` ({} frames), {}x{}. Image error is against `vfc` at tau 0 \
-         (full detail, frustum culling only); culling error against exact visibility (item buffer at full \
-         detail, `osw exact`): on average {:.0} leaves and {:.0} triangles are visible.\n",
-        r.scene, r.path, r.frames, r.width, r.height, r.exact_leaves_mean, r.exact_triangles_mean
-    );
     md.push_str("## Frame rate (occlusion switch, table 1)\n\nFrames per second from the median frame time.\n\n");
     let (h, rows) = by_tau("fps", &|e| format!("{:.1}", 1000.0 / e.frame_ms_median.max(1e-9)), None);
-    table(&mut md, &h, &rows);
+    table(md, &h, &rows);
     md.push_str("## Triangles drawn against exactly visible triangles (occlusion switch, table 2)\n\nMeans per frame.\n\n");
     let (h, rows) = by_tau("triangles", &|e| format!("{:.0}", e.triangles_drawn_mean), Some(&|_| format!("{:.0}", r.exact_triangles_mean)));
-    table(&mut md, &h, &rows);
+    table(md, &h, &rows);
     md.push_str(
         "## Objects drawn against exactly visible objects (occlusion switch, table 3)\n\nLeaves drawn per exactly visible leaf \
          at full detail (PVS/exact; an HLOD counts for the visible leaves it stands for), then the culling error over \
@@ -453,7 +464,11 @@ fn markdown(r: &Report, a: &Args) -> String {
         &|e| format!("{:.2} ({} / {})", e.pvs_exact_leaves, e.false_culled_at_tau_total, e.false_culled_leaves_total),
         Some(&|_| format!("{:.0} leaves", r.exact_leaves_mean)),
     );
-    table(&mut md, &h, &rows);
+    table(md, &h, &rows);
+}
+
+/// CHC's table 1: a row per run.
+fn method_table(md: &mut String, r: &Report) {
     md.push_str(
         "## Per-method statistics (CHC, table 1)\n\nMeans per frame; times are medians in ms; HC tests/s is tests \
          over the HC time; speedup is vfc's median frame time at the same tau over this method's.\n\n",
@@ -486,7 +501,11 @@ fn markdown(r: &Report, a: &Args) -> String {
             ],
         })
         .collect();
-    table(&mut md, &header, &rows);
+    table(md, &header, &rows);
+}
+
+/// Culling inside the visible nodes: a row per finished run.
+fn cluster_table(md: &mut String, r: &Report) {
     md.push_str(
         "## Clusters inside the visible nodes\n\nRVG's clusters a frame, the shares it skips \
          as outside the frustum, facing away and hidden; of the triangles of the clusters it draws, those it skips \
@@ -524,7 +543,11 @@ fn markdown(r: &Report, a: &Args) -> String {
             format!("{:.1}", e.drawn_exact_triangles),
         ]
     });
-    table(&mut md, &header, &rows);
+    table(md, &header, &rows);
+}
+
+/// Image and temporal error against frame time: a row per finished run, and the plot.
+fn error_table(md: &mut String, r: &Report) {
     md.push_str(
         "## Error against run time\n\nPSNR against full-detail vfc (∞ when every frame is identical), pixels that differ, \
          popping (temporal error: pixels that change by more than 2/255 when a frame's nodes are drawn with the previous \
@@ -559,8 +582,12 @@ fn markdown(r: &Report, a: &Args) -> String {
             format!("{:.2}", e.pvs_exact_triangles),
         ]
     });
-    table(&mut md, &header, &rows);
+    table(md, &header, &rows);
     md.push_str("![image error against frame time](error_vs_time.png)\n");
+}
+
+/// Bartz 1999's table 2: a row per finished run.
+fn culling_table(md: &mut String, r: &Report) {
     md.push_str(
         "\n## Culling and speed-up (Bartz 1999, table 2)\n\nThe share of the scene's full-detail triangles not drawn \
          (culled by frustum, occlusion and LOD), the culling error at the run's tau (nodes visible at that tau not drawn; \
@@ -576,7 +603,11 @@ fn markdown(r: &Report, a: &Args) -> String {
             e.speedup_vs_vfc.map_or("–".into(), |s| format!("{s:.2}")),
         ]
     });
-    table(&mut md, &header, &rows);
+    table(md, &header, &rows);
+}
+
+/// The switch's traffic, where a run is the switch's.
+fn traffic_table(md: &mut String, r: &Report) {
     let switch: Vec<(&Entry, &Traffic)> = r.runs.iter().filter_map(|e| Some((e, e.traffic.as_ref()?))).collect();
     if !switch.is_empty() {
         md.push_str(
@@ -604,9 +635,8 @@ fn markdown(r: &Report, a: &Args) -> String {
                 ]
             })
             .collect();
-        table(&mut md, &header, &rows);
+        table(md, &header, &rows);
     }
-    md
 }
 
 #[cfg(test)]
