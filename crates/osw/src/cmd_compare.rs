@@ -94,13 +94,19 @@ fn triangles_drawn(dir: &Path, s: &Summary) -> anyhow::Result<Option<Vec<u64>>> 
     }))
 }
 
-/// Each frame's popping (osw_render::popping) in the run in `dir`, none for frame 0 (no frame
-/// before it): its visible sets drawn again with the scene, path, size and tau its summary names.
-fn popping_of(dir: &Path, s: &Summary, frames: usize) -> anyhow::Result<Vec<Option<f64>>> {
+/// The visible sets of the run in `dir` (its pvs.txt), at least `frames` of them.
+fn read_pvs(dir: &Path, frames: usize) -> anyhow::Result<Vec<Vec<NodeId>>> {
     let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
     if pvs.len() < frames {
         bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), pvs.len());
     }
+    Ok(pvs)
+}
+
+/// Each frame's popping (osw_render::popping) in the run in `dir`, none for frame 0 (no frame
+/// before it): its visible sets drawn again with the scene, path, size and tau its summary names.
+fn popping_of(dir: &Path, s: &Summary, frames: usize) -> anyhow::Result<Vec<Option<f64>>> {
+    let pvs = read_pvs(dir, frames)?;
     let walk = WalkArgs {
         scene: s.scene.clone().into(),
         path: s.path.clone().into(),
@@ -148,12 +154,7 @@ impl Attribution {
         if frames > 0 && !items_path(reference, frames as u64 - 1).exists() {
             bail!("{}: item buffers for fewer frames than the runs' {frames}", reference.display());
         }
-        let pvs = runs.map(|dir| read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg));
-        let [a, b] = pvs;
-        let pvs = [a?, b?];
-        if let Some((dir, p)) = runs.iter().zip(&pvs).find(|(_, p)| p.len() < frames) {
-            bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), p.len());
-        }
+        let pvs = [read_pvs(runs[0], frames)?, read_pvs(runs[1], frames)?];
         Ok(Some(Attribution { scene: SceneFile::open(scene)?, items: reference.to_path_buf(), pvs }))
     }
 
@@ -277,10 +278,7 @@ fn compare_culling(a: &Args, exact: &Path, summaries: [&Summary; 2], rows: &mut 
     report.visible_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_draw_ms).collect());
     report.visible_cluster_draw_ms_median = median(floor_rows[..frames].iter().map(|r| r.visible_cluster_draw_ms).collect());
     for (which, dir) in [(0, &a.a), (1, &a.b)] {
-        let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
-        if pvs.len() < frames {
-            bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), pvs.len());
-        }
+        let pvs = read_pvs(dir, frames)?;
         let mut errs = Vec::with_capacity(frames);
         for row in rows.iter_mut() {
             let e = cull_error(&scene, &pvs[row.frame], &leaves[row.frame], tris[row.frame]).map_err(anyhow::Error::msg)?;
