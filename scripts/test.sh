@@ -6,6 +6,8 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 # README's length, and measured figures in docs/measurements/ rather than in code comments.
 scripts/check-shape.sh
+# No loop of imports between the files of a crate (each loop kept is named in the check).
+python3 scripts/check-imports.py
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 # The switch tests start the node and display binaries: build every binary first.
 cargo build --release --workspace --locked --bins

@@ -158,39 +158,56 @@ impl VisibleClusters {
     /// The clusters a [`VisibleClusters::mask`] of `pvs` (sorted) says, `count(id)` bits a
     /// node, or what is wrong with it: its length must be the one the scene's cluster counts
     /// give, its padding zero.
-    pub fn from_mask(pvs: &[NodeId], count: impl Fn(NodeId) -> u32, mask: Vec<u8>) -> Result<VisibleClusters, String> {
+    pub fn from_mask(pvs: &[NodeId], count: impl Fn(NodeId) -> u32, mask: Vec<u8>) -> Result<VisibleClusters, MaskError> {
         let mut v = VisibleClusters::default();
         for &id in pvs {
             v.nodes.push((id, v.len));
             v.len += count(id) as usize;
         }
         if mask.len() != v.len.div_ceil(8) {
-            return Err(format!("a cluster mask of {} bytes for {} nodes of {} clusters", mask.len(), pvs.len(), v.len));
+            return Err(MaskError::Length { bytes: mask.len(), nodes: pvs.len(), clusters: v.len });
         }
         if !v.len.is_multiple_of(8) && mask.last().is_some_and(|&b| b >> (v.len % 8) != 0) {
-            return Err("a cluster mask with bits set past its last cluster".into());
+            return Err(MaskError::Padding);
         }
         v.bits = mask;
         Ok(v)
     }
 }
 
-/// Appends to `out` the indices (offset by `base`) of the clusters of one node that the cut of
-/// `view.lod` takes and that may cover a pixel, less the triangles the triangle tests find
-/// covering none.
+/// Why a cluster mask does not fit the visible set it came with
+/// ([`VisibleClusters::from_mask`]).
+#[derive(Debug, PartialEq, Eq, thiserror::Error)]
+pub enum MaskError {
+    #[error("a cluster mask of {bytes} bytes for {nodes} nodes of {clusters} clusters")]
+    Length { bytes: usize, nodes: usize, clusters: usize },
+    #[error("a cluster mask with bits set past its last cluster")]
+    Padding,
+}
+
+/// Where gathering appends a node's triangles: `indices` offset by `base` (where the node's
+/// vertices start in the arena), and in `stats` what the tests dropped.
+pub struct Out<'a> {
+    pub indices: &'a mut Vec<u32>,
+    pub base: u32,
+    pub stats: &'a mut ClusterStats,
+}
+
+/// Appends to `out` the clusters of one node (`positions`, `indices` in cluster order,
+/// `clusters`) that the cut of `view.lod` takes and that may cover a pixel, less the
+/// triangles the triangle tests find covering none.
 pub fn gather<I: Copy + Into<u32>>(
     view: &View,
     tests: ClusterTests,
-    geometry: (&[[f32; 3]], &[I], &[ClusterRecord]),
-    stats: &mut ClusterStats,
-    base: u32,
-    out: &mut Vec<u32>,
+    positions: &[[f32; 3]],
+    indices: &[I],
+    clusters: &[ClusterRecord],
+    out: &mut Out,
 ) {
-    let (positions, indices, clusters) = geometry;
     let triangles = TriangleView::new(view);
     for c in clusters {
-        if let Some(backface) = test_cluster(view, tests, c, stats) {
-            push_triangles(&triangles, (backface, tests.small), (positions, cluster_indices(indices, c)), stats, base, out);
+        if let Some(backface) = test_cluster(view, tests, c, out.stats) {
+            push_triangles(&triangles, ClusterTests { backface, ..tests }, positions, cluster_indices(indices, c), out);
         }
     }
 }
@@ -226,18 +243,12 @@ pub fn cluster_indices<'a, I>(indices: &'a [I], c: &ClusterRecord) -> &'a [I] {
     &indices[c.first_index as usize..(c.first_index + c.index_count) as usize]
 }
 
-/// Appends to `out` the triangles `ix` of one cluster (offset by `base`), less those that face
-/// away (with `backface`) or cover no pixel centre (with `small`), counted in `stats`.
-pub fn push_triangles<I: Copy + Into<u32>>(
-    triangles: &TriangleView,
-    (backface, small): (bool, bool),
-    (positions, ix): (&[[f32; 3]], &[I]),
-    stats: &mut ClusterStats,
-    base: u32,
-    out: &mut Vec<u32>,
-) {
+/// Appends to `out` the triangles `ix` of one cluster, less those that face away (with
+/// `tests.backface`) or cover no pixel centre (with `tests.small`), counted in its stats.
+pub fn push_triangles<I: Copy + Into<u32>>(triangles: &TriangleView, tests: ClusterTests, positions: &[[f32; 3]], ix: &[I], out: &mut Out) {
+    let (backface, small, base) = (tests.backface, tests.small, out.base);
     if !backface && !small {
-        out.extend(ix.iter().map(|&i| base + i.into()));
+        out.indices.extend(ix.iter().map(|&i| base + i.into()));
         return;
     }
     for t in ix.chunks_exact(3) {
@@ -245,11 +256,11 @@ pub fn push_triangles<I: Copy + Into<u32>>(
         // inlined into a larger caller (measured: 5% of vfc's frame).
         let tri = [positions[t[0].into() as usize], positions[t[1].into() as usize], positions[t[2].into() as usize]];
         if backface && triangles.faces_away(tri) {
-            stats.backface_culled += 1;
+            out.stats.backface_culled += 1;
         } else if small && triangles.covers_no_pixel(tri) {
-            stats.small_culled += 1;
+            out.stats.small_culled += 1;
         } else {
-            out.extend(t.iter().map(|&i| base + i.into()));
+            out.indices.extend(t.iter().map(|&i| base + i.into()));
         }
     }
 }
@@ -334,11 +345,11 @@ mod tests {
         }
         assert!(!back.takes(2, 70) && !back.takes(0, 3), "past a node's clusters");
         assert!(back.takes(9, 0), "a node not looked at is drawn whole");
-        let short = VisibleClusters::from_mask(&pvs, counts, mask[1..].to_vec()).unwrap_err();
+        let short = VisibleClusters::from_mask(&pvs, counts, mask[1..].to_vec()).unwrap_err().to_string();
         assert!(short.contains("of 78 clusters"), "{short}");
         let mut padded = mask.clone();
         *padded.last_mut().unwrap() |= 0x80;
-        assert!(VisibleClusters::from_mask(&pvs, counts, padded).unwrap_err().contains("past its last cluster"));
+        assert_eq!(VisibleClusters::from_mask(&pvs, counts, padded), Err(MaskError::Padding));
     }
 
     /// Triangles of `m` whose front faces `eye` (counter-clockwise from outside).
@@ -413,7 +424,7 @@ mod tests {
     /// The indices a pass would draw of mesh `m`.
     fn draw(view: &View, m: &Mesh, clusters: &[ClusterRecord], tests: ClusterTests, s: &mut ClusterStats) -> Vec<u32> {
         let mut out = Vec::new();
-        gather(view, tests, (&m.positions, &m.indices, clusters), s, 0, &mut out);
+        gather(view, tests, &m.positions, &m.indices, clusters, &mut Out { indices: &mut out, base: 0, stats: s });
         out
     }
 

@@ -81,7 +81,7 @@ impl Assembly {
     /// Part `part` of `parts` of a keyframe, the next run of V(i)'s sorted ids; its first part
     /// replaces what came before. Returns what the part adds to `previous`, V(i-1). A part out
     /// of order is an error.
-    pub fn keyframe(&mut self, previous: &[u32], part: u32, parts: u32, ids: Vec<u32>) -> Result<&[u32], String> {
+    pub fn keyframe(&mut self, previous: &[u32], part: u32, parts: u32, ids: Vec<u32>) -> Result<&[u32], DeltaError> {
         if part == 0 {
             self.keyframe = Some(KeyframeParts { all: Vec::new(), next: 0, parts });
             self.added.clear();
@@ -89,12 +89,12 @@ impl Assembly {
         }
         let k = match self.keyframe.as_mut() {
             Some(k) if k.next == part && k.parts == parts => k,
-            k => return Err(format!("keyframe part {part} of {parts} after {:?}", k.map(|k| (k.next, k.parts)))),
+            k => return Err(DeltaError::OutOfOrder { part, parts, after: k.map(|k| (k.next, k.parts)) }),
         };
         if let (Some(&last), Some(&first)) = (k.all.last(), ids.first())
             && first <= last
         {
-            return Err(format!("keyframe part {part} of {parts} starts at id {first}, not after {last}"));
+            return Err(DeltaError::Unsorted { part, parts, first, last });
         }
         k.next += 1;
         k.all.extend_from_slice(&ids);
@@ -104,11 +104,11 @@ impl Assembly {
     }
 
     /// V(i) from `previous`, V(i-1); an error where a keyframe stopped short of its last part.
-    pub fn finish(mut self, previous: &[u32]) -> Result<Vec<u32>, String> {
+    pub fn finish(mut self, previous: &[u32]) -> Result<Vec<u32>, DeltaError> {
         self.removed.sort_unstable();
         if let Some(mut k) = self.keyframe {
             if k.next != k.parts {
-                return Err(format!("a keyframe ended after {} of its {} parts", k.next, k.parts));
+                return Err(DeltaError::Short { parts: k.parts, came: k.next });
             }
             k.all.sort_unstable();
             k.all.dedup();
@@ -117,6 +117,18 @@ impl Assembly {
         self.added.sort_unstable();
         Ok(apply(previous, &self.removed, &self.added))
     }
+}
+
+/// Why the keyframe parts of a frame do not make its visible set ([`Assembly`]).
+#[derive(Debug, PartialEq, Eq, thiserror::Error)]
+pub enum DeltaError {
+    /// `after` is the part expected next and the parts of the keyframe under way, if any.
+    #[error("keyframe part {part} of {parts} after {after:?}")]
+    OutOfOrder { part: u32, parts: u32, after: Option<(u32, u32)> },
+    #[error("keyframe part {part} of {parts} starts at id {first}, not after {last}")]
+    Unsorted { part: u32, parts: u32, first: u32, last: u32 },
+    #[error("a keyframe ended after {came} of its {parts} parts")]
+    Short { parts: u32, came: u32 },
 }
 
 #[cfg(test)]
@@ -147,7 +159,7 @@ mod tests {
         assert_eq!(k.finish(&prev).unwrap(), vec![2, 3, 5, 9, 11]);
         let mut short = Assembly::default();
         short.keyframe(&prev, 0, 2, vec![2]).unwrap();
-        assert!(short.finish(&prev).unwrap_err().contains("1 of its 2 parts"));
+        assert!(short.finish(&prev).unwrap_err().to_string().contains("1 of its 2 parts"));
         let mut skipped = Assembly::default();
         assert!(skipped.keyframe(&prev, 1, 2, vec![2]).is_err(), "a second part first");
         skipped.keyframe(&prev, 0, 2, vec![5]).unwrap();

@@ -93,12 +93,12 @@ impl Frustum {
         self.planes.iter().any(|(n, d)| n.dot(center) + d < -radius)
     }
 
-    /// True when the box as it would be tested ([`crate::view::grow_for_test`]) contains the
+    /// True when the box as it would be tested ([`grow_for_test`]) contains the
     /// eye, reaches in front of the near plane, or is so large for its depth that its faces
     /// reach beyond the rasteriser's guard band: such a box cannot be tested by rasterising it
     /// (Yoon 2003 sec. 5.3.2: clamp or accept) and counts as visible.
     pub fn needs_no_test(&self, b: &Aabb) -> bool {
-        let (lo, hi) = crate::view::grow_for_test(b.min.as_dvec3() - self.eye, b.max.as_dvec3() - self.eye, self.eye, self.focal_px);
+        let (lo, hi) = grow_for_test(b.min.as_dvec3() - self.eye, b.max.as_dvec3() - self.eye, self.eye, self.focal_px);
         let q = DVec3::select(self.forward.cmpge(DVec3::ZERO), lo, hi);
         // Nearest box corner along the view direction closer than the near plane (with a
         // margin for rounding), or the eye in the box.
@@ -107,6 +107,45 @@ impl Frustum {
             || (lo.cmple(DVec3::ZERO).all() && hi.cmpge(DVec3::ZERO).all())
             || (hi - lo).max_element() > depth * self.max_extent_per_depth
     }
+}
+
+/// Pixels by which a tested box outgrows its silhouette ([`grow_for_test`]): 16 times the
+/// half step of an 8-bit sub-pixel grid, the coarsest Vulkan and D3D allow.
+pub const SNAP_PX: f64 = 1.0 / 32.0;
+
+/// Share of its distance by which a tested box reaches towards the eye ([`grow_for_test`]):
+/// 1/1024, 50 times the error measured on OpenArena.
+pub const DEPTH_MARGIN: f64 = 1.0 / 1024.0;
+
+/// A camera-relative box `lo..hi` as every occlusion test tests it (the GPU's exact and
+/// pyramid tests, the CPU pyramid, ovc), and as [`Frustum::needs_no_test`]
+/// judges whether it can be tested at all. `eye`: the scene-local eye; `focal_px`: pixels per
+/// unit at unit distance. Conservative against three roundings:
+/// - f32: the corners go to the GPU as f32, and the geometry drawn into the depth buffer is
+///   made camera-relative in f32 with the eye rounded to f32 (draw.wgsl), up to two ulps of
+///   the eye's coordinates nearer than in f64. A relative epsilon, which also gives a flat box
+///   an area.
+/// - Vertex snapping: a rasteriser snaps every vertex to its sub-pixel grid (1/256 px on
+///   lavapipe), the box's and the geometry's independently, so a pixel centre within a snap of
+///   the box's silhouette, where its geometry touches it, can be covered by the geometry and
+///   missed by the box. Grown by [`SNAP_PX`] at the box's farthest point.
+/// - Depth extrapolated outside a triangle: a pixel centre just outside a thin triangle that
+///   snapping covers gets a depth from the triangle's plane, beyond its vertices' depths. On
+///   OpenArena a floor 2.6 km off, 0.55 px tall and seen 1.7 degrees off edge-on, covered one
+///   pixel 0.00025 px outside its triangles at a depth 2e-5 (relative) nearer than every vertex
+///   and than its own box: HC found the box hidden behind its own floor, which showed in
+///   frustum culling's frame. The box test's depth bias (64 steps, 1e-10 at that depth; no
+///   slope on a face seen head-on) is absolute; the box is reached towards the eye by
+///   [`DEPTH_MARGIN`] of its distance, which scales its depth by as much and leaves its
+///   silhouette as it is (a perspective projection does not change under scaling about the
+///   eye).
+pub fn grow_for_test(lo: DVec3, hi: DVec3, eye: DVec3, focal_px: f64) -> (DVec3, DVec3) {
+    let far = lo.abs().max(hi.abs());
+    let eps = (hi - lo).max_element() * 1e-6 + far.max_element() * 1e-6 + eye.abs().max_element() * 2.4e-7;
+    let snap = far.length() / focal_px * SNAP_PX;
+    let (lo, hi) = (lo - (eps + snap), hi + (eps + snap));
+    let s = 1.0 / (1.0 + DEPTH_MARGIN);
+    (lo.min(lo * s), hi.max(hi * s))
 }
 
 #[cfg(test)]

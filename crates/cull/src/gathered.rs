@@ -12,11 +12,11 @@
 //! is drawn without the test for a few views (the frame is the same: such triangles make no
 //! fragment).
 
-use crate::cluster::{ClusterStats, ClusterTests, cluster_indices, push_triangles, test_cluster};
+use crate::cluster::{ClusterStats, ClusterTests, Out, cluster_indices, push_triangles, test_cluster};
 use crate::triangle::TriangleView;
 use crate::view::View;
 use osw_scene::NodeId;
-use osw_scene::file::{Geometry, Indices};
+use osw_scene::block::{Geometry, Indices};
 use std::collections::{HashMap, hash_map};
 use std::ops::Range;
 
@@ -66,23 +66,22 @@ pub struct Gathered {
 }
 
 impl Gathered {
-    /// Appends to `out`, and adds to `stats`, what [`gather`] makes of node `id`'s opaque
-    /// clusters under `view` and `tests` (its indices offset by `base`), of those past the
-    /// cluster tests only the ones `select` takes (by index). `geometry` reads the node's (an
-    /// instance's is placed at each read): only when something of it was not tested yet.
+    /// Appends to `out` what [`gather`] makes of node `id`'s opaque clusters under `view` and
+    /// `tests`, of those past the cluster tests only the ones `select` takes (by index).
+    /// `geometry` reads the node's (an instance's is placed at each read): only when something
+    /// of it was not tested yet.
     ///
     /// [`gather`]: crate::cluster::gather
-    #[allow(clippy::too_many_arguments)]
     pub fn gather<'g, E>(
         &mut self,
         view: &View,
         tests: ClusterTests,
-        (id, base): (NodeId, u32),
+        id: NodeId,
         mut geometry: impl FnMut() -> Result<Geometry<'g>, E>,
         select: &mut dyn FnMut(usize) -> bool,
-        stats: &mut ClusterStats,
-        out: &mut Vec<u32>,
+        out: &mut Out,
     ) -> Result<(), E> {
+        let base = out.base;
         self.begin(view, tests);
         let mut g = None;
         let e = match self.nodes.entry(id) {
@@ -99,7 +98,7 @@ impl Gathered {
                 e.insert(Entry { base, kept: from..self.kept.len(), stats: s, small, small_tested: 0, small_culled: 0 })
             }
         };
-        *stats = *stats + e.stats;
+        *out.stats = *out.stats + e.stats;
         let triangles = TriangleView::new(view);
         for c in &mut self.kept[e.kept.clone()] {
             if !select(c.k as usize) {
@@ -111,25 +110,27 @@ impl Gathered {
                 }
                 let Some(g) = &g else { continue };
                 let (from, mut s) = (self.indices.len(), ClusterStats::default());
-                let (tests, positions, cluster) = ((c.backface, e.small), &g.positions[..], &g.clusters[c.k as usize]);
-                let out = &mut self.indices;
+                let tests = ClusterTests { backface: c.backface, small: e.small, ..ClusterTests::NONE };
+                let (positions, cluster) = (&g.positions[..], &g.clusters[c.k as usize]);
+                let kept = &mut Out { indices: &mut self.indices, base: e.base, stats: &mut s };
                 match &g.indices {
-                    Indices::U16(ix) => push_triangles(&triangles, tests, (positions, cluster_indices(ix, cluster)), &mut s, e.base, out),
-                    Indices::U32(ix) => push_triangles(&triangles, tests, (positions, cluster_indices(ix, cluster)), &mut s, e.base, out),
+                    Indices::U16(ix) => push_triangles(&triangles, tests, positions, cluster_indices(ix, cluster), kept),
+                    Indices::U32(ix) => push_triangles(&triangles, tests, positions, cluster_indices(ix, cluster), kept),
                 }
-                e.small_tested += (out.len() - from) as u64 / 3 + s.small_culled;
+                let made = self.indices.len();
+                e.small_tested += (made - from) as u64 / 3 + s.small_culled;
                 e.small_culled += s.small_culled;
                 // At most the cluster's triangles, whose index count is a u32.
                 let (backface_culled, small_culled) = (s.backface_culled as u32, s.small_culled as u32);
-                c.triangles = Some(Tested { range: from..out.len(), backface_culled, small_culled });
+                c.triangles = Some(Tested { range: from..made, backface_culled, small_culled });
             }
             let Some(t) = &c.triangles else { continue };
             match base.wrapping_sub(e.base) {
-                0 => out.extend_from_slice(&self.indices[t.range.clone()]),
-                by => out.extend(self.indices[t.range.clone()].iter().map(|&i| i.wrapping_add(by))),
+                0 => out.indices.extend_from_slice(&self.indices[t.range.clone()]),
+                by => out.indices.extend(self.indices[t.range.clone()].iter().map(|&i| i.wrapping_add(by))),
             }
-            stats.backface_culled += u64::from(t.backface_culled);
-            stats.small_culled += u64::from(t.small_culled);
+            out.stats.backface_culled += u64::from(t.backface_culled);
+            out.stats.small_culled += u64::from(t.small_culled);
         }
         Ok(())
     }
@@ -180,7 +181,7 @@ mod tests {
     /// What `gather` appends of `b` under `view`, and its counts.
     fn direct(view: &View, tests: ClusterTests, b: Block, base: u32) -> (Vec<u32>, ClusterStats) {
         let (mut out, mut s) = (Vec::new(), ClusterStats::default());
-        gather(view, tests, b, &mut s, base, &mut out);
+        gather(view, tests, b.0, b.1, b.2, &mut Out { indices: &mut out, base, stats: &mut s });
         (out, s)
     }
 
@@ -206,7 +207,7 @@ mod tests {
                 opaque: b.2.len(),
             })
         };
-        let Ok(()) = cache.gather(view, tests, (id, base), read, select, &mut s, &mut out);
+        let Ok(()) = cache.gather(view, tests, id, read, select, &mut Out { indices: &mut out, base, stats: &mut s });
         assert_eq!(out[0], 7, "appends");
         (out[1..].to_vec(), s)
     }

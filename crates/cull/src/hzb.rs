@@ -137,13 +137,14 @@ impl Pyramid {
     pub fn reaches(
         &self,
         rect: (u32, u32, u32, u32),
-        (nearest, within): (f32, &impl Fn((u32, u32, u32, u32)) -> Option<f32>),
+        nearest: f32,
+        within: &impl Fn((u32, u32, u32, u32)) -> Option<f32>,
         finer: u32,
         budget: u32,
     ) -> bool {
         let level = self.level_of(rect.0, rect.1, rect.2, rect.3, finer);
         let mut left = budget;
-        self.reaches_below(level, rect, (0, 0, u32::MAX, u32::MAX), (nearest, within), &mut left)
+        self.reaches_below(level, rect, (0, 0, u32::MAX, u32::MAX), nearest, within, &mut left)
     }
 
     /// [`Pyramid::reaches`] at `level`, over the texels of `rect` (level-0 pixels) within
@@ -153,7 +154,8 @@ impl Pyramid {
         level: usize,
         rect: (u32, u32, u32, u32),
         texels: (u32, u32, u32, u32),
-        (nearest, within): (f32, &impl Fn((u32, u32, u32, u32)) -> Option<f32>),
+        nearest: f32,
+        within: &impl Fn((u32, u32, u32, u32)) -> Option<f32>,
         left: &mut u32,
     ) -> bool {
         let (w, h, d) = &self.levels[level];
@@ -177,7 +179,7 @@ impl Pyramid {
                     ((x << level).max(x0), (y << level).max(y0), (((x + 1) << level) - 1).min(x1), (((y + 1) << level) - 1).min(y1));
                 // The box's own nearest depth over this texel's pixels: behind its farthest, hidden here.
                 let Some(part) = within(block).filter(|&z| z >= farthest) else { continue };
-                if level == 0 || self.reaches_below(level - 1, rect, (2 * x, 2 * y, 2 * x + 1, 2 * y + 1), (part, within), left) {
+                if level == 0 || self.reaches_below(level - 1, rect, (2 * x, 2 * y, 2 * x + 1, 2 * y + 1), part, within, left) {
                     return true;
                 }
             }
@@ -212,7 +214,7 @@ impl PixelRays {
     /// Reversed-Z depth where the ray through pixel (x, y)'s centre enters the camera-relative
     /// box `lo..hi` (1 where the box reaches the near plane there), or None where it misses
     /// the box: what the GPU's exact test draws of the box at that pixel.
-    pub fn depth_into(&self, x: u32, y: u32, (lo, hi): (DVec3, DVec3)) -> Option<f64> {
+    pub fn depth_into(&self, x: u32, y: u32, lo: DVec3, hi: DVec3) -> Option<f64> {
         let d = self.corner + x as f64 * self.step_x + y as f64 * self.step_y;
         let (mut enter, mut exit) = (f64::NEG_INFINITY, f64::INFINITY);
         for a in 0..3 {
@@ -299,7 +301,8 @@ impl Footprint {
 
     /// As [`Footprint::of`], for any scene-local box.
     pub fn of_box(vp: &DMat4, view: &View, b: &Aabb) -> Footprint {
-        match clip_corners(vp, view.test_box(b)) {
+        let (lo, hi) = view.test_box(b);
+        match clip_corners(vp, lo, hi) {
             Some(corners) => Footprint::of_points(view, &corners),
             None => Footprint::Behind,
         }
@@ -331,7 +334,7 @@ impl Footprint {
 
 /// The clip-space corners of the camera-relative box `lo..hi` (corner c takes the maximum on
 /// axis k where bit k of c is set), or None when one is behind the eye.
-fn clip_corners(vp: &DMat4, (lo, hi): (DVec3, DVec3)) -> Option<[DVec4; 8]> {
+fn clip_corners(vp: &DMat4, lo: DVec3, hi: DVec3) -> Option<[DVec4; 8]> {
     let corners = std::array::from_fn(|c| {
         let p = DVec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), hi, lo);
         *vp * p.extend(1.0)
@@ -358,7 +361,7 @@ impl<'a> OnImage<'a> {
     /// None when a corner of the grown box is behind the eye.
     pub fn new(vp: &DMat4, view: &'a View, b: &Aabb) -> Option<OnImage<'a>> {
         let grown = view.test_box(b);
-        let corners = clip_corners(vp, grown)?;
+        let corners = clip_corners(vp, grown.0, grown.1)?;
         Some(OnImage { view, corners, grown, rays: PixelRays::new(view) })
     }
 
@@ -369,7 +372,7 @@ impl<'a> OnImage<'a> {
         let (w, h) = (self.view.width as f64, self.view.height as f64);
         match whole {
             Footprint::Rect { x0, y0, x1, y1, .. } if x0 < 0.0 || y0 < 0.0 || x1 > w || y1 > h => {
-                let on_image = self.clipped((-1.0, 1.0, -1.0, 1.0));
+                let on_image = self.clipped(-1.0, 1.0, -1.0, 1.0);
                 let (x0, y0, x1, y1) = on_image.rect;
                 match on_image.points {
                     // Nothing of it on the image: a rectangle off it.
@@ -387,18 +390,18 @@ impl<'a> OnImage<'a> {
     /// a corner). None where it covers none of them.
     pub fn nearest_in(&self, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> Option<f64> {
         if (x0, y0) == (x1, y1) {
-            return self.rays.depth_into(x0, y0, self.grown);
+            return self.rays.depth_into(x0, y0, self.grown.0, self.grown.1);
         }
         let (w, h) = (self.view.width as f64, self.view.height as f64);
         // Widened a little, so that a block one pixel wide keeps a width.
         let ndc_x = |x: u32, e: f64| (2.0 * (x as f64 + 0.5 + e)) / w - 1.0;
         let ndc_y = |y: u32, e: f64| 1.0 - (2.0 * (y as f64 + 0.5 + e)) / h;
-        let part = self.clipped((ndc_x(x0, -1e-3), ndc_x(x1, 1e-3), ndc_y(y1, 1e-3), ndc_y(y0, -1e-3)));
+        let part = self.clipped(ndc_x(x0, -1e-3), ndc_x(x1, 1e-3), ndc_y(y1, 1e-3), ndc_y(y0, -1e-3));
         (part.points > 0).then_some(part.nearest)
     }
 
     /// The box's faces clipped to the frustum of normalised device x in [ax, bx], y in [ay, by].
-    fn clipped(&self, (ax, bx, ay, by): (f64, f64, f64, f64)) -> Clipped {
+    fn clipped(&self, ax: f64, bx: f64, ay: f64, by: f64) -> Clipped {
         let planes = [
             DVec4::new(1.0, 0.0, 0.0, -ax),
             DVec4::new(-1.0, 0.0, 0.0, bx),
@@ -493,7 +496,7 @@ pub fn visible_box(pyramid: &Pyramid, vp: &DMat4, view: &View, b: &Aabb, read: R
         true => on_image.nearest_in(block).map(|z| z as f32),
         false => Some(nearest as f32),
     };
-    pyramid.reaches(rect, (nearest as f32, &within), read.finer, read.budget)
+    pyramid.reaches(rect, nearest as f32, &within, read.finer, read.budget)
 }
 
 #[cfg(test)]
@@ -560,8 +563,8 @@ mod tests {
             let brute = (y0..=y1).any(|y| (x0..=x1).any(|x| nearest >= depth[(y * w + x) as usize] - 1e-7));
             for finer in [0, 3] {
                 let rect = |_| Some(nearest);
-                assert_eq!(p.reaches((x0, y0, x1, y1), (nearest, &rect), finer, u32::MAX), brute, "({x0},{y0})-({x1},{y1}) at {nearest}");
-                assert!(!brute || p.reaches((x0, y0, x1, y1), (nearest, &rect), finer, 3), "a small budget hid a visible rectangle");
+                assert_eq!(p.reaches((x0, y0, x1, y1), nearest, &rect, finer, u32::MAX), brute, "({x0},{y0})-({x1},{y1}) at {nearest}");
+                assert!(!brute || p.reaches((x0, y0, x1, y1), nearest, &rect, finer, 3), "a small budget hid a visible rectangle");
                 assert!(!brute || p.lets_through((x0, y0, x1, y1), nearest, finer));
             }
             (hidden, shown) = (hidden + u32::from(!brute), shown + u32::from(brute));
@@ -661,7 +664,7 @@ mod tests {
             let e = DVec3::new(2.0 * rng.unit(), 2.0 * rng.unit(), 2.0 * rng.unit()) + 0.05;
             let b = (c - e - view.eye, c + e - view.eye);
             for (y, x) in (0..view.height).flat_map(|y| (0..view.width).map(move |x| (y, x))) {
-                let ((drawn, edge), got) = (drawn_box_at(&view, b, x, y), rays.depth_into(x, y, b));
+                let ((drawn, edge), got) = (drawn_box_at(&view, b, x, y), rays.depth_into(x, y, b.0, b.1));
                 if edge > 1e-3 {
                     assert_eq!(got.is_some(), drawn.is_some(), "pixel ({x}, {y}) of box {b:?}");
                 }

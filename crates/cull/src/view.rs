@@ -4,7 +4,7 @@
 //! everything sent to the GPU is camera-relative f32, so a scene 1e7 units from the world
 //! origin renders like one at the origin.
 
-use crate::frustum::Frustum;
+use crate::frustum::{Frustum, grow_for_test};
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3};
 use osw_scene::error_metric::LodView;
 use osw_scene::{Aabb, Camera, NodeRecord};
@@ -104,45 +104,6 @@ impl View {
     }
 }
 
-/// Pixels by which a tested box outgrows its silhouette ([`grow_for_test`]): 16 times the
-/// half step of an 8-bit sub-pixel grid, the coarsest Vulkan and D3D allow.
-pub const SNAP_PX: f64 = 1.0 / 32.0;
-
-/// Share of its distance by which a tested box reaches towards the eye ([`grow_for_test`]):
-/// 1/1024, 50 times the error measured on OpenArena.
-pub const DEPTH_MARGIN: f64 = 1.0 / 1024.0;
-
-/// A camera-relative box `lo..hi` as every occlusion test tests it (the GPU's exact and
-/// pyramid tests, the CPU pyramid, ovc), and as [`crate::frustum::Frustum::needs_no_test`]
-/// judges whether it can be tested at all. `eye`: the scene-local eye; `focal_px`: pixels per
-/// unit at unit distance. Conservative against three roundings:
-/// - f32: the corners go to the GPU as f32, and the geometry drawn into the depth buffer is
-///   made camera-relative in f32 with the eye rounded to f32 (draw.wgsl), up to two ulps of
-///   the eye's coordinates nearer than in f64. A relative epsilon, which also gives a flat box
-///   an area.
-/// - Vertex snapping: a rasteriser snaps every vertex to its sub-pixel grid (1/256 px on
-///   lavapipe), the box's and the geometry's independently, so a pixel centre within a snap of
-///   the box's silhouette, where its geometry touches it, can be covered by the geometry and
-///   missed by the box. Grown by [`SNAP_PX`] at the box's farthest point.
-/// - Depth extrapolated outside a triangle: a pixel centre just outside a thin triangle that
-///   snapping covers gets a depth from the triangle's plane, beyond its vertices' depths. On
-///   OpenArena a floor 2.6 km off, 0.55 px tall and seen 1.7 degrees off edge-on, covered one
-///   pixel 0.00025 px outside its triangles at a depth 2e-5 (relative) nearer than every vertex
-///   and than its own box: HC found the box hidden behind its own floor, which showed in
-///   frustum culling's frame. The box test's depth bias (64 steps, 1e-10 at that depth; no
-///   slope on a face seen head-on) is absolute; the box is reached towards the eye by
-///   [`DEPTH_MARGIN`] of its distance, which scales its depth by as much and leaves its
-///   silhouette as it is (a perspective projection does not change under scaling about the
-///   eye).
-pub fn grow_for_test(lo: DVec3, hi: DVec3, eye: DVec3, focal_px: f64) -> (DVec3, DVec3) {
-    let far = lo.abs().max(hi.abs());
-    let eps = (hi - lo).max_element() * 1e-6 + far.max_element() * 1e-6 + eye.abs().max_element() * 2.4e-7;
-    let snap = far.length() / focal_px * SNAP_PX;
-    let (lo, hi) = (lo - (eps + snap), hi + (eps + snap));
-    let s = 1.0 / (1.0 + DEPTH_MARGIN);
-    (lo.min(lo * s), hi.max(hi * s))
-}
-
 /// Near plane for a scene of diagonal `diag`: small enough that walking cameras never clip
 /// nearby geometry, large enough to keep depth precision (reversed Z keeps it nearly uniform).
 pub fn near_for(diag: f64) -> f64 {
@@ -157,6 +118,7 @@ pub fn near_of(scene: &osw_scene::SceneFile) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frustum::{DEPTH_MARGIN, SNAP_PX};
     use crate::hzb::Footprint;
     use glam::{DQuat, Vec3};
 

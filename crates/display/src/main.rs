@@ -94,7 +94,7 @@ fn node_addresses(a: &Args, set: &Settings) -> anyhow::Result<[String; 2]> {
             _ => anyhow::bail!("--nodes {n:?}: expected two addresses, node a's and node b's"),
         },
         (None, Some(_)) => {
-            let addr = |k: &str| set.config.node(k).map(|n| n.address.clone()).map_err(anyhow::Error::msg);
+            let addr = |k: &str| set.config.node(k).map(|n| n.address.clone());
             [addr("a")?, addr("b")?]
         }
         (None, None) => anyhow::bail!("no nodes: give --nodes A,B or --config"),
@@ -108,31 +108,71 @@ fn overview(scene: &osw_scene::SceneFile) -> Camera {
     Camera::look_at(c + DVec3::new(0.6 * e.x, 0.5 * e.y + 0.1 * e.length(), 0.9 * e.z), c, 60.0)
 }
 
+/// The window (with the walk's controls when interactive) and its GPU, or a GPU alone.
+fn open(a: &Args, set: &Settings, scene: &Arc<osw_scene::SceneFile>, start: Option<&Camera>) -> anyhow::Result<(Option<Ui>, osw_gpu::Gpu)> {
+    let (w, h) = set.size;
+    if !(a.window || a.interactive) {
+        return Ok((None, osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?));
+    }
+    let (window, gpu) = window::Window::open("osw walkthrough", w, h, a.cluster.adapter.as_deref())?;
+    let controls = a.interactive.then(|| {
+        let start = start.copied().unwrap_or_else(|| overview(scene));
+        controls::Controls::new(&start, scene.node(0).aabb().extent().length() as f64 / 20.0, set.tau)
+    });
+    Ok((Some(Ui::new(window, controls, h, a.out.clone(), Arc::clone(scene))), gpu))
+}
+
+/// RVG of frame `i`, which `frames` holds, from `camera`, as prev's: the clusters HC found
+/// hidden are left out. Its time and counts go into `row`.
+fn rvg(
+    r: &mut osw_gpu::Renderer,
+    scene: &osw_scene::SceneFile,
+    frames: &mut Frames,
+    i: usize,
+    camera: &Camera,
+    tau: f64,
+    row: &mut DisplayFrame,
+) -> anyhow::Result<()> {
+    let t = Instant::now();
+    r.begin_frame();
+    let view = r.view(camera, tau);
+    let notes = match frames.mask.take() {
+        Some(m) => Some(
+            VisibleClusters::from_mask(&frames.visible, |id| scene.opaque_clusters(id), m)
+                .map_err(|e| anyhow::anyhow!("frame {i}: node {}: {e}", links::NAMES[row.hc_node as usize]))?,
+        ),
+        None => None,
+    };
+    let drawn = osw_render::pass::rvg(r, scene, &view, &frames.visible, notes.as_ref(), osw_gpu::draw::Pass::Color)?;
+    (row.rvg_ms, row.rvg_gpu_ms) = (t.elapsed().as_secs_f64() * 1e3, drawn.gpu_ms());
+    (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
+    [
+        row.clusters,
+        row.clusters_frustum_culled,
+        row.clusters_cone_culled,
+        row.clusters_occlusion_culled,
+        row.triangles_backface_culled,
+        row.triangles_small_culled,
+    ] = osw_render::stats::cluster_columns(&drawn.clusters);
+    Ok(())
+}
+
 fn run(a: &Args) -> anyhow::Result<()> {
-    let set = a.cluster.resolve().map_err(anyhow::Error::msg)?;
+    let set = a.cluster.resolve()?;
     let (w, h) = set.size;
     let addrs = &node_addresses(a, &set)?;
     let path = a.path.as_deref().map(osw_scene::path::read).transpose()?.unwrap_or_default();
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
-    let agreed = a.agreed.resolve(&set.config).map_err(anyhow::Error::msg)?;
+    let agreed = a.agreed.resolve(&set.config)?;
     let me = Hello::new(scene.content_hash(), "display", Role::Display, set.token.clone(), agreed.said(set.size));
-    let (mut ui, gpu) = if a.window || a.interactive {
-        let (window, gpu) = window::Window::open("osw walkthrough", w, h, a.cluster.adapter.as_deref())?;
-        let controls = a.interactive.then(|| {
-            let start = path.first().copied().unwrap_or_else(|| overview(&scene));
-            controls::Controls::new(&start, scene.node(0).aabb().extent().length() as f64 / 20.0, set.tau)
-        });
-        (Some(Ui::new(window, controls, h, a.out.clone(), Arc::clone(&scene))), gpu)
-    } else {
-        (None, osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?)
-    };
+    let (mut ui, gpu) = open(a, &set, &scene, path.first())?;
     // The next frame's gather overlaps this frame's draw (measured in
     // docs/measurements/2026-12-07-constants.md, "The display's overlap"). RVG's stage time then
     // ends when its draw is submitted, the previous one done.
     let options = RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, overlap: true, ..RenderOptions::default() };
-    let mut r = osw_gpu::Renderer::new(gpu, &scene, w, h, osw_gpu::limits::RESIDENCY_BYTES, options)?;
+    let mut r = osw_gpu::Renderer::new(gpu, &scene, w, h, options)?;
     if a.gpu_times && !r.times_gpu() {
-        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);
+        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu().info.name);
     }
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (notes_tx, notes) = std::sync::mpsc::channel();
@@ -171,33 +211,12 @@ fn run(a: &Args) -> anyhow::Result<()> {
         let (cam, mut row) = frames.frame(i as u64, rows.last_mut(), &mut || {
             ui.as_mut().map(Ui::pump);
         })?;
-        let t = Instant::now();
-        r.begin_frame();
         let camera = osw_render::packet::camera(&cam);
-        let view = r.view(&camera, cam.tau_px);
-        // RVG as prev's: the clusters HC found hidden are left out.
-        let notes = match frames.mask.take() {
-            Some(m) => Some(
-                VisibleClusters::from_mask(&frames.visible, |id| scene.opaque_clusters(id), m)
-                    .map_err(|e| anyhow::anyhow!("frame {i}: node {}: {e}", links::NAMES[row.hc_node as usize]))?,
-            ),
-            None => None,
-        };
-        let drawn = osw_render::pass::rvg(&mut r, &scene, &view, &frames.visible, notes.as_ref(), osw_gpu::draw::Pass::Color)?;
-        (row.rvg_ms, row.rvg_gpu_ms) = (t.elapsed().as_secs_f64() * 1e3, drawn.gpu_ms());
-        (row.pvs_nodes, row.triangles_drawn) = (drawn.nodes, drawn.triangles);
-        [
-            row.clusters,
-            row.clusters_frustum_culled,
-            row.clusters_cone_culled,
-            row.clusters_occlusion_culled,
-            row.triangles_backface_culled,
-            row.triangles_small_culled,
-        ] = osw_render::stats::cluster_columns(&drawn.clusters);
+        rvg(&mut r, &scene, &mut frames, i, &camera, cam.tau_px, &mut row)?;
         // Read back once for the PNG and the window both (unless the window draws another view).
         let rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
         if let (false, Some(rgba)) = (a.no_frames, &rgba) {
-            write_png(&frame_path(&a.out, i as u64), w, h, rgba).map_err(anyhow::Error::msg)?;
+            write_png(&frame_path(&a.out, i as u64), w, h, rgba)?;
         }
         row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
         row.rss_kb = osw_render::stats::resident_bytes() >> 10;

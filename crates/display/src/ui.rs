@@ -8,7 +8,7 @@ use crate::window::{Input, KEYS, Window};
 use osw_cull::View;
 use osw_cull::states::classify;
 use osw_gpu::Renderer;
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_render::results::DisplayFrame;
 use osw_scene::{Camera, SceneFile};
 use std::io::Write as _;
@@ -194,19 +194,19 @@ impl Ui {
             let mut front = Vec::new();
             osw_cull::frustum_cull(scene.nodes(), &view, tau, &mut front);
             let s = classify(scene.nodes(), &front, visible, &culling.frustum);
-            r.draw(scene, &view, &s.visible, Pass::Tinted(VISIBLE), true)?;
-            r.draw(scene, &view, &s.occlusion_culled, Pass::Tinted(OCCLUDED), false)?;
-            r.draw(scene, &view, &s.frustum_culled, Pass::Tinted(OUTSIDE), false)?;
+            r.draw(scene, &view, &s.visible, Pass::Tinted(VISIBLE), Load::Clear)?;
+            r.draw(scene, &view, &s.occlusion_culled, Pass::Tinted(OCCLUDED), Load::Keep)?;
+            r.draw(scene, &view, &s.frustum_culled, Pass::Tinted(OUTSIDE), Load::Keep)?;
         } else if viewer != *camera {
             let view = View { lod: r.view(camera, tau).lod, ..r.view(&viewer, tau) };
-            r.draw(&self.scene, &view, visible, Pass::Color, true)?;
+            r.draw(&self.scene, &view, visible, Pass::Color, Load::Clear)?;
         }
         // The frame as RVG drew it, read back once by the caller, unless it was drawn again.
         let mut rgba = match frame {
             Some(f) if !redraw => f,
             _ => r.read_color()?,
         };
-        let width = r.target.width;
+        let width = r.width();
         if row.frame_ms > 0.0 {
             let now = 1e3 / row.frame_ms;
             self.fps = if self.fps == 0.0 { now } else { 0.9 * self.fps + 0.1 * now };
@@ -214,11 +214,11 @@ impl Ui {
         if let (true, Some(o)) = (self.show_overlay, &self.overlay) {
             o.draw(&mut rgba, width, &self.lines(row, tau));
         }
-        self.window.present(&r.gpu, &rgba, width)?;
+        self.window.present(r.gpu(), &rgba, width)?;
         if std::mem::take(&mut self.screenshot) {
             let path = self.out.join("screenshots").join(format!("{:05}.png", row.frame));
             std::fs::create_dir_all(self.out.join("screenshots"))?;
-            osw_render::output::write_png(&path, width, r.target.height, &rgba).map_err(anyhow::Error::msg)?;
+            osw_render::output::write_png(&path, width, r.height(), &rgba)?;
             say(format!("screenshot {}", path.display()));
         }
         Ok(())

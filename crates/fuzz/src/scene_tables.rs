@@ -9,7 +9,7 @@ use osw_cull::hc::frustum_cull;
 use osw_cull::view::View;
 use osw_scene::Camera;
 use osw_scene::format::{BLOCK_BYTES, BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, NODE_BYTES, NodeKind, NodeRecord};
-use osw_scene::writer::{content_hash, header_hash};
+use osw_scene::format::{content_hash, header_hash};
 use std::path::Path;
 
 /// Recomputes the header's content and header hashes in place, where the tables fit.

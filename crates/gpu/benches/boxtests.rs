@@ -4,7 +4,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{BoxTest, RenderOptions, Renderer, Sampling};
 use osw_scene::Camera;
 
@@ -19,14 +19,14 @@ fn bench(c: &mut Criterion) {
             return;
         }
     };
-    let mut r = Renderer::new(gpu, &scene, 1024, 1024, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).expect("renderer");
+    let mut r = Renderer::new(gpu, &scene, 1024, 1024, RenderOptions::default()).expect("renderer");
     let root = scene.node(0).aabb();
     let eye = root.center().as_dvec3() + DVec3::new(0.0, 1.7 - root.center().y as f64, -0.3 * root.extent().z as f64);
     let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0), 0.0);
     // Occluders: every leaf's coarsest level in the frustum.
     let occluders: Vec<u32> =
         (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod + n.lod_count - 1).collect();
-    r.draw(&scene, &view, &occluders, Pass::Depth, true).expect("occluders");
+    r.draw(&scene, &view, &occluders, Pass::Depth, Load::Clear).expect("occluders");
     r.build_pyramid();
     let ids: Vec<u32> = (0..scene.bvh_count()).collect();
     let boxes: Vec<osw_scene::Aabb> = ids.iter().map(|&i| scene.node(i).aabb()).collect();

@@ -6,13 +6,15 @@
 
 use crate::draw::depth_state;
 
-/// One box, camera-relative: 32 bytes.
+/// One box, camera-relative (`Box` in shaders/common.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuBox {
     pub lo: [f32; 4],
     pub hi: [f32; 4],
 }
+
+const _: () = assert!(std::mem::size_of::<GpuBox>() == 32);
 
 pub struct BoxTestPipelines {
     pub layout: wgpu::BindGroupLayout,

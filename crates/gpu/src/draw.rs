@@ -38,7 +38,17 @@ pub enum Layer {
     Translucent,
 }
 
-/// The view uniform shared by all shaders: 96 bytes.
+/// What a draw does with its attachments first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Load {
+    /// Colour to the sky, item ids to 0, depth to 0 (infinitely far). A translucent layer and
+    /// [`Pass::ColorOver`] keep the depth.
+    Clear,
+    /// Draws over what is there.
+    Keep,
+}
+
+/// The view uniform shared by all shaders.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ViewUniform {
@@ -48,6 +58,8 @@ pub struct ViewUniform {
     /// object in its own colour; y: the pass's [`crate::uses::Uses::shift`].
     pub draw: [u32; 4],
 }
+
+const _: () = assert!(std::mem::size_of::<ViewUniform>() == 96);
 
 impl ViewUniform {
     pub fn new(view: &osw_cull::View) -> ViewUniform {

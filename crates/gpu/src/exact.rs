@@ -9,7 +9,7 @@
 //! tau > 0 it takes the LOD cut at tau without a frustum. [`Reference::FrustumCut`] draws the cut
 //! frustum culling makes (faster on large scenes, but a frustum bug is then shared).
 
-use crate::draw::Pass;
+use crate::draw::{Layer, Load, Pass};
 use crate::renderer::{RenderError, Renderer};
 use osw_cull::{View, frustum_cull};
 use osw_scene::{NodeId, NodeKind, SceneFile};
@@ -74,7 +74,7 @@ fn drawn(scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Vec<
 impl Renderer {
     pub fn exact(&mut self, scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Result<ExactFrame, RenderError> {
         let ids = drawn(scene, view, tau, reference);
-        let drawn = self.draw(scene, view, &ids, Pass::Item, true)?;
+        let drawn = self.draw(scene, view, &ids, Pass::Item, Load::Clear)?;
         let pass = std::mem::take(&mut self.indices);
         let read = self.target.read_item(&self.gpu)?;
         let pixels: Vec<u32> = read.iter().map(|i| i[0]).collect();
@@ -87,7 +87,7 @@ impl Renderer {
         let mut translucent: Vec<NodeId> = ids.iter().copied().filter(|&id| scene.has_translucent(id)).collect();
         let (mut translucent_triangles, mut drawn_triangles, mut first) = (0, drawn.triangles, true);
         while !translucent.is_empty() {
-            let round = self.draw_translucent(scene, view, &translucent, Pass::Item, true)?;
+            let round = self.draw_translucent(scene, view, &translucent, Pass::Item, Load::Clear)?;
             drawn_triangles += if std::mem::take(&mut first) { round.triangles } else { 0 };
             let found = self.read_items()?;
             if found.is_empty() {
@@ -135,7 +135,7 @@ impl Renderer {
         self.indices.clear();
         self.indices.extend(triangles.flat_map(|t| &pass[t as usize * 3..t as usize * 3 + 3]));
         let start = std::time::Instant::now();
-        self.submit(view, Pass::Color, crate::draw::Layer::Opaque, true, &mut Default::default())?;
+        self.submit(view, Pass::Color, Layer::Opaque, Load::Clear, &mut Default::default())?;
         // Done, also when the renderer keeps a draw in flight (`RenderOptions::overlap`).
         self.gpu.wait()?;
         Ok(start.elapsed().as_secs_f64() * 1e3)

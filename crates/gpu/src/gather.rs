@@ -7,20 +7,20 @@
 //! [`Renderer::submit`]; OR and RVG, which take only the clusters HC's notes take
 //! (osw_render::pass), call the two themselves.
 
-use crate::draw::{Layer, Pass};
+use crate::draw::{Layer, Load, Pass};
 use crate::renderer::{DrawStats, RenderError, Renderer};
 use crate::residency::ResidencyError;
 use osw_cull::View;
-use osw_cull::cluster::{ClusterTests, gather};
-use osw_scene::file::Indices;
+use osw_cull::cluster::{ClusterTests, Out, gather};
+use osw_scene::block::Indices;
 use osw_scene::{NodeId, SceneFile};
 
 /// Which clusters of a node a pass takes (node, cluster index), of those past the tests.
 pub type Select<'a> = dyn FnMut(NodeId, usize) -> bool + 'a;
 
 impl Renderer {
-    /// Draws LOD nodes `ids` (in the given order) for `view`. `clear` clears the pass's
-    /// attachments first (colour to the sky, item ids to 0, depth to 0 = infinitely far), else draws on top.
+    /// Draws LOD nodes `ids` (in the given order) for `view`, on the pass's attachments as
+    /// `load` leaves them.
     ///
     /// One draw call: the nodes' indices, read from the mapped file and offset to their
     /// vertices in the arena, are gathered in the given order (so triangles rasterise in the
@@ -28,10 +28,10 @@ impl Renderer {
     /// that the frustum and cone tests skip (none in the item pass). Colour passes then blend
     /// the nodes' translucent clusters over it ([`Renderer::draw_translucent`]); the depth and
     /// item passes draw only the opaque ones.
-    pub fn draw(&mut self, scene: &SceneFile, view: &View, ids: &[NodeId], pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
-        let opaque = self.draw_opaque(scene, view, ids, pass, clear)?;
+    pub fn draw(&mut self, scene: &SceneFile, view: &View, ids: &[NodeId], pass: Pass, load: Load) -> Result<DrawStats, RenderError> {
+        let opaque = self.draw_opaque(scene, view, ids, pass, load)?;
         match pass {
-            Pass::Color | Pass::Tinted(_) | Pass::ColorOver => Ok(opaque + self.draw_translucent(scene, view, ids, pass, false)?),
+            Pass::Color | Pass::Tinted(_) | Pass::ColorOver => Ok(opaque + self.draw_translucent(scene, view, ids, pass, Load::Keep)?),
             Pass::Depth | Pass::Item => Ok(opaque),
         }
     }
@@ -44,11 +44,11 @@ impl Renderer {
         view: &View,
         ids: &[NodeId],
         pass: Pass,
-        clear: bool,
+        load: Load,
     ) -> Result<DrawStats, RenderError> {
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.options().cluster_tests };
         let drawn = self.gather(scene, view, ids, tests, None).and_then(|mut stats| {
-            self.submit(view, pass, Layer::Opaque, clear, &mut stats)?;
+            self.submit(view, pass, Layer::Opaque, load, &mut stats)?;
             Ok(stats)
         });
         match drawn {
@@ -65,9 +65,9 @@ impl Renderer {
                 // Nothing of the failed attempt was submitted, and everything submitted before
                 // it precedes any upload on the queue: all of it may make room now.
                 self.residency.next_epoch();
-                let first = self.draw_opaque(scene, view, a, pass, clear)?;
+                let first = self.draw_opaque(scene, view, a, pass, load)?;
                 self.residency.next_epoch();
-                let second = self.draw_opaque(scene, view, b, pass, false)?;
+                let second = self.draw_opaque(scene, view, b, pass, Load::Keep)?;
                 Ok(first + second)
             }
             r => r,
@@ -77,29 +77,29 @@ impl Renderer {
     /// The translucent clusters of `ids` over what is drawn: depth tested against it, never
     /// written, blended in a colour pass. The nodes go far to near by their box centres, ties
     /// by id, so that every mode blends the surfaces it shares with another in the same order
-    /// (a node one mode culls is hidden, and blends nothing in the other). `clear` clears the
-    /// colour (or item ids) only, keeping the depth.
+    /// (a node one mode culls is hidden, and blends nothing in the other). [`Load::Clear`]
+    /// clears the colour (or item ids) only, keeping the depth.
     pub fn draw_translucent(
         &mut self,
         scene: &SceneFile,
         view: &View,
         ids: &[NodeId],
         pass: Pass,
-        clear: bool,
+        load: Load,
     ) -> Result<DrawStats, RenderError> {
         let mut order: Vec<(f32, NodeId)> = ids
             .iter()
             .filter(|&&id| scene.has_translucent(id))
             .map(|&id| (view.relative(scene.node(id).aabb().center()).length_squared(), id))
             .collect();
-        if order.is_empty() && !clear {
+        if order.is_empty() && load == Load::Keep {
             return Ok(DrawStats::default());
         }
         order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let ids: Vec<NodeId> = order.into_iter().map(|(_, id)| id).collect();
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { ClusterTests { occlusion: false, ..self.options().cluster_tests } };
         // `gathered` counts nodes and clusters, `drawn` the draws.
-        let (mut gathered, mut drawn, mut clear) = (DrawStats::default(), DrawStats::default(), clear);
+        let (mut gathered, mut drawn, mut load) = (DrawStats::default(), DrawStats::default(), load);
         self.indices.clear();
         self.uses.begin(scene, &ids);
         for &id in &ids {
@@ -107,37 +107,38 @@ impl Renderer {
             let base = match self.uses.push(scene, view, id, arena) {
                 Ok(base) => base,
                 Err(_) => {
-                    drawn = drawn + self.submitted(view, pass, std::mem::take(&mut clear))?;
+                    drawn = drawn + self.submitted(view, pass, std::mem::replace(&mut load, Load::Keep))?;
                     self.indices.clear();
                     self.uses.list.clear();
                     self.uses.push(scene, view, id, arena)?
                 }
             };
             let g = scene.geometry(id)?;
-            let (out, s, clusters) = (&mut self.indices, &mut gathered.clusters, &g.clusters[g.opaque..]);
+            let clusters = &g.clusters[g.opaque..];
+            let out = &mut Out { indices: &mut self.indices, base, stats: &mut gathered.clusters };
             match &g.indices {
-                Indices::U16(ix) => gather(view, tests, (&g.positions, ix, clusters), s, base, out),
-                Indices::U32(ix) => gather(view, tests, (&g.positions, ix, clusters), s, base, out),
+                Indices::U16(ix) => gather(view, tests, &g.positions, ix, clusters, out),
+                Indices::U32(ix) => gather(view, tests, &g.positions, ix, clusters, out),
             }
             gathered.nodes += 1;
         }
-        drawn = drawn + self.submitted(view, pass, clear)?;
+        drawn = drawn + self.submitted(view, pass, load)?;
         Ok(DrawStats { nodes: gathered.nodes, clusters: gathered.clusters, ..drawn })
     }
 
     /// [`Renderer::submit`] of the translucent layer gathered so far: its draw's counts.
-    fn submitted(&mut self, view: &View, pass: Pass, clear: bool) -> Result<DrawStats, RenderError> {
+    fn submitted(&mut self, view: &View, pass: Pass, load: Load) -> Result<DrawStats, RenderError> {
         let mut drawn = DrawStats::default();
-        self.submit(view, pass, Layer::Translucent, clear, &mut drawn)?;
+        self.submit(view, pass, Layer::Translucent, load, &mut drawn)?;
         Ok(drawn)
     }
 
     /// The first vertex in the arena of LOD node `id`'s mesh, uploaded if it is not resident.
     fn arena_base(&mut self, scene: &SceneFile, id: NodeId) -> Result<u32, RenderError> {
-        let key = (id, scene.block_at(id));
-        match self.residency.resident(key) {
+        let block = scene.block_at(id);
+        match self.residency.resident(id, block) {
             Some(base) => Ok(base),
-            None => Ok(self.residency.upload(&self.gpu, key, &scene.stored_geometry(id)?)?),
+            None => Ok(self.residency.upload(&self.gpu, id, block, &scene.stored_geometry(id)?)?),
         }
     }
 
@@ -167,7 +168,8 @@ impl Renderer {
                 None => &mut all,
             };
             // An instance's geometry is placed at each read: read only when needed.
-            self.gathered.gather(view, tests, (id, base), || scene.geometry(id), select, &mut stats.clusters, &mut self.indices)?;
+            let out = &mut Out { indices: &mut self.indices, base, stats: &mut stats.clusters };
+            self.gathered.gather(view, tests, id, || scene.geometry(id), select, out)?;
         }
         stats.triangles = self.indices.len() as u64 / 3;
         Ok(stats)

@@ -7,7 +7,7 @@ use crate::device::Gpu;
 use crate::target::Target;
 use bytemuck::{Pod, Zeroable};
 
-/// One pyramid level in the packed buffer: 16 bytes.
+/// One pyramid level in the packed buffer (`Level` in shaders/common.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Eq)]
 pub struct Level {
@@ -18,6 +18,8 @@ pub struct Level {
     /// are padded to 256 bytes.
     pub pitch: u32,
 }
+
+const _: () = assert!(std::mem::size_of::<Level>() == 16);
 
 /// The level table for a `width` x `height` depth buffer: halving (rounding up) down to 1x1.
 pub fn levels(width: u32, height: u32) -> Vec<Level> {
@@ -48,6 +50,67 @@ fn buffer(ty: wgpu::BufferBindingType) -> wgpu::BindingType {
     wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None }
 }
 
+/// A compute pipeline of shaders/`label`.comp.wgsl (`src`) at `entry_point`, and the layout
+/// of its one bind group, of `entries`.
+fn pipeline(
+    d: &wgpu::Device,
+    label: &str,
+    src: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+    entry_point: &str,
+    constants: &[(&str, f64)],
+) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+    let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
+    let module = crate::shaders::module(d, &format!("{label}.comp.wgsl"), "", src);
+    let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pl),
+        module: &module,
+        entry_point: Some(entry_point),
+        compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+        cache: None,
+    });
+    (pipeline, layout)
+}
+
+/// A bind group of `bufs`, whole, at bindings 0, 1, ...
+fn bind(d: &wgpu::Device, label: &str, layout: &wgpu::BindGroupLayout, bufs: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> =
+        bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+    d.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries: &entries })
+}
+
+/// The reduction's dispatches, each with the level whose texels it is dispatched over. One
+/// small uniform per dispatch names its levels (1 and 2, 3 and 4, ...): the dispatches of one
+/// frame go in one submission, so each needs its own.
+fn reduce_steps(
+    d: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    levels: &[Level],
+    levels_buf: &wgpu::Buffer,
+    pyramid_buf: &wgpu::Buffer,
+) -> Vec<(wgpu::BindGroup, Level)> {
+    use wgpu::util::DeviceExt;
+    (1..levels.len() as u32)
+        .step_by(2)
+        .map(|k| {
+            let two = u32::from(k + 1 < levels.len() as u32);
+            let step = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("reduce step"),
+                contents: bytemuck::cast_slice(&[k, two, 0, 0]),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            // One invocation per texel of the top level written.
+            (bind(d, "depthreduce", layout, &[levels_buf, pyramid_buf, &step]), levels[(k + two) as usize])
+        })
+        .collect()
+}
+
 impl Pyramid {
     /// `view_buf`, `boxes_buf` and `results_buf` are the renderer's (shared with the exact test).
     pub fn new(gpu: &Gpu, target: &Target, view_buf: &wgpu::Buffer, boxes_buf: &wgpu::Buffer, results_buf: &wgpu::Buffer) -> Pyramid {
@@ -73,92 +136,26 @@ impl Pyramid {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-
-        let module = |label: &str, src: &str| crate::shaders::module(d, label, "", src);
-        let pipeline =
-            |label: &str, layout: &wgpu::BindGroupLayout, m: &wgpu::ShaderModule, entry_point: &str, constants: &[(&str, f64)]| {
-                let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some(label),
-                    bind_group_layouts: &[Some(layout)],
-                    immediate_size: 0,
-                });
-                d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(&pl),
-                    module: m,
-                    entry_point: Some(entry_point),
-                    compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
-                    cache: None,
-                })
-            };
-
-        let reduce_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("depthreduce"),
-            entries: &[
-                entry(0, buffer(B::Storage { read_only: true })),
-                entry(1, buffer(B::Storage { read_only: false })),
-                entry(2, buffer(B::Uniform)),
-            ],
-        });
-        let reduce = pipeline(
-            "depthreduce",
-            &reduce_layout,
-            &module("depthreduce.comp.wgsl", include_str!("shaders/depthreduce.comp.wgsl")),
-            "reduce",
-            &[],
-        );
-        // One small uniform per dispatch naming its levels (1 and 2, 3 and 4, ...): the
-        // dispatches of one frame go in one submission, so each needs its own.
-        let reduce_steps = (1..levels.len() as u32)
-            .step_by(2)
-            .map(|k| {
-                let two = u32::from(k + 1 < levels.len() as u32);
-                let step = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("reduce step"),
-                    contents: bytemuck::cast_slice(&[k, two, 0, 0]),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
-                let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("depthreduce"),
-                    layout: &reduce_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: levels_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: pyramid_buf.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: step.as_entire_binding() },
-                    ],
-                });
-                // One invocation per texel of the top level written.
-                (group, levels[(k + two) as usize])
-            })
-            .collect();
-
-        let cull_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("boxcull"),
-            entries: &[
-                entry(0, buffer(B::Uniform)),
-                entry(1, buffer(B::Storage { read_only: true })),
-                entry(2, buffer(B::Storage { read_only: false })),
-                entry(3, buffer(B::Storage { read_only: true })),
-                entry(4, buffer(B::Storage { read_only: true })),
-                entry(5, buffer(B::Uniform)),
-            ],
-        });
-        let cull = pipeline(
-            "boxcull",
-            &cull_layout,
-            &module("boxcull.comp.wgsl", include_str!("shaders/boxcull.comp.wgsl")),
-            "cull",
-            &[("finer", osw_cull::hzb::PYRAMID_FINER as f64)],
-        );
-        let cull_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("boxcull"),
-            layout: &cull_layout,
-            entries: &[view_buf, boxes_buf, results_buf, &levels_buf, &pyramid_buf, &batch_buf]
-                .iter()
-                .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
-                .collect::<Vec<_>>(),
-        });
+        let reduce_entries = [
+            entry(0, buffer(B::Storage { read_only: true })),
+            entry(1, buffer(B::Storage { read_only: false })),
+            entry(2, buffer(B::Uniform)),
+        ];
+        let src = include_str!("shaders/depthreduce.comp.wgsl");
+        let (reduce, reduce_layout) = pipeline(d, "depthreduce", src, &reduce_entries, "reduce", &[]);
+        let reduce_steps = reduce_steps(d, &reduce_layout, &levels, &levels_buf, &pyramid_buf);
+        let cull_entries = [
+            entry(0, buffer(B::Uniform)),
+            entry(1, buffer(B::Storage { read_only: true })),
+            entry(2, buffer(B::Storage { read_only: false })),
+            entry(3, buffer(B::Storage { read_only: true })),
+            entry(4, buffer(B::Storage { read_only: true })),
+            entry(5, buffer(B::Uniform)),
+        ];
+        let src = include_str!("shaders/boxcull.comp.wgsl");
+        let finer = [("finer", osw_cull::hzb::PYRAMID_FINER as f64)];
+        let (cull, cull_layout) = pipeline(d, "boxcull", src, &cull_entries, "cull", &finer);
+        let cull_group = bind(d, "boxcull", &cull_layout, &[view_buf, boxes_buf, results_buf, &levels_buf, &pyramid_buf, &batch_buf]);
         Pyramid { levels, buffer: pyramid_buf, reduce, cull, reduce_steps, cull_group, batch_buf }
     }
 
@@ -193,6 +190,5 @@ mod tests {
         let dims: Vec<(u32, u32, u32, u32)> = l.iter().map(|l| (l.offset, l.width, l.height, l.pitch)).collect();
         // Level 0's rows are padded to 256 bytes, 64 texels.
         assert_eq!(dims, vec![(0, 5, 3, 64), (192, 3, 2, 3), (198, 2, 1, 2), (200, 1, 1, 1)]);
-        assert_eq!(std::mem::size_of::<Level>(), 16);
     }
 }

@@ -4,9 +4,9 @@
 
 use crate::boxtest::{BoxTestPipelines, GpuBox};
 use crate::device::{Gpu, GpuError};
-use crate::draw::{DrawPipelines, Layer, Pass, ViewUniform};
+use crate::draw::{DrawPipelines, Layer, Load, Pass, ViewUniform};
 use crate::pyramid::Pyramid;
-use crate::residency::{Residency, ResidencyError};
+use crate::residency::{Residency, ResidencyError, ResidencyStats};
 use crate::target::Target;
 use crate::uses::{Rows, Uses};
 use osw_cull::cluster::{ClusterStats, ClusterTests};
@@ -42,6 +42,18 @@ pub enum BoxTest {
     /// One occlusion query per box (occlusion switch sec. 4.7.1: GL_NV_occlusion_query), the
     /// paper-faithful reference. wgpu documents only zero / non-zero results.
     Queries,
+}
+
+impl BoxTest {
+    /// The name a debugger shows for a batch of this test.
+    pub fn label(self) -> &'static str {
+        match self {
+            BoxTest::Exact => "boxtest",
+            BoxTest::ExactCount => "boxtest count",
+            BoxTest::Pyramid => "boxtest pyramid",
+            BoxTest::Queries => "boxtest queries",
+        }
+    }
 }
 
 /// Bartz 1999 sec. 3.3's interleaved sampling of exact box tests: one pixel line in `lines`
@@ -103,8 +115,8 @@ impl DrawStats {
     }
 }
 
-/// What a renderer does besides drawing, chosen once for its life.
-#[derive(Clone, Copy, Debug, Default)]
+/// What a renderer does besides drawing, and its limits, chosen once for its life.
+#[derive(Clone, Copy, Debug)]
 pub struct RenderOptions {
     /// The cluster tests of colour and depth passes (the item pass, exact visibility's
     /// reference, draws every triangle).
@@ -124,6 +136,29 @@ pub struct RenderOptions {
     /// Place instances with f32 rows ([`Rows::Single`]) also where the adapter has 64-bit
     /// floats: what an adapter without them draws.
     pub single_rows: bool,
+    /// Geometry residency budget, bytes ([`crate::residency`]).
+    pub residency_bytes: u64,
+    /// Largest vertex arena, bytes: the device's largest buffer, or less (tests make a frame's
+    /// geometry overflow it without a billion triangles).
+    pub max_arena_bytes: u64,
+    /// Most nodes in one draw, below what its indices can name ([`crate::uses`]): tests make
+    /// a pass overflow without a billion triangles.
+    pub max_nodes: usize,
+}
+
+impl Default for RenderOptions {
+    fn default() -> RenderOptions {
+        RenderOptions {
+            cluster_tests: ClusterTests::default(),
+            count_fragments: false,
+            time_gpu: false,
+            overlap: false,
+            single_rows: false,
+            residency_bytes: crate::limits::RESIDENCY_BYTES,
+            max_arena_bytes: u64::MAX,
+            max_nodes: usize::MAX,
+        }
+    }
 }
 
 /// The device resources of one scene at one image size: geometry resident on the GPU, the
@@ -131,9 +166,9 @@ pub struct RenderOptions {
 /// them here. The scene is the caller's, passed to each call that reads it; residency keys on
 /// its node ids, so a renderer serves the one scene it was made for.
 pub struct Renderer {
-    pub gpu: Gpu,
-    pub target: Target,
-    pub residency: Residency,
+    pub(crate) gpu: Gpu,
+    pub(crate) target: Target,
+    pub(crate) residency: Residency,
     options: RenderOptions,
     /// The scene's origin and near plane, for [`Renderer::view`].
     origin: glam::DVec3,
@@ -163,7 +198,7 @@ pub struct Renderer {
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
     /// The pass's index list, as gathered ([`crate::gather`]), and the nodes its indices name.
     pub(crate) indices: Vec<u32>,
-    pub uses: Uses,
+    pub(crate) uses: Uses,
     /// Each node's indices as last gathered, for passes of the same view.
     pub(crate) gathered: Gathered,
     gpu_boxes: Vec<GpuBox>,
@@ -175,6 +210,14 @@ fn storage(gpu: &Gpu, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu
     gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
 }
 
+/// A set of `count` queries of type `ty`, with its resolve and read-back buffers (8 bytes a query).
+fn query_set(gpu: &Gpu, label: &str, ty: wgpu::QueryType, count: u32) -> (wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer) {
+    let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some(label), ty, count });
+    let bytes = count as u64 * 8;
+    let resolve = storage(gpu, &format!("{label} resolve"), bytes, wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC);
+    (set, resolve, crate::readback::staging(gpu, &format!("{label} readback"), bytes))
+}
+
 /// A bind group of `bufs`, whole, at bindings 0, 1, ...
 fn bind(gpu: &Gpu, layout: &wgpu::BindGroupLayout, bufs: &[&wgpu::Buffer]) -> wgpu::BindGroup {
     let entries: Vec<wgpu::BindGroupEntry> =
@@ -183,14 +226,7 @@ fn bind(gpu: &Gpu, layout: &wgpu::BindGroupLayout, bufs: &[&wgpu::Buffer]) -> wg
 }
 
 impl Renderer {
-    pub fn new(
-        gpu: Gpu,
-        scene: &SceneFile,
-        width: u32,
-        height: u32,
-        residency_bytes: u64,
-        options: RenderOptions,
-    ) -> Result<Renderer, RenderError> {
+    pub fn new(gpu: Gpu, scene: &SceneFile, width: u32, height: u32, options: RenderOptions) -> Result<Renderer, RenderError> {
         let max = crate::limits::MAX_SIZE;
         if width == 0 || height == 0 || width > max || height > max {
             return Err(RenderError::Size(width, height));
@@ -202,44 +238,19 @@ impl Renderer {
         let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);
         let index_buf = storage(&gpu, "pass indices", 4, U::INDEX | U::COPY_DST);
         let n = crate::limits::MAX_BOXES as u64;
-        let boxes_buf = storage(&gpu, "boxes", n * 32, U::STORAGE | U::COPY_DST);
+        let boxes_buf = storage(&gpu, "boxes", n * std::mem::size_of::<GpuBox>() as u64, U::STORAGE | U::COPY_DST);
         let results_buf = storage(&gpu, "box results", n * 4, U::STORAGE | U::COPY_SRC | U::COPY_DST);
         let results_staging = crate::readback::staging(&gpu, "box results readback", n * 4);
         let uses_buf = storage(&gpu, "pass uses", 64, U::STORAGE | U::COPY_DST);
         let box_group = bind(&gpu, &boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
         let target = Target::new(&gpu, width, height);
         let pyramid = Pyramid::new(&gpu, &target, &view_buf, &boxes_buf, &results_buf);
-        let queries = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-            label: Some("box queries"),
-            ty: wgpu::QueryType::Occlusion,
-            count: QUERIES,
-        });
-        let query_resolve = storage(&gpu, "query resolve", QUERIES as u64 * 8, U::QUERY_RESOLVE | U::COPY_SRC);
-        let query_staging = crate::readback::staging(&gpu, "query readback", QUERIES as u64 * 8);
-        let fragment_query = gpu.features.contains(wgpu::Features::PIPELINE_STATISTICS_QUERY).then(|| {
-            let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("fragments"),
-                ty: wgpu::QueryType::PipelineStatistics(wgpu::PipelineStatisticsTypes::FRAGMENT_SHADER_INVOCATIONS),
-                count: 1,
-            });
-            (
-                set,
-                storage(&gpu, "fragments resolve", 8, U::QUERY_RESOLVE | U::COPY_SRC),
-                crate::readback::staging(&gpu, "fragments readback", 8),
-            )
-        });
-        let timestamps = gpu.features.contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
-            let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("pass times"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2,
-            });
-            (
-                set,
-                storage(&gpu, "pass times resolve", 16, U::QUERY_RESOLVE | U::COPY_SRC),
-                crate::readback::staging(&gpu, "pass times readback", 16),
-            )
-        });
+        let (queries, query_resolve, query_staging) = query_set(&gpu, "box queries", wgpu::QueryType::Occlusion, QUERIES);
+        let fragments = wgpu::QueryType::PipelineStatistics(wgpu::PipelineStatisticsTypes::FRAGMENT_SHADER_INVOCATIONS);
+        let fragment_query =
+            gpu.features.contains(wgpu::Features::PIPELINE_STATISTICS_QUERY).then(|| query_set(&gpu, "fragments", fragments, 1));
+        let timestamps =
+            gpu.features.contains(wgpu::Features::TIMESTAMP_QUERY).then(|| query_set(&gpu, "pass times", wgpu::QueryType::Timestamp, 2));
         Ok(Renderer {
             fragment_query,
             timestamps,
@@ -252,7 +263,7 @@ impl Renderer {
             query_staging,
             pyramid,
             target,
-            residency: Residency::new(residency_bytes),
+            residency: Residency::new(options.residency_bytes, options.max_arena_bytes),
             draw,
             boxtest,
             view_buf,
@@ -264,7 +275,7 @@ impl Renderer {
             results_staging,
             box_group,
             indices: Vec::new(),
-            uses: Uses::new(rows),
+            uses: Uses::new(rows, options.max_nodes),
             gathered: Gathered::default(),
             gpu_boxes: Vec::new(),
             spare_pyramid: None,
@@ -274,6 +285,24 @@ impl Renderer {
 
     pub fn options(&self) -> RenderOptions {
         self.options
+    }
+
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// The image size, pixels.
+    pub fn width(&self) -> u32 {
+        self.target.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.target.height
+    }
+
+    /// Geometry uploads and evictions since the renderer was made.
+    pub fn residency_stats(&self) -> ResidencyStats {
+        self.residency.stats
     }
 
     /// Whether draws count their fragments: asked for, and the adapter can.
@@ -319,14 +348,17 @@ impl Renderer {
     /// Draws the gathered indices in one call; counts them into `stats.triangles`, and their
     /// fragments into `stats.fragments` when [`Renderer::counts_fragments`]. A translucent
     /// layer keeps the depth when it clears.
-    pub fn submit(&mut self, view: &View, pass: Pass, layer: Layer, clear: bool, stats: &mut DrawStats) -> Result<(), RenderError> {
+    pub fn submit(&mut self, view: &View, pass: Pass, layer: Layer, load: Load, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
         stats.draws = 1;
         let bytes = self.upload(view, pass, layer)?;
         let drawn = bytes > 0 && self.bind_arena();
-        let mut enc = self.gpu.device.create_command_encoder(&Default::default());
-        self.encode(&mut enc, pass, layer, clear, drawn.then_some(bytes));
+        let label = pass.label(layer);
+        let mut enc = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        enc.push_debug_group(label);
+        self.encode(&mut enc, pass, layer, load, drawn.then_some(bytes));
+        enc.pop_debug_group();
         self.finish(enc, stats)
     }
 
@@ -375,10 +407,10 @@ impl Renderer {
 
     /// Records the pass: its attachments cleared or loaded, the draw of `bytes` of indices
     /// (none: an empty pass, which still clears), and the queries asked for.
-    fn encode(&self, enc: &mut wgpu::CommandEncoder, pass: Pass, layer: Layer, clear: bool, bytes: Option<u64>) {
+    fn encode(&self, enc: &mut wgpu::CommandEncoder, pass: Pass, layer: Layer, load: Load, bytes: Option<u64>) {
         let query = self.fragment_query.as_ref().filter(|_| self.options.count_fragments);
         let times = self.timestamps.as_ref().filter(|_| self.options.time_gpu);
-        let load = |c| if clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
+        let color_load = |c| if load == Load::Clear { wgpu::LoadOp::Clear(c) } else { wgpu::LoadOp::Load };
         let color_view = match pass {
             Pass::Color | Pass::Tinted(_) | Pass::ColorOver => Some(&self.target.color),
             Pass::Item => Some(&self.target.item),
@@ -388,11 +420,17 @@ impl Renderer {
             view: v,
             depth_slice: None,
             resolve_target: None,
-            ops: wgpu::Operations { load: load(if pass == Pass::Item { wgpu::Color::BLACK } else { SKY }), store: wgpu::StoreOp::Store },
+            ops: wgpu::Operations {
+                load: color_load(if pass == Pass::Item { wgpu::Color::BLACK } else { SKY }),
+                store: wgpu::StoreOp::Store,
+            },
         });
         let colors = [color];
-        let depth_load =
-            if clear && layer == Layer::Opaque && pass != Pass::ColorOver { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load };
+        let depth_load = if load == Load::Clear && layer == Layer::Opaque && pass != Pass::ColorOver {
+            wgpu::LoadOp::Clear(0.0)
+        } else {
+            wgpu::LoadOp::Load
+        };
         let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(pass.label(layer)),
             // The depth-only pass has no colour attachment at all (not an empty slot).
@@ -459,8 +497,11 @@ impl Renderer {
     /// Records the farthest-depth pyramid of the depth buffer as it is now, for
     /// [`BoxTest::Pyramid`] (after the occluders are drawn, before the boxes are tested).
     pub fn build_pyramid(&mut self) {
-        let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+        let label = "depth pyramid";
+        let mut enc = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        enc.push_debug_group(label);
         self.pyramid.encode_build(&self.target, &mut enc);
+        enc.pop_debug_group();
         self.gpu.queue.submit([enc.finish()]);
     }
 
@@ -507,10 +548,11 @@ impl Renderer {
             }
             let n = self.gpu_boxes.len() as u32;
             self.gpu.queue.write_buffer(&self.boxes_buf, 0, bytemuck::cast_slice(&self.gpu_boxes));
-            let mut enc = self.gpu.device.create_command_encoder(&Default::default());
+            let mut enc = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(test.label()) });
+            enc.push_debug_group(test.label());
             match test {
                 BoxTest::Queries => {
-                    let mut rp = self.box_pass(&mut enc, &self.boxtest.flag, Some(&self.queries));
+                    let mut rp = self.box_pass(&mut enc, test, &self.boxtest.flag, Some(&self.queries));
                     for i in 0..n {
                         rp.begin_occlusion_query(i);
                         rp.draw(0..36, i..i + 1);
@@ -519,6 +561,7 @@ impl Renderer {
                     drop(rp);
                     enc.resolve_query_set(&self.queries, 0..n, &self.query_resolve, 0);
                     enc.copy_buffer_to_buffer(&self.query_resolve, 0, &self.query_staging, 0, Some(n as u64 * 8));
+                    enc.pop_debug_group();
                     self.gpu.queue.submit([enc.finish()]);
                     crate::readback::read(&self.gpu, &self.query_staging, n as u64 * 8, |bytes| {
                         let samples: &[u64] = bytemuck::cast_slice(bytes);
@@ -533,10 +576,11 @@ impl Renderer {
                 BoxTest::Exact | BoxTest::ExactCount => {
                     enc.clear_buffer(&self.results_buf, 0, Some(n as u64 * 4));
                     let pipeline = if test == BoxTest::ExactCount { &self.boxtest.count } else { &self.boxtest.flag };
-                    self.box_pass(&mut enc, pipeline, None).draw(0..36, 0..n);
+                    self.box_pass(&mut enc, test, pipeline, None).draw(0..36, 0..n);
                 }
             }
             enc.copy_buffer_to_buffer(&self.results_buf, 0, &self.results_staging, 0, Some(n as u64 * 4));
+            enc.pop_debug_group();
             self.gpu.queue.submit([enc.finish()]);
             crate::readback::read(&self.gpu, &self.results_staging, n as u64 * 4, |bytes| {
                 out.extend_from_slice(bytemuck::cast_slice(bytes))
@@ -544,16 +588,17 @@ impl Renderer {
         }
     }
 
-    /// A pass rasterising the boxes with `pipeline` against the depth buffer, counted by
-    /// `queries` when given.
+    /// A pass of `test` rasterising the boxes with `pipeline` against the depth buffer,
+    /// counted by `queries` when given.
     fn box_pass<'a>(
         &'a self,
         enc: &'a mut wgpu::CommandEncoder,
+        test: BoxTest,
         pipeline: &'a wgpu::RenderPipeline,
         queries: Option<&'a wgpu::QuerySet>,
     ) -> wgpu::RenderPass<'a> {
         let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("boxtest"),
+            label: Some(test.label()),
             color_attachments: &[],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &self.target.depth,

@@ -5,19 +5,18 @@
 //! differ only in their rows of the pass's use table ([`crate::uses`]). Geometry never drawn is
 //! never read from the file or uploaded.
 //!
-//! One arena, so that a pass is one draw call over all its nodes: lavapipe spends about 10-15 µs
-//! on each draw call (measured: 3,300 one-triangle draws take as long as vfc's frame of
-//! 175k triangles at 64x64), more than most nodes' triangles cost. The indices stay in the file
-//! and are gathered per pass (see `Renderer::draw`).
+//! One arena, so that a pass is one draw call over all its nodes: a draw call costs lavapipe
+//! more than most nodes' triangles do (docs/measurements/2026-12-01-scene-and-renderer.md).
+//! The indices stay in the file and are gathered per pass (see `Renderer::draw`).
 
 use crate::device::Gpu;
 use crate::ranges::FreeRanges;
 use bytemuck::{Pod, Zeroable};
 use osw_scene::NodeId;
-use osw_scene::file::Geometry;
+use osw_scene::block::Geometry;
 use std::collections::HashMap;
 
-/// A vertex in the arena (`Vertex` in shaders/draw.wgsl): 16 bytes.
+/// A vertex in the arena (`Vertex` in shaders/draw.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ArenaVertex {
@@ -26,6 +25,8 @@ pub struct ArenaVertex {
     /// The model's colour, or alpha 0 for the object's hashed colour.
     pub color: [u8; 4],
 }
+
+const _: () = assert!(std::mem::size_of::<ArenaVertex>() == 16);
 
 const VERTEX_BYTES: u64 = std::mem::size_of::<ArenaVertex>() as u64;
 
@@ -76,13 +77,12 @@ pub struct Residency {
     bytes: u64,
     frame: u64,
     pub stats: ResidencyStats,
-    /// Largest arena, bytes: the device's largest buffer, or less (tests make a frame's
-    /// geometry overflow it without a billion triangles).
-    pub max_arena_bytes: u64,
+    /// Largest arena, bytes: the device's largest buffer, or less.
+    max_arena_bytes: u64,
 }
 
 impl Residency {
-    pub fn new(budget: u64) -> Residency {
+    pub fn new(budget: u64, max_arena_bytes: u64) -> Residency {
         Residency {
             map: HashMap::new(),
             ever: Vec::new(),
@@ -94,7 +94,7 @@ impl Residency {
             bytes: 0,
             frame: 0,
             stats: ResidencyStats::default(),
-            max_arena_bytes: u64::MAX,
+            max_arena_bytes,
         }
     }
 
@@ -110,7 +110,7 @@ impl Residency {
 
     /// The first vertex in the arena of LOD node `id`'s mesh, whose geometry block lies at
     /// `block` in the scene's blob, if it is resident, marking it used in this epoch.
-    pub fn resident(&mut self, (id, block): (NodeId, u64)) -> Option<u32> {
+    pub fn resident(&mut self, id: NodeId, block: u64) -> Option<u32> {
         let r = self.map.get_mut(&block)?;
         r.last_used = self.frame;
         let (base, bytes) = (r.base, r.vertices as u64 * VERTEX_BYTES);
@@ -123,7 +123,7 @@ impl Residency {
     /// Uploads the mesh of `id` at `block`, not resident ([`Residency::resident`]), `g` its
     /// geometry as stored, and marks it used in this epoch; returns its first vertex in the
     /// arena.
-    pub fn upload(&mut self, gpu: &Gpu, (id, block): (NodeId, u64), g: &Geometry) -> Result<u32, ResidencyError> {
+    pub fn upload(&mut self, gpu: &Gpu, id: NodeId, block: u64, g: &Geometry) -> Result<u32, ResidencyError> {
         debug_assert!(!self.map.contains_key(&block), "uploaded once");
         let n = g.positions.len() as u32;
         let base = self.allocate(gpu, n)?;

@@ -1,7 +1,7 @@
 //! The renderer as HC's [`VisibilityTester`]: node boxes tested on the GPU, and for the
 //! interleaved traversals (S&W, CHC) the nodes found visible drawn as occluders in between.
 
-use crate::draw::Pass;
+use crate::draw::{Load, Pass};
 use crate::renderer::{BoxTest, RenderError, Renderer, Sampling};
 use osw_cull::{Occluders, View, Visibility, VisibilityTester};
 use osw_scene::{NodeId, SceneFile};
@@ -51,7 +51,7 @@ impl<'a> InterleavedTester<'a> {
     fn flush(&mut self, view: &View) -> Result<(), RenderError> {
         if !self.pending.is_empty() {
             let t = &mut self.tester;
-            t.renderer.draw(t.scene, view, &self.pending, Pass::Depth, false)?;
+            t.renderer.draw(t.scene, view, &self.pending, Pass::Depth, Load::Keep)?;
         }
         self.pending.clear();
         Ok(())

@@ -10,7 +10,7 @@ use osw_cull::View;
 use osw_scene::format::NONE;
 use osw_scene::{NodeId, SceneFile};
 
-/// One node of a pass (`Use` in shaders/draw.wgsl): 128 bytes.
+/// One node of a pass (`Use` in shaders/draw.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Use {
@@ -26,6 +26,8 @@ pub struct Use {
     /// The placement's three rows, linear part and translation ([`Rows`]).
     pub rows: [u32; 24],
 }
+
+const _: () = assert!(std::mem::size_of::<Use>() == 128);
 
 /// How a pass's rows place a vertex (`place` in shaders/place64.wgsl and place32.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,14 +59,13 @@ pub struct Uses {
     pub list: Vec<Use>,
     /// The largest mesh of the pass, vertices.
     vertices: u32,
-    /// At most this many nodes in one pass, below what its indices can name: tests make a pass
-    /// overflow without a billion triangles.
-    pub max_nodes: usize,
+    /// At most this many nodes in one pass, below what its indices can name.
+    max_nodes: usize,
 }
 
 impl Uses {
-    pub fn new(rows: Rows) -> Uses {
-        Uses { rows, shift: 0, list: Vec::new(), vertices: 0, max_nodes: usize::MAX }
+    pub fn new(rows: Rows, max_nodes: usize) -> Uses {
+        Uses { rows, shift: 0, list: Vec::new(), vertices: 0, max_nodes }
     }
 
     /// Starts a pass over `ids`: the shift that holds the largest of their meshes.

@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 use osw_cull::cluster::ClusterTests;
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::exact::Reference;
 use osw_gpu::renderer::{RenderOptions, Renderer};
 use osw_scene::{Camera, NodeKind};
@@ -20,7 +20,7 @@ fn drawing_only_the_visible_triangles_gives_the_whole_image() {
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
     // The item pass draws every triangle: so does the reference image.
     let options = RenderOptions { cluster_tests: ClusterTests::NONE, ..RenderOptions::default() };
-    let mut r = Renderer::new(gpu, &scene, 192, 128, osw_gpu::limits::RESIDENCY_BYTES, options).unwrap();
+    let mut r = Renderer::new(gpu, &scene, 192, 128, options).unwrap();
     let mut leaves: Vec<u32> =
         (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.kind() == NodeKind::Leaf).map(|n| n.first_lod).collect();
     leaves.sort_unstable();
@@ -30,7 +30,7 @@ fn drawing_only_the_visible_triangles_gives_the_whole_image() {
         r.begin_frame();
         let e = r.exact(&scene, &view, 0.0, Reference::Independent).unwrap();
         let floor = r.read_color().unwrap();
-        let whole = r.draw(&scene, &view, &leaves, Pass::Color, true).unwrap();
+        let whole = r.draw(&scene, &view, &leaves, Pass::Color, Load::Clear).unwrap();
         let image = r.read_color().unwrap();
         assert!(e.visible_draw_ms.is_some_and(|ms| ms > 0.0) && e.cluster_draw_ms.is_some_and(|ms| ms > 0.0), "camera {k}: {e:?}");
         assert!(e.cluster_triangles.is_some_and(|c| c > e.triangles), "camera {k}: {e:?}");

@@ -5,7 +5,7 @@
 //! translucent layer included. Each mesh is uploaded once.
 
 use glam::{DAffine3, DVec3, Vec3};
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{DrawStats, RenderOptions, Renderer};
 use osw_gpu::residency::ResidencyStats;
 use osw_scene::build::Instances;
@@ -56,14 +56,13 @@ fn build(dir: &Path, instances: Instances) -> SceneFile {
 fn frame(scene: &SceneFile, options: RenderOptions, max_nodes: usize) -> (Vec<u8>, DrawStats, ResidencyStats) {
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
     assert!(gpu.features.contains(wgpu::Features::SHADER_F64), "{}: no 64-bit floats in shaders", gpu.info.name);
-    let mut r = Renderer::new(gpu, scene, 200, 150, osw_gpu::limits::RESIDENCY_BYTES, options).unwrap();
-    r.uses.max_nodes = max_nodes;
+    let mut r = Renderer::new(gpu, scene, 200, 150, RenderOptions { max_nodes, ..options }).unwrap();
     let camera = Camera::look_at(SITE + DVec3::new(-5.0, 7.0, -6.0), SITE + DVec3::new(14.0, 1.0, 13.0), 60.0);
     let view = r.view(&camera, 0.0);
     let lods: Vec<u32> = (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod).collect();
     r.begin_frame();
-    let drawn = r.draw(scene, &view, &lods, Pass::Color, true).unwrap();
-    (r.read_color().unwrap(), drawn, r.residency.stats)
+    let drawn = r.draw(scene, &view, &lods, Pass::Color, Load::Clear).unwrap();
+    (r.read_color().unwrap(), drawn, r.residency_stats())
 }
 
 /// The fraction of pixels whose RGB differs by more than `above` levels in a channel.

@@ -9,7 +9,7 @@
 use glam::DVec3;
 use osw_cull::VisibilityTester;
 use osw_cull::hzb::{HzbTester, Pyramid, Read};
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{BoxTest, RenderOptions, Renderer, Sampling};
 use osw_scene::Camera;
 
@@ -20,14 +20,14 @@ fn the_gpu_pyramid_answers_as_the_cpu_reference() {
     let scene = osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap();
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
     let (w, h) = (300, 200);
-    let mut r = Renderer::new(gpu, &scene, w, h, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
+    let mut r = Renderer::new(gpu, &scene, w, h, RenderOptions::default()).unwrap();
     let root = scene.node(0).aabb();
     let eye = root.center().as_dvec3() + DVec3::new(0.0, 1.7 - root.center().y as f64, -0.3 * root.extent().z as f64);
     let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0), 0.0);
     // Occluders: every leaf's coarsest level.
     let occluders: Vec<u32> =
         (0..scene.bvh_count()).map(|i| scene.node(i)).filter(|n| n.child_count == 0).map(|n| n.first_lod + n.lod_count - 1).collect();
-    r.draw(&scene, &view, &occluders, Pass::Depth, true).unwrap();
+    r.draw(&scene, &view, &occluders, Pass::Depth, Load::Clear).unwrap();
     r.build_pyramid();
     let boxes: Vec<u32> = (0..scene.bvh_count()).collect();
     let mut gpu_answers = Vec::new();

@@ -4,7 +4,7 @@
 //! line, box by box: a reference that shares nothing with the shader but the definition.
 
 use glam::DVec3;
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{BoxTest, RenderOptions, Renderer, Sampling};
 use osw_scene::Camera;
 
@@ -14,14 +14,14 @@ fn the_phases_of_a_sampled_box_test_add_up_to_the_whole_count() {
     let path = dir.path().join("city.osw");
     let scene = osw_scene::generators::build_generated(osw_scene::generators::GenKind::City, 50_000, 2, &path).unwrap();
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
-    let mut r = Renderer::new(gpu, &scene, 203, 157, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
+    let mut r = Renderer::new(gpu, &scene, 203, 157, RenderOptions::default()).unwrap();
     let root = scene.node(0).aabb();
     let eye = root.center().as_dvec3() + DVec3::new(0.0, 1.7 - root.center().y as f64, -0.3 * root.extent().z as f64);
     let view = r.view(&Camera::look_along(eye, DVec3::Z, 60.0), 0.0);
     // Some occluders, so that partly hidden boxes are counted too.
     let leaves: Vec<u32> = (0..scene.bvh_count()).filter(|&i| scene.node(i).child_count == 0).collect();
     let occluders: Vec<u32> = leaves.iter().step_by(3).map(|&i| scene.node(i).first_lod).collect();
-    r.draw(&scene, &view, &occluders, Pass::Depth, true).unwrap();
+    r.draw(&scene, &view, &occluders, Pass::Depth, Load::Clear).unwrap();
     let boxes: Vec<u32> = leaves.iter().copied().filter(|&i| !view.frustum.needs_no_test(&scene.node(i).aabb())).collect();
     let count = |r: &mut Renderer, (lines, first): (u32, u32)| {
         let mut out = Vec::new();

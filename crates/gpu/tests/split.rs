@@ -4,7 +4,7 @@
 //! Made small here by capping the arena.
 
 use glam::DVec3;
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{RenderOptions, Renderer};
 use osw_scene::Camera;
 
@@ -23,22 +23,21 @@ fn a_pass_larger_than_the_arena_is_drawn_in_parts_with_the_same_pixels() {
         let camera = Camera::look_at(c + eye, c, 60.0);
         let frame = |cap: u64| {
             let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
-            let mut r = Renderer::new(gpu, &scene, 160, 120, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
-            r.residency.max_arena_bytes = cap;
+            let mut r = Renderer::new(gpu, &scene, 160, 120, RenderOptions { max_arena_bytes: cap, ..RenderOptions::default() }).unwrap();
             let view = r.view(&camera, 0.0);
             r.begin_frame();
-            let drawn = r.draw(&scene, &view, &lods, Pass::Color, true).unwrap();
+            let drawn = r.draw(&scene, &view, &lods, Pass::Color, Load::Clear).unwrap();
             let color = r.read_color().unwrap();
             // The same set over its own depth (prev's RVG over OR's): each half's triangles and
             // the halves last to first keep the surfaces tied in depth as the colour pass had
             // them.
-            r.draw(&scene, &view, &lods, Pass::Depth, true).unwrap();
-            r.draw(&scene, &view, &lods, Pass::ColorOver, true).unwrap();
+            r.draw(&scene, &view, &lods, Pass::Depth, Load::Clear).unwrap();
+            r.draw(&scene, &view, &lods, Pass::ColorOver, Load::Clear).unwrap();
             assert!(r.read_color().unwrap() == color, "{eye}, cap {cap}: the frame drawn over its own depth differs");
             // Drawn in the other order, the tied pixels change hands.
-            r.draw(&scene, &view, &reversed, Pass::Color, true).unwrap();
+            r.draw(&scene, &view, &reversed, Pass::Color, Load::Clear).unwrap();
             let ties = r.read_color().unwrap().chunks(4).zip(color.chunks(4)).filter(|(a, b)| a != b).count();
-            (color, drawn, r.residency.stats, ties)
+            (color, drawn, r.residency_stats(), ties)
         };
         let (whole, drawn_whole, stats_whole, ties) = frame(u64::MAX);
         let (parts, drawn_parts, stats_parts, _) = frame(512 << 10);

@@ -246,9 +246,9 @@ impl Inbox {
                     Some((f, a)) if f == k.frame => (f, a),
                     _ => (k.frame, Assembly::default()),
                 };
-                parts.keyframe(&[], k.part, k.parts, ids).map_err(WireError::BadIds)?;
+                parts.keyframe(&[], k.part, k.parts, ids).map_err(|e| WireError::BadIds(e.to_string()))?;
                 if k.part + 1 == k.parts {
-                    return Ok(Some((frame, parts.finish(&[]).map_err(WireError::BadIds)?)));
+                    return Ok(Some((frame, parts.finish(&[]).map_err(|e| WireError::BadIds(e.to_string()))?)));
                 }
                 self.rejoin = Some((frame, parts));
             }

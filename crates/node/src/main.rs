@@ -72,27 +72,27 @@ fn run(a: &Args) -> anyhow::Result<()> {
         "b" => 1,
         n => anyhow::bail!("--name {n:?}: expected a or b"),
     };
-    let set = a.cluster.resolve().map_err(anyhow::Error::msg)?;
+    let set = a.cluster.resolve()?;
     let cfg = &set.config;
     let listen = match (&a.listen, &a.cluster.config) {
         (Some(l), _) => l.clone(),
-        (None, Some(_)) => cfg.node(&a.name).map_err(anyhow::Error::msg)?.listen.clone(),
+        (None, Some(_)) => cfg.node(&a.name)?.listen.clone(),
         (None, None) => "127.0.0.1:0".into(),
     };
     let peer = match (&a.peer, &a.cluster.config, index) {
         (Some(p), _, _) => Some(p.clone()),
-        (None, Some(_), 1) => Some(cfg.node("a").map_err(anyhow::Error::msg)?.address.clone()),
+        (None, Some(_), 1) => Some(cfg.node("a")?.address.clone()),
         _ => None,
     };
     let (w, h) = set.size;
     let scene = osw_scene::SceneFile::open(&set.scene)?;
-    let agreed = a.agreed.resolve(cfg).map_err(anyhow::Error::msg)?;
+    let agreed = a.agreed.resolve(cfg)?;
     let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone(), agreed.said(set.size));
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let options = osw_gpu::RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, ..Default::default() };
-    let renderer = osw_gpu::Renderer::new(gpu, &scene, w, h, osw_gpu::limits::RESIDENCY_BYTES, options)?;
+    let renderer = osw_gpu::Renderer::new(gpu, &scene, w, h, options)?;
     if a.gpu_times && !renderer.times_gpu() {
-        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", renderer.gpu.info.name);
+        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", renderer.gpu().info.name);
     }
 
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;

@@ -22,6 +22,7 @@ use osw_cull::cluster::VisibleClusters;
 use osw_cull::delta::{Assembly, batches, diff};
 use osw_cull::frustum_cull;
 use osw_cull::payoff::Payoff;
+use osw_gpu::draw::Load;
 use osw_gpu::renderer::{DrawStats, Renderer};
 use osw_render::packet;
 use osw_render::pass::{self, HcOptions, HcPass, Occluders};
@@ -157,7 +158,7 @@ impl Switch {
                 r,
                 &self.scene,
                 &view,
-                Occluders { ids: &self.visible, tau: cam.tau_px, clear: true, notes: Some(&self.notes) },
+                Occluders { ids: &self.visible, tau: cam.tau_px, load: Load::Clear, notes: Some(&self.notes) },
                 &mut self.occluders,
             )?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
@@ -266,15 +267,15 @@ impl Switch {
         let cull = self.payoff.as_mut().is_none_or(Payoff::cull);
         let (mut drawn, mut or_ms) = (DrawStats::default(), 0.0);
         let (scene, notes) = (&self.scene, &self.notes);
-        let mut or = |r: &mut Renderer, ids: &[NodeId], clear: bool, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
+        let mut or = |r: &mut Renderer, ids: &[NodeId], load: Load, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn = drawn + pass::or(r, scene, &view, Occluders { ids, tau: cam.tau_px, clear, notes: Some(notes) }, scratch)?;
+                drawn = drawn + pass::or(r, scene, &view, Occluders { ids, tau: cam.tau_px, load, notes: Some(notes) }, scratch)?;
                 or_ms += ms(t);
             }
             Ok(())
         };
-        or(&mut self.renderer, &self.visible, true, &mut self.occluders)?;
+        or(&mut self.renderer, &self.visible, Load::Clear, &mut self.occluders)?;
         let mut next = Assembly::default();
         loop {
             let Some((m, at)) = self.io.peer_message(i)? else {
@@ -296,7 +297,7 @@ impl Switch {
                 }
                 m => anyhow::bail!("frame {i}: unexpected message from the peer: {m:?}"),
             };
-            or(&mut self.renderer, added, false, &mut self.occluders)?;
+            or(&mut self.renderer, added, Load::Keep, &mut self.occluders)?;
         }
         self.next = Some(cull);
         self.visible = next.finish(&self.visible).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;

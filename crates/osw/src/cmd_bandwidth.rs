@@ -174,7 +174,7 @@ struct Report {
 /// Per frame, the leaves entering or leaving exact visibility (all of frame 0's, as the run
 /// sends) and how many are visible.
 fn exact_churn(dir: &Path, frames: usize) -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
-    let mut sets = osw_render::output::read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
+    let mut sets = osw_render::output::read_ids(&dir.join("exact_leaves.txt"))?;
     if sets.len() != frames {
         bail!("{} has {} frames, the run has {frames}", dir.display(), sets.len());
     }

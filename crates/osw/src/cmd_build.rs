@@ -100,14 +100,48 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let started = std::time::Instant::now();
     let bar = crate::progress::Bar::new();
-    let (source, input, notes): (Box<dyn Source>, String, Vec<String>) = match (&a.input, a.generator) {
+    let Input { source, name: input, notes } = input(&a)?;
+    let mut source = match a.offset {
+        Some(by) => Box::new(Shifted { inner: source, by: glam::DVec3::from_array(by) }),
+        None => source,
+    };
+    let opts = BuildOptions {
+        chunk_triangles: a.chunk_triangles,
+        loose_split: a.loose_split,
+        model_colors: a.colors == Colors::Model,
+        bucket_triangles: a.bucket_triangles,
+        lod: a.lod,
+        instances: a.instances,
+        find_repeats: a.input.is_some(),
+    };
+    let report = build(source.as_mut(), &input, notes, &opts, &a.output, started, &bar);
+    bar.finish();
+    let mut report = report?;
+    report.peak_rss_kb = osw_render::stats::peak_resident_kb();
+    let json = a.output.with_extension("build.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", json.display()))?;
+    print_report(&report, a.loose_split);
+    out!("wrote {} and {}", a.output.display(), json.display());
+    Ok(())
+}
+
+/// What a build reads: its source, the name the report gives it, and the notes that come with it.
+struct Input {
+    source: Box<dyn Source>,
+    name: String,
+    notes: Vec<String>,
+}
+
+/// The model file, or the generator with its size checked against what it can make.
+fn input(a: &Args) -> anyhow::Result<Input> {
+    Ok(match (&a.input, a.generator) {
         (Some(path), _) => {
             let imported = osw_scene::import::read(path)?;
             let notes = imported.skipped.iter().map(|s| format!("skipped {s}")).collect::<Vec<_>>();
             for s in &imported.skipped {
                 tracing::warn!("{}: skipped {s}", path.display());
             }
-            (Box::new(InMemory::new(imported.objects)), path.display().to_string(), notes)
+            Input { source: Box::new(InMemory::new(imported.objects)), name: path.display().to_string(), notes }
         }
         (None, Some(kind)) => {
             if a.instanced && kind != GenKind::Plant {
@@ -143,29 +177,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     (Box::new(InMemory::new(g.objects)), g.notes)
                 }
             };
-            (source, input, notes)
+            Input { source, name: input, notes }
         }
         (None, None) => unreachable!("clap requires a source"),
-    };
-    let mut source = match a.offset {
-        Some(by) => Box::new(Shifted { inner: source, by: glam::DVec3::from_array(by) }),
-        None => source,
-    };
-    let opts = BuildOptions {
-        chunk_triangles: a.chunk_triangles,
-        loose_split: a.loose_split,
-        model_colors: a.colors == Colors::Model,
-        bucket_triangles: a.bucket_triangles,
-        lod: a.lod,
-        instances: a.instances,
-        find_repeats: a.input.is_some(),
-    };
-    let report = build(source.as_mut(), &input, notes, &opts, &a.output, started, &bar);
-    bar.finish();
-    let mut report = report?;
-    report.peak_rss_kb = osw_render::stats::peak_resident_kb();
-    let json = a.output.with_extension("build.json");
-    std::fs::write(&json, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", json.display()))?;
+    })
+}
+
+/// The build's report in a few lines: what it made, and what it left out.
+fn print_report(report: &osw_scene::BuildReport, loose_split: f32) {
     out!(
         "build: {} input triangles → {} nodes ({} leaves, {} HLODs, up to {} LOD levels), {:.1} MB in {:.2} s ({:.2} M triangles/s, peak memory {:.2} GB, temporary disk {:.2} GB, {} subtrees of up to {} triangles)",
         report.input_triangles,
@@ -210,11 +229,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     if report.loose_splits > 0 {
-        out!("{} loose splits (--loose-split {}): {} chunks", report.loose_splits, a.loose_split, report.chunks);
+        out!("{} loose splits (--loose-split {}): {} chunks", report.loose_splits, loose_split, report.chunks);
     }
     for l in &report.left_out {
         out!("left out: {l}");
     }
-    out!("wrote {} and {}", a.output.display(), json.display());
-    Ok(())
 }

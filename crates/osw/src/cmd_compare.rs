@@ -96,7 +96,7 @@ fn triangles_drawn(dir: &Path, s: &Summary) -> anyhow::Result<Option<Vec<u64>>> 
 
 /// The visible sets of the run in `dir` (its pvs.txt), at least `frames` of them.
 fn read_pvs(dir: &Path, frames: usize) -> anyhow::Result<Vec<Vec<NodeId>>> {
-    let pvs = read_ids(&dir.join("pvs.txt")).map_err(anyhow::Error::msg)?;
+    let pvs = read_ids(&dir.join("pvs.txt"))?;
     if pvs.len() < frames {
         bail!("{}: pvs.txt has {} frames, summary.json says {frames}", dir.display(), pvs.len());
     }
@@ -128,7 +128,7 @@ fn popping_of(dir: &Path, s: &Summary, frames: usize) -> anyhow::Result<Vec<Opti
     for i in 1..frames {
         r.begin_frame();
         let (before, now) = (r.view(&cams[i - 1], s.tau), r.view(&cams[i], s.tau));
-        out.push(Some(popping(&mut r, &scene, (&before, &now), &pvs[i], s.tau, &mut scratch)?));
+        out.push(Some(popping(&mut r, &scene, &before, &now, &pvs[i], s.tau, &mut scratch)?));
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -161,7 +161,7 @@ impl Attribution {
     /// Frame `i`'s unexplained pixels between the two runs' RGBA8 `images` of `size`.
     fn frame(&self, i: usize, images: [&[u8]; 2], size: (u32, u32)) -> anyhow::Result<u64> {
         let path = items_path(&self.items, i as u64);
-        let (w, h, items) = read_items(&path).map_err(anyhow::Error::msg)?;
+        let (w, h, items) = read_items(&path)?;
         if (w, h) != size {
             bail!("{}: {w}x{h}, the frames are {}x{}", path.display(), size.0, size.1);
         }
@@ -172,15 +172,13 @@ impl Attribution {
         let [da, db] = drawn;
         let simplified = |p: &[NodeId]| p.iter().copied().filter(|&id| nodes[id as usize].error > 0.0).collect::<Vec<_>>();
         let empty_explained = simplified(pa) != simplified(pb);
-        unexplained_pixels(images, &items, nodes, [&da?, &db?], empty_explained)
-            .map_err(anyhow::Error::msg)
-            .with_context(|| path.display().to_string())
+        unexplained_pixels(images, &items, nodes, [&da?, &db?], empty_explained).with_context(|| path.display().to_string())
     }
 }
 
 /// `osw exact` output: the visible nodes and the exact.csv row of each of `frames` frames.
 fn read_exact(dir: &Path, frames: usize) -> anyhow::Result<(Vec<Vec<u32>>, Vec<ExactFrame>)> {
-    let leaves = read_ids(&dir.join("exact_leaves.txt")).map_err(anyhow::Error::msg)?;
+    let leaves = read_ids(&dir.join("exact_leaves.txt"))?;
     let rows: Vec<ExactFrame> = results::csv::read(&dir.join("exact.csv"))?;
     if leaves.len() < frames || rows.len() < frames {
         bail!("{} has {} frames, the runs have {frames}", dir.display(), leaves.len().min(rows.len()));
@@ -240,8 +238,8 @@ fn compare_images(a: &Args, sa: &Summary, rows: &mut [FrameRow], report: &mut Co
         attribution = attribution.or(Attribution::of(Path::new(&sa.scene), reference, [&a.a, &a.b], rows.len())?);
     }
     for row in rows.iter_mut() {
-        let (wa, ha, pa) = read_png(&frame_path(&a.a, row.frame as u64)).map_err(anyhow::Error::msg)?;
-        let (wb, hb, pb) = read_png(&frame_path(&a.b, row.frame as u64)).map_err(anyhow::Error::msg)?;
+        let (wa, ha, pa) = read_png(&frame_path(&a.a, row.frame as u64))?;
+        let (wb, hb, pb) = read_png(&frame_path(&a.b, row.frame as u64))?;
         if (wa, ha) != (wb, hb) {
             bail!("frame {}: {wa}x{ha} in {} but {wb}x{hb} in {}", row.frame, a.a.display(), a.b.display());
         }
@@ -281,7 +279,7 @@ fn compare_culling(a: &Args, exact: &Path, summaries: [&Summary; 2], rows: &mut 
         let pvs = read_pvs(dir, frames)?;
         let mut errs = Vec::with_capacity(frames);
         for row in rows.iter_mut() {
-            let e = cull_error(&scene, &pvs[row.frame], &leaves[row.frame], tris[row.frame]).map_err(anyhow::Error::msg)?;
+            let e = cull_error(&scene, &pvs[row.frame], &leaves[row.frame], tris[row.frame])?;
             errs.push(e);
             if which == 0 { row.a = Some(e) } else { row.b = Some(e) }
         }
@@ -293,7 +291,7 @@ fn compare_culling(a: &Args, exact: &Path, summaries: [&Summary; 2], rows: &mut 
         if let Some((lod_leaves, lod_rows)) = &lod {
             let mut missed = Vec::with_capacity(frames);
             for f in 0..frames {
-                let e = cull_error(&scene, &pvs[f], &lod_leaves[f], lod_rows[f].visible_triangles).map_err(anyhow::Error::msg)?;
+                let e = cull_error(&scene, &pvs[f], &lod_leaves[f], lod_rows[f].visible_triangles)?;
                 missed.push(e.false_culled_leaves as u64);
             }
             s.lod_false_culled_total = Some(missed.iter().sum());

@@ -1,5 +1,6 @@
 //! `osw path`: a camera path CSV through a scene.
 
+use anyhow::Context;
 use osw_scene::path_gen::{PathKind, PathOptions};
 use std::path::PathBuf;
 
@@ -38,7 +39,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let bar = crate::progress::Bar::new();
     let cams = osw_scene::path_gen::generate(&scene, &opts, &bar);
     bar.finish();
-    let cams = cams.map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
+    let cams = cams.with_context(|| a.scene.display().to_string())?;
     osw_scene::path::write(&a.output, &cams)?;
     out!("path: {:?} of {} frames → {}", a.kind, cams.len(), a.output.display());
     Ok(())

@@ -80,17 +80,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.mode != Mode::Ovc && (a.budget.is_some() || a.sampling > 1) {
         anyhow::bail!("--budget and --sampling are ovc's (Bartz 1999); --mode is {}", a.mode.name());
     }
-    a.mode.on_one_gpu().map_err(anyhow::Error::msg)?;
+    a.mode.on_one_gpu()?;
     if !a.mode.adaptive() && a.adaptive > 0.0 {
         anyhow::bail!("--adaptive is ovc's and prev's (Bartz 1999 eq. 1); --mode is {}", a.mode.name());
     }
     let options = osw_gpu::RenderOptions { count_fragments: a.fragments, time_gpu: a.gpu_times, ..Default::default() };
     let (cams, scene, mut r) = a.walk.open(options)?;
     if a.fragments && !r.counts_fragments() {
-        anyhow::bail!("--fragments: adapter {} has no pipeline statistics queries", r.gpu.info.name);
+        anyhow::bail!("--fragments: adapter {} has no pipeline statistics queries", r.gpu().info.name);
     }
     if a.gpu_times && !r.times_gpu() {
-        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu.info.name);
+        anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu().info.name);
     }
     std::fs::create_dir_all(&a.out)?;
     let bar = crate::progress::frames(cams.len() as u64, a.mode.name());

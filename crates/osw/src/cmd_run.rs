@@ -129,12 +129,46 @@ pub fn play(a: Args) -> anyhow::Result<()> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let agreed = a.agreed.resolve(&osw_wire::config::Config::default()).map_err(anyhow::Error::msg)?;
     std::fs::create_dir_all(&a.out)?;
-    let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
-    let s = |p: &Path| p.display().to_string();
-    // The settings the three processes share, as the cluster configuration they read; what
-    // differs between them (names, addresses, outputs) goes as flags.
+    let config = write_config(&a)?;
+    let mut procs = start(&a, &config)?;
+    // A walk has no length: no bar, only what the display says (recordings, screenshots).
+    let bar = match &a.path {
+        Some(p) if !a.interactive => crate::progress::frames(osw_scene::path::read(p)?.len() as u64, Mode::Switch.name()),
+        _ => indicatif::ProgressBar::hidden(),
+    };
+    let ticker = tick(procs[0].child.stdout.take().context("display stdout")?, bar.clone());
+    let node_failures = wait(&mut procs, &bar)?;
+    let _ = ticker.join();
+    bar.finish_and_clear();
+    let summary = summarize(&a.out)?;
+    let sw = summary.switch().with_context(|| format!("{}: not a switch run ({})", a.out.display(), summary.mode))?;
+    if !node_failures.is_empty() {
+        bail!(
+            "{}; the display got all {} frames, {} of them from one node alone → {}",
+            node_failures.join("; "),
+            summary.frames,
+            sw.degraded_frames,
+            a.out.display()
+        );
+    }
+    out!(
+        "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median → {}",
+        summary.frames,
+        summary.frame_ms_median,
+        sw.bytes_per_frame_mean,
+        sw.ids_sent_mean,
+        sw.incremental_saved_fraction * 100.0,
+        sw.latency_ms_median,
+        a.out.display()
+    );
+    Ok(())
+}
+
+/// The settings the three processes share, written as the cluster configuration they read
+/// (`DIR/cluster.toml`); what differs between them (names, addresses, outputs) goes as flags.
+fn write_config(a: &Args) -> anyhow::Result<PathBuf> {
+    let agreed = a.agreed.resolve(&osw_wire::config::Config::default())?;
     let config = a.out.join("cluster.toml");
     let shared = osw_wire::config::Config {
         scene: Some(a.scene.clone()),
@@ -143,8 +177,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ..Default::default()
     };
     std::fs::write(&config, agreed.into_config(shared).to_toml()).with_context(|| format!("writing {}", config.display()))?;
+    Ok(config)
+}
+
+/// Starts node a, node b (its peer) and the display (of both): `[display, node a, node b]`.
+fn start(a: &Args, config: &Path) -> anyhow::Result<[Proc; 3]> {
+    let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
+    let s = |p: &Path| p.display().to_string();
     let common = |name: &str| {
-        let mut v: Vec<String> = vec!["--config".into(), s(&config), "--name".into(), name.into(), "--listen".into(), "127.0.0.1:0".into()];
+        let mut v: Vec<String> = vec!["--config".into(), s(config), "--name".into(), name.into(), "--listen".into(), "127.0.0.1:0".into()];
         for (on, flag) in [(a.full, "--full"), (a.gpu_times, "--gpu-times")] {
             if on {
                 v.push(flag.into());
@@ -163,7 +204,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     args_b.extend(["--peer".into(), addr_a.clone(), "--stats".into(), s(&a.out.join("node-b.csv"))]);
     let mut pb = spawn("node b", &node, &args_b, &a.out)?;
     let addr_b = address(&mut pb)?;
-    let mut args_d = vec!["--config".into(), s(&config), "--nodes".into(), format!("{addr_a},{addr_b}"), "--out".into(), s(&a.out)];
+    let mut args_d = vec!["--config".into(), s(config), "--nodes".into(), format!("{addr_a},{addr_b}"), "--out".into(), s(&a.out)];
     if let Some(p) = &a.path {
         args_d.extend(["--path".into(), s(p)]);
     }
@@ -176,35 +217,35 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             args_d.push(flag.into());
         }
     }
-    let mut pd = spawn("display", &display, &args_d, &a.out)?;
-    // A walk has no length: no bar, only what the display says (recordings, screenshots).
-    let bar = match &a.path {
-        Some(p) if !a.interactive => crate::progress::frames(osw_scene::path::read(p)?.len() as u64, Mode::Switch.name()),
-        _ => indicatif::ProgressBar::hidden(),
-    };
-    let display_out = pd.child.stdout.take().context("display stdout")?;
+    let pd = spawn("display", &display, &args_d, &a.out)?;
+    Ok([pd, pa, pb])
+}
+
+/// Follows the display's stdout: a tick of `bar` per frame displayed, its other lines shown
+/// above the bar.
+fn tick(display_out: std::process::ChildStdout, bar: indicatif::ProgressBar) -> std::thread::JoinHandle<()> {
     // Without a terminal (a log, a test) the bar is hidden: say every tenth of the path instead.
     let tenth = bar.length().filter(|_| bar.is_hidden()).map(|n| n.div_ceil(10).max(1));
-    let ticker = {
-        let bar = bar.clone();
-        std::thread::spawn(move || {
-            for line in BufReader::new(display_out).lines().map_while(Result::ok) {
-                match line.starts_with("frame ") {
-                    true => {
-                        bar.inc(1);
-                        if tenth.is_some_and(|step| bar.position() % step == 0) {
-                            out!("run: {}/{} frames displayed", bar.position(), bar.length().unwrap_or(0));
-                        }
+    std::thread::spawn(move || {
+        for line in BufReader::new(display_out).lines().map_while(Result::ok) {
+            match line.starts_with("frame ") {
+                true => {
+                    bar.inc(1);
+                    if tenth.is_some_and(|step| bar.position() % step == 0) {
+                        out!("run: {}/{} frames displayed", bar.position(), bar.length().unwrap_or(0));
                     }
-                    // On stdout, as the display says it, above the bar.
-                    false => bar.suspend(|| out!("osw: {line}")),
                 }
+                // On stdout, as the display says it, above the bar.
+                false => bar.suspend(|| out!("osw: {line}")),
             }
-        })
-    };
-    let mut procs = [pd, pa, pb];
-    // Wait for all three. The display failing stops the run; a node failing does not (the
-    // other runs both roles: failover), but the run reports it once the display is done.
+        }
+    })
+}
+
+/// Waits for all three processes (`[display, node a, node b]`). The display failing stops the
+/// run; a node failing does not (the other runs both roles: failover), and is returned to be
+/// reported once the display is done.
+fn wait(procs: &mut [Proc; 3], bar: &indicatif::ProgressBar) -> anyhow::Result<Vec<String>> {
     let mut done = [false; 3];
     let mut node_failures = Vec::new();
     let mut display_done: Option<Instant> = None;
@@ -234,17 +275,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let _ = ticker.join();
-    bar.finish_and_clear();
-    let mut summary = Summary::read(&a.out)?;
-    // Per-role stage times from the nodes' own statistics; a killed node wrote none.
+    Ok(node_failures)
+}
+
+/// The display's summary with each role's stage times from the nodes' own statistics (a
+/// killed node wrote none), written back to `out`.
+fn summarize(out: &Path) -> anyhow::Result<Summary> {
+    let mut summary = Summary::read(out)?;
     if let Details::Switch(sw) = &mut summary.of {
         let mut or_gpu = Vec::new();
         for (file, hc, or) in [
             ("node-a.csv", &mut sw.node_a_hc_ms_median, &mut sw.node_a_or_ms_median),
             ("node-b.csv", &mut sw.node_b_hc_ms_median, &mut sw.node_b_or_ms_median),
         ] {
-            let path = a.out.join(file);
+            let path = out.join(file);
             if path.exists() {
                 let frames: Vec<NodeFrame> = results::csv::read(&path)?;
                 (*hc, *or) = (duty_median_ms(&frames, Duty::Hc), duty_median_ms(&frames, Duty::Or));
@@ -253,26 +297,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         sw.or_gpu_ms_median = osw_render::stats::gpu_median(or_gpu.into_iter());
     }
-    summary.write(&a.out)?;
-    let sw = summary.switch().with_context(|| format!("{}: not a switch run ({})", a.out.display(), summary.mode))?;
-    if !node_failures.is_empty() {
-        bail!(
-            "{}; the display got all {} frames, {} of them from one node alone → {}",
-            node_failures.join("; "),
-            summary.frames,
-            sw.degraded_frames,
-            a.out.display()
-        );
-    }
-    out!(
-        "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median → {}",
-        summary.frames,
-        summary.frame_ms_median,
-        sw.bytes_per_frame_mean,
-        sw.ids_sent_mean,
-        sw.incremental_saved_fraction * 100.0,
-        sw.latency_ms_median,
-        a.out.display()
-    );
-    Ok(())
+    summary.write(out)?;
+    Ok(summary)
 }

@@ -165,7 +165,7 @@ fn scene(out: &Path, triangles: u64, frames: u32, instanced: bool) -> anyhow::Re
 }
 
 /// One mode at one tau into `dir`, unless a run of the same scene, walk, tau and size is there.
-fn run_one(scene: &Path, walk: &Path, size: &str, (mode, tau, adaptive): (Mode, f64, bool), dir: &Path) -> anyhow::Result<Summary> {
+fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, adaptive: bool, dir: &Path) -> anyhow::Result<Summary> {
     let hash = osw_scene::format::hash_hex(osw_scene::SceneFile::open(scene)?.content_hash());
     let (w, h) = crate::walk_args::parse_size(size).map_err(anyhow::Error::msg)?;
     let input = Input { scene_hash: hash, path: walk.display().to_string(), width: w, height: h };
@@ -265,7 +265,7 @@ pub fn run(mut a: Args) -> anyhow::Result<()> {
                 bar.set_message(format!("{} {mode} tau {tau}", s.label));
                 let name = format!("{mode}-tau{tau}{}", if a.cost_adaptive { "-adaptive" } else { "" });
                 let dir = a.out.join("runs").join(&s.label).join(name);
-                let r = run_one(&file, &walk, &a.size, (mode, tau, a.cost_adaptive), &dir)
+                let r = run_one(&file, &walk, &a.size, mode, tau, a.cost_adaptive, &dir)
                     .and_then(|v| row(n, tau, &dir, &v))
                     .unwrap_or_else(|e| {
                         bar.println(format!("osw: {} {mode} at tau {tau} failed: {e:#}", s.label));

@@ -29,7 +29,7 @@ impl Bar {
     }
 }
 
-impl osw_scene::build::Progress for Bar {
+impl osw_scene::progress::Progress for Bar {
     fn stage(&self, name: &str, total: u64) {
         self.0.set_message(name.to_owned());
         self.0.set_length(total);

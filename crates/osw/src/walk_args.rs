@@ -47,14 +47,14 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 impl WalkArgs {
     /// Reads the path, opens the scene and a renderer for it with `options` and these
-    /// cluster tests.
+    /// cluster tests and residency budget.
     pub fn open(&self, options: RenderOptions) -> anyhow::Result<(Vec<osw_scene::Camera>, SceneFile, Renderer)> {
         let cams = osw_scene::path::read(&self.path)?;
         let scene = SceneFile::open(&self.scene)?;
         let gpu = osw_gpu::Gpu::new(self.adapter.as_deref())?;
         tracing::info!("adapter: {} ({:?})", gpu.info.name, gpu.info.device_type);
-        let options = RenderOptions { cluster_tests: self.cluster_tests, ..options };
-        let r = Renderer::new(gpu, &scene, self.size.0, self.size.1, self.residency_mib << 20, options)?;
+        let options = RenderOptions { cluster_tests: self.cluster_tests, residency_bytes: self.residency_mib << 20, ..options };
+        let r = Renderer::new(gpu, &scene, self.size.0, self.size.1, options)?;
         Ok((cams, scene, r))
     }
 }

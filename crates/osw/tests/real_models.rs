@@ -5,7 +5,7 @@
 //! exact visibility (the item buffer, which shares no test or traversal with them) finds
 //! visible. OpenArena's recorded walk is where HC once culled a visible floor 2.6 km off, a
 //! fraction of a pixel tall, behind its own geometry (frames 58 and 59 at 512x512; see
-//! osw_cull::view::grow_for_test).
+//! osw_cull::frustum::grow_for_test).
 
 mod common;
 use common::*;

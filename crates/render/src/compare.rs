@@ -47,10 +47,10 @@ pub fn changed_pixels(a: &[u8], b: &[u8], above: u8) -> u64 {
 /// The LOD node each BVH node of `nodes` is drawn as in a run that drew `pvs` (LOD ids): its
 /// own LOD, else the nearest ancestor's (an HLOD standing for it); `None` where neither is
 /// drawn. A run's culling and LOD choice of a node are both read from this.
-pub fn drawn_as(nodes: &[NodeRecord], bvh_count: usize, pvs: &[NodeId]) -> Result<Vec<Option<NodeId>>, String> {
+pub fn drawn_as(nodes: &[NodeRecord], bvh_count: usize, pvs: &[NodeId]) -> Result<Vec<Option<NodeId>>, CompareError> {
     let mut drawn = vec![None; bvh_count];
     for &id in pvs {
-        let node = nodes.get(id as usize).filter(|n| n.kind() == NodeKind::Lod).ok_or_else(|| not_a_lod(id, nodes.len()))?;
+        let node = nodes.get(id as usize).filter(|n| n.kind() == NodeKind::Lod).ok_or(CompareError::NotALod { id, nodes: nodes.len() })?;
         drawn[node.parent as usize] = Some(id);
     }
     // BVH ids are breadth first: parents before children.
@@ -62,8 +62,15 @@ pub fn drawn_as(nodes: &[NodeRecord], bvh_count: usize, pvs: &[NodeId]) -> Resul
     Ok(drawn)
 }
 
-fn not_a_lod(id: NodeId, nodes: usize) -> String {
-    format!("id {id} is not a LOD node of this scene ({nodes} nodes): wrong scene?")
+/// A visible set or item buffer that does not fit the scene, or the images, it is compared with.
+#[derive(Debug, PartialEq, Eq, thiserror::Error)]
+pub enum CompareError {
+    #[error("id {id} is not a LOD node of this scene ({nodes} nodes): wrong scene?")]
+    NotALod { id: NodeId, nodes: usize },
+    #[error("id {id} is not a node of this scene ({nodes} nodes): wrong scene?")]
+    NotANode { id: NodeId, nodes: usize },
+    #[error("an item buffer of {items} pixels for images of {a} and {b}")]
+    ItemsSize { items: usize, a: usize, b: usize },
 }
 
 /// Pixels where the two runs' RGBA8 `images` differ (in RGB) that neither culling nor LOD choice
@@ -79,9 +86,9 @@ pub fn unexplained_pixels(
     nodes: &[NodeRecord],
     drawn: [&[Option<NodeId>]; 2],
     empty_explained: bool,
-) -> Result<u64, String> {
+) -> Result<u64, CompareError> {
     if a.len() != items.len() * 4 || b.len() != items.len() * 4 {
-        return Err(format!("an item buffer of {} pixels for images of {} and {}", items.len(), a.len() / 4, b.len() / 4));
+        return Err(CompareError::ItemsSize { items: items.len(), a: a.len() / 4, b: b.len() / 4 });
     }
     let mut unexplained = 0;
     for ((p, q), &item) in a.chunks_exact(4).zip(b.chunks_exact(4)).zip(items) {
@@ -91,7 +98,11 @@ pub fn unexplained_pixels(
         let explained = match item.checked_sub(1) {
             None => empty_explained,
             Some(id) => {
-                let owner = nodes.get(id as usize).filter(|n| n.kind() == NodeKind::Lod).ok_or_else(|| not_a_lod(id, nodes.len()))?.parent;
+                let owner = nodes
+                    .get(id as usize)
+                    .filter(|n| n.kind() == NodeKind::Lod)
+                    .ok_or(CompareError::NotALod { id, nodes: nodes.len() })?
+                    .parent;
                 let of = |d: &[Option<NodeId>]| d.get(owner as usize).copied().flatten();
                 of(drawn[0]).is_none() || of(drawn[0]) != of(drawn[1])
             }
@@ -131,9 +142,9 @@ impl CullError {
 }
 
 /// Compares a drawn set (LOD ids) with the exactly visible leaves of the same frame.
-pub fn cull_error(scene: &SceneFile, pvs: &[NodeId], exact_leaves: &[NodeId], exact_triangles: u64) -> Result<CullError, String> {
+pub fn cull_error(scene: &SceneFile, pvs: &[NodeId], exact_leaves: &[NodeId], exact_triangles: u64) -> Result<CullError, CompareError> {
     let n = scene.nodes();
-    let bad = |id: NodeId| format!("id {id} is not a node of this scene ({} nodes): wrong scene?", n.len());
+    let bad = |id: NodeId| CompareError::NotANode { id, nodes: n.len() };
     // Mark the BVH owners of drawn LODs, then every node under a marked node.
     let mut drawn = vec![false; scene.bvh_count() as usize];
     let mut pvs_triangles = 0;
@@ -205,7 +216,7 @@ mod tests {
         assert_eq!(drawn_as(&n, 3, &[3, 4]).unwrap(), [None, Some(3), Some(4)]);
         assert_eq!(drawn_as(&n, 3, &[4]).unwrap(), [None, None, Some(4)]);
         assert_eq!(drawn_as(&n, 3, &[5]).unwrap(), [Some(5); 3]);
-        assert!(drawn_as(&n, 3, &[1]).unwrap_err().contains("not a LOD"));
+        assert_eq!(drawn_as(&n, 3, &[1]), Err(CompareError::NotALod { id: 1, nodes: 6 }));
     }
 
     #[test]
@@ -230,7 +241,7 @@ mod tests {
         // Identical images: nothing to explain.
         assert_eq!(unexplained_pixels([&a, &a], &items, &n, [&both, &both], false), Ok(0));
         assert!(unexplained_pixels([&a, &b], &items[..3], &n, [&both, &both], false).is_err());
-        assert!(unexplained_pixels([&a, &b], &[2, 0, 0, 0], &n, [&both, &both], false).unwrap_err().contains("not a LOD"));
+        assert!(unexplained_pixels([&a, &b], &[2, 0, 0, 0], &n, [&both, &both], false).unwrap_err().to_string().contains("not a LOD"));
     }
 
     #[test]

@@ -28,7 +28,7 @@ use osw_cull::ovc::{OvcOptions, ovc};
 use osw_cull::payoff::Alternating;
 use osw_cull::view::Cut;
 use osw_cull::{HcStats, View, frustum_cull, hardware_cull};
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{BoxTest, DrawStats, RenderError, Renderer, Sampling};
 use osw_gpu::testers::{GpuTester, InterleavedTester};
 use osw_scene::{NodeId, SceneFile};
@@ -66,11 +66,9 @@ impl Mode {
     }
 
     /// Whether the mode runs on one GPU (`osw render`), or why not.
-    pub fn on_one_gpu(self) -> Result<(), String> {
+    pub fn on_one_gpu(self) -> Result<(), ModeError> {
         match self {
-            Mode::Switch => {
-                Err("--mode switch: the switch runs on two nodes and a display, `osw run` (its algorithm on one GPU is prev)".into())
-            }
+            Mode::Switch => Err(ModeError::Switch),
             _ => Ok(()),
         }
     }
@@ -80,6 +78,13 @@ impl Mode {
     pub fn adaptive(self) -> bool {
         matches!(self, Mode::Ovc | Mode::Prev | Mode::Switch)
     }
+}
+
+/// Why a mode does not run on one GPU ([`Mode::on_one_gpu`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ModeError {
+    #[error("--mode switch: the switch runs on two nodes and a display, `osw run` (its algorithm on one GPU is prev)")]
+    Switch,
 }
 
 impl std::fmt::Display for Mode {
@@ -135,7 +140,7 @@ fn ms(t: Instant) -> f64 {
 
 impl ModeState {
     /// A mode's state, or why it cannot run on one GPU (the switch).
-    pub fn new(mode: Mode, tau: f64, hc: HcTest) -> Result<ModeState, String> {
+    pub fn new(mode: Mode, tau: f64, hc: HcTest) -> Result<ModeState, ModeError> {
         mode.on_one_gpu()?;
         Ok(ModeState {
             mode,
@@ -192,7 +197,7 @@ impl ModeState {
         }
         let t = Instant::now();
         let (drawn, notes) = match rvg {
-            Rvg::Plain => (r.draw(scene, view, &pvs, Pass::Color, true)?, None),
+            Rvg::Plain => (r.draw(scene, view, &pvs, Pass::Color, Load::Clear)?, None),
             Rvg::Switch { notes, pass } => (pass::rvg(r, scene, view, &pvs, notes.as_ref(), pass)?, notes),
         };
         (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
@@ -226,7 +231,7 @@ impl ModeState {
         pvs: &mut Vec<NodeId>,
     ) -> Result<HcStats, RenderError> {
         let t = Instant::now();
-        r.draw(scene, view, &[], Pass::Depth, true)?;
+        r.draw(scene, view, &[], Pass::Depth, Load::Clear)?;
         let nodes = scene.nodes();
         let chc = self.chc.get_or_insert_with(|| ChcState::new(scene.bvh_count()));
         let opts = if self.mode == Mode::Ovc { self.ovc } else { OvcOptions::default() };
@@ -257,7 +262,7 @@ impl ModeState {
         let t = Instant::now();
         let nodes = scene.nodes();
         let occluders = select_occluders(nodes, scene.bvh_count(), view, ACTIVE_OCCLUDERS);
-        let or = r.draw(scene, view, &occluders, Pass::Depth, true)?;
+        let or = r.draw(scene, view, &occluders, Pass::Depth, Load::Clear)?;
         let depth = r.read_depth()?;
         s.take_or(&or, ms(t));
         let t = Instant::now();
@@ -284,8 +289,8 @@ impl ModeState {
         // draws only those, as the switch's nodes do.
         let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[self.frames as usize % 2]);
         let mut or = DrawStats::default();
-        for (ids, clear) in [(&self.older, true), (&self.added, false)] {
-            or = or + pass::or(r, scene, view, pass::Occluders { ids, tau: self.tau, clear, notes: or_notes }, &mut self.occluders)?;
+        for (ids, load) in [(&self.older, Load::Clear), (&self.added, Load::Keep)] {
+            or = or + pass::or(r, scene, view, pass::Occluders { ids, tau: self.tau, load, notes: or_notes }, &mut self.occluders)?;
         }
         s.take_or(&or, ms(t));
         let t = Instant::now();

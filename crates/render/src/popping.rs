@@ -12,7 +12,7 @@
 use crate::compare::changed_pixels;
 use osw_cull::View;
 use osw_cull::front::update_front;
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
 
@@ -25,17 +25,18 @@ pub const POPPING_ABOVE: u8 = 2;
 pub fn popping(
     r: &mut Renderer,
     scene: &SceneFile,
-    (previous, view): (&View, &View),
+    previous: &View,
+    view: &View,
     visible: &[NodeId],
     tau: f64,
     scratch: &mut Vec<NodeId>,
 ) -> Result<f64, RenderError> {
-    r.draw(scene, view, visible, Pass::Color, true)?;
+    r.draw(scene, view, visible, Pass::Color, Load::Clear)?;
     let own = r.read_color()?;
     update_front(scene.nodes(), visible, previous, tau, scratch);
     // A cluster hierarchy's cut for the earlier camera, drawn with this one.
     let earlier_cut = View { lod: previous.lod_at(tau), ..view.clone() };
-    r.draw(scene, &earlier_cut, scratch, Pass::Color, true)?;
+    r.draw(scene, &earlier_cut, scratch, Pass::Color, Load::Clear)?;
     let earlier = r.read_color()?;
     Ok(changed_pixels(&own, &earlier, POPPING_ABOVE) as f64 / (own.len() / 4).max(1) as f64)
 }

@@ -1,27 +1,30 @@
 //! Loops over a camera path: `osw render` (one mode) and `osw exact` (item buffer).
 
-use crate::mode::{Mode, ModeState};
-use crate::output::{frame_path, items_path, push_ids, write_items, write_png};
+use crate::mode::{Mode, ModeError, ModeState};
+use crate::output::{OutputError, frame_path, items_path, push_ids, write_items, write_png};
 use crate::pass::HcTest;
-use crate::results::{self, Details, ExactFrame, RenderSummary, Summary};
+use crate::results::{self, Details, ExactFrame, RenderSummary, ResultsError, Summary};
 use crate::stats::FrameStats;
 use osw_gpu::exact::Reference;
 use osw_gpu::renderer::{RenderError, Renderer};
 use osw_scene::{Camera, SceneFile};
 use std::path::Path;
 
+/// Why a run stopped: the GPU, a file it writes, or a mode that does not run on one GPU.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     #[error(transparent)]
     Render(#[from] RenderError),
-    #[error("{0}")]
-    Output(String),
-    #[error("{0}")]
-    Mode(String),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    #[error(transparent)]
+    Results(#[from] ResultsError),
+    #[error(transparent)]
+    Mode(#[from] ModeError),
 }
 
 fn write(path: &Path, text: &str) -> Result<(), RunError> {
-    std::fs::write(path, text).map_err(|e| RunError::Output(format!("{}: {e}", path.display())))
+    Ok(std::fs::write(path, text).map_err(OutputError::io(path))?)
 }
 
 /// One run of `osw render`.
@@ -47,12 +50,12 @@ pub struct RunSpec<'a> {
 pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &RunSpec, tick: &dyn Fn()) -> Result<Summary, RunError> {
     let (mode, tau, out, write_frames) = (spec.mode, spec.tau, spec.out, spec.write_frames);
     if write_frames {
-        std::fs::create_dir_all(out.join("frames")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
+        std::fs::create_dir_all(out.join("frames")).map_err(OutputError::io(out))?;
     }
-    let mut state = ModeState::new(mode, tau, spec.hc).map_err(RunError::Mode)?;
+    let mut state = ModeState::new(mode, tau, spec.hc)?;
     state.ovc = spec.ovc;
     if !spec.always_cull {
-        let pixels = r.target.width as u64 * r.target.height as u64;
+        let pixels = r.width() as u64 * r.height() as u64;
         state.payoff = Some(osw_cull::payoff::Alternating::new(osw_cull::payoff::CullCost::at(pixels)));
     }
     let mut frames: Vec<FrameStats> = Vec::with_capacity(cams.len());
@@ -64,27 +67,27 @@ pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &
         frames.push(s);
         push_ids(&mut pvs, state.visible());
         if write_frames {
-            write_png(&frame_path(out, i as u64), r.target.width, r.target.height, &r.read_color()?).map_err(RunError::Output)?;
+            write_png(&frame_path(out, i as u64), r.width(), r.height(), &r.read_color()?)?;
         }
         tick();
     }
-    results::csv::write(&out.join("stats.csv"), &frames).map_err(|e| RunError::Output(e.to_string()))?;
+    results::csv::write(&out.join("stats.csv"), &frames)?;
     write(&out.join("pvs.txt"), &pvs)?;
-    let (header, stats) = (scene.header(), &r.residency.stats);
+    let (header, stats) = (scene.header(), r.residency_stats());
     let summary = Summary {
         mode,
         tau,
         scene: spec.scene.display().to_string(),
         scene_hash: osw_scene::format::hash_hex(scene.content_hash()),
         path: spec.path.display().to_string(),
-        width: r.target.width,
-        height: r.target.height,
+        width: r.width(),
+        height: r.height(),
         of: Details::Render(RenderSummary {
             hc_test: spec.hc.name().to_owned(),
             adaptive: spec.ovc.adaptive,
             budget: spec.ovc.budget.unwrap_or(0.0),
             sampling: spec.ovc.sampling,
-            adapter: r.gpu.info.name.clone(),
+            adapter: r.gpu().info.name.clone(),
             uploads: stats.uploads,
             upload_bytes: stats.upload_bytes,
             upload_shared_bytes: stats.shared_bytes,
@@ -97,7 +100,7 @@ pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &
         }),
         ..Summary::of(&frames)
     };
-    summary.write(out).map_err(|e| RunError::Output(e.to_string()))?;
+    summary.write(out)?;
     Ok(summary)
 }
 
@@ -116,7 +119,7 @@ pub fn exact_path(
 ) -> Result<(), RunError> {
     let mut rows = Vec::with_capacity(cams.len());
     let mut leaves = String::new();
-    std::fs::create_dir_all(out.join("items")).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out.join("items")).map_err(OutputError::io(out))?;
     for (i, cam) in cams.iter().enumerate() {
         r.begin_frame();
         let view = r.view(cam, tau);
@@ -131,10 +134,10 @@ pub fn exact_path(
             visible_cluster_draw_ms: e.cluster_draw_ms,
         });
         push_ids(&mut leaves, &e.leaves);
-        write_items(&items_path(out, i as u64), r.target.width, r.target.height, &e.pixels).map_err(RunError::Output)?;
+        write_items(&items_path(out, i as u64), r.width(), r.height(), &e.pixels)?;
         tick();
     }
-    results::csv::write(&out.join("exact.csv"), &rows).map_err(|e| RunError::Output(e.to_string()))?;
+    results::csv::write(&out.join("exact.csv"), &rows)?;
     write(&out.join("exact_leaves.txt"), &leaves)?;
     Ok(())
 }

@@ -37,17 +37,27 @@ pub struct Agreed {
     pub cluster_tests: ClusterTests,
 }
 
+/// A shared setting that is not valid, named with its value ([`AgreedArgs::resolve`]).
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// The configuration's `cluster_tests`, and what is wrong with it.
+    #[error("cluster_tests {value:?}: {reason}")]
+    ClusterTests { value: String, reason: String },
+    #[error("--adaptive must be a finite number >= 0, got {0}")]
+    Adaptive(f64),
+}
+
 impl AgreedArgs {
     /// Flags over `config` over defaults, checked; errors name the setting.
-    pub fn resolve(&self, config: &Config) -> Result<Agreed, String> {
+    pub fn resolve(&self, config: &Config) -> Result<Agreed, SettingsError> {
         let cluster_tests = match (self.cluster_tests, &config.cluster_tests) {
             (Some(t), _) => t,
-            (None, Some(t)) => t.parse().map_err(|e| format!("cluster_tests {t:?}: {e}"))?,
+            (None, Some(t)) => t.parse::<ClusterTests>().map_err(|reason| SettingsError::ClusterTests { value: t.clone(), reason })?,
             (None, None) => ClusterTests::default(),
         };
         let adaptive = self.adaptive.or(config.adaptive).unwrap_or(0.0);
         if !(adaptive >= 0.0 && adaptive.is_finite()) {
-            return Err(format!("--adaptive must be a finite number >= 0, got {adaptive}"));
+            return Err(SettingsError::Adaptive(adaptive));
         }
         Ok(Agreed { adaptive, always_cull: self.always_cull || config.always_cull.unwrap_or(false), cluster_tests })
     }
@@ -105,8 +115,8 @@ mod tests {
         assert_eq!(Config::parse(&text).unwrap(), written, "{text}");
         let over = parse(&["--adaptive", "0.5", "--cluster-tests", "cone"]).resolve(&written).unwrap();
         assert_eq!(over, Agreed { adaptive: 0.5, cluster_tests: "cone".parse().unwrap(), ..a });
-        assert!(parse(&["--adaptive=-1"]).resolve(&Config::default()).unwrap_err().contains("--adaptive"));
+        assert_eq!(parse(&["--adaptive=-1"]).resolve(&Config::default()), Err(SettingsError::Adaptive(-1.0)));
         let bad = Config { cluster_tests: Some("frustum,colour".into()), ..Config::default() };
-        assert!(parse(&[]).resolve(&bad).unwrap_err().contains("cluster_tests"));
+        assert!(parse(&[]).resolve(&bad).unwrap_err().to_string().contains("cluster_tests"));
     }
 }

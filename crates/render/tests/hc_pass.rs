@@ -5,6 +5,7 @@
 //! and tests fewer boxes.
 
 use glam::DVec3;
+use osw_gpu::draw::Load;
 use osw_gpu::exact::Reference;
 use osw_gpu::renderer::{RenderOptions, Renderer};
 use osw_render::pass::{self, HcOptions};
@@ -16,7 +17,7 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let path = dir.path().join("plant.osw");
     let scene = osw_scene::generators::build_generated(osw_scene::generators::GenKind::Plant, 200_000, 3, &path).unwrap();
     let gpu = osw_gpu::Gpu::new(None).expect("a Vulkan adapter (lavapipe: mesa-vulkan-drivers)");
-    let mut r = Renderer::new(gpu, &scene, 256, 256, osw_gpu::limits::RESIDENCY_BYTES, RenderOptions::default()).unwrap();
+    let mut r = Renderer::new(gpu, &scene, 256, 256, RenderOptions::default()).unwrap();
     let root = scene.node(0).aabb();
     let (c, e) = (root.center().as_dvec3(), root.extent().as_dvec3());
     let eye = c + DVec3::new(0.9 * e.x, 0.1 * e.y, 0.0);
@@ -30,7 +31,8 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0), 0.0);
     let mut run = |min: usize| {
         r.begin_frame();
-        pass::or(&mut r, &scene, &after, pass::Occluders { ids: &previous, tau: 0.0, clear: true, notes: None }, &mut Vec::new()).unwrap();
+        pass::or(&mut r, &scene, &after, pass::Occluders { ids: &previous, tau: 0.0, load: Load::Clear, notes: None }, &mut Vec::new())
+            .unwrap();
         let mut pvs = Vec::new();
         let stats = pass::hc(
             &mut r,

@@ -42,21 +42,32 @@ impl Camera {
 
     /// Checks that every number is usable: finite position, non-degenerate orientation,
     /// fovy in (0, 180). Returns the camera with its orientation normalised.
-    pub fn validated(self) -> Result<Camera, String> {
+    pub fn validated(self) -> Result<Camera, CameraError> {
         if !self.position.is_finite() {
-            return Err(format!("non-finite camera position {:?}", self.position));
+            return Err(CameraError::Position(self.position));
         }
         let q = self.orientation;
         // A finite quaternion can still have a length that overflows (components near 1e200,
         // found by fuzzing): normalising it would give zeros.
         if !(q.is_finite() && q.length() >= 1e-6 && q.length().is_finite()) {
-            return Err(format!("bad camera orientation {q:?}: expected a non-zero quaternion of finite length"));
+            return Err(CameraError::Orientation(q));
         }
         if !(self.fovy_deg > 0.0 && self.fovy_deg < 180.0) {
-            return Err(format!("bad fovy {} degrees: expected in (0, 180)", self.fovy_deg));
+            return Err(CameraError::Fovy(self.fovy_deg));
         }
         Ok(Camera { orientation: q.normalize(), ..self })
     }
+}
+
+/// A number of a camera that cannot be used ([`Camera::validated`]).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum CameraError {
+    #[error("non-finite camera position {0:?}")]
+    Position(DVec3),
+    #[error("bad camera orientation {0:?}: expected a non-zero quaternion of finite length")]
+    Orientation(DQuat),
+    #[error("bad fovy {0} degrees: expected in (0, 180)")]
+    Fovy(f64),
 }
 
 #[cfg(test)]

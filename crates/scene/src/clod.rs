@@ -16,7 +16,7 @@
 //! margin for rounding (the projection grows with both).
 //!
 //! The original triangles leave in chunks of whole level-0 groups (the BVH's leaves); the
-//! simplified clusters leave in pieces, which the build gives to BVH nodes ([`crate::owner`]).
+//! simplified clusters leave in pieces, which the build gives to BVH nodes (the build's owner stage).
 
 use crate::aabb::Aabb;
 use crate::format::{Cut, ErrorBound};
@@ -214,7 +214,7 @@ fn build_with(mesh: &Mesh, chunk_triangles: u32, shape: GroupShape) -> Hierarchy
     // A simplified cluster spans what it was made from, often several chunks, so no leaf's
     // box holds it whole. It leaves in pieces, one per chunk its triangles lie in (by their
     // first vertex), which the build gives to that chunk's leaf or the lowest node above it
-    // whose box holds it (crate::owner): low in the BVH, where HC's box tests cull it.
+    // whose box holds it (the build's owner stage): low in the BVH, where HC's box tests cull it.
     let (mut coarse, mut coarse_home) = (Vec::new(), Vec::new());
     for (triangles, cut) in coarse_groups.iter().flat_map(|g| &g.clusters) {
         let mut by_chunk: Vec<&[u32]> = triangles.chunks_exact(3).collect();

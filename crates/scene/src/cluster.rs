@@ -57,8 +57,13 @@ pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRe
 /// `cuts[cut_of[t]]` (`cut_of` empty: every triangle `cuts[0]`), and a cluster holds
 /// triangles of one cut only.
 pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &[u32]) -> (Vec<u32>, Vec<ClusterRecord>, u32) {
-    let parts = Parts::of(mesh);
-    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte positions");
+    let block = Clustering {
+        mesh,
+        adapter: meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte positions"),
+        parts: Parts::of(mesh),
+        object,
+        cuts,
+    };
     let space = mesh.bounds();
     // Per triangle: translucent last, then by cut, then by facing bin, then along the Morton
     // curve of its centroid. A cluster ends at a change of the first three, at MAX_TRIANGLES
@@ -88,7 +93,7 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
         let new = t.iter().filter(|&&v| stamp[v as usize] != id).count();
         let triangles = (indices.len() - first_index as usize) / 3;
         if triangles == MAX_TRIANGLES || vertices + new > MAX_VERTICES || (n > 0 && run(order[n - 1].0) != run(key)) {
-            clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index, cuts, order[n - 1].0));
+            clusters.push(block.cluster(&indices, first_index, order[n - 1].0));
             first_index = indices.len() as u32;
             vertices = 0;
         }
@@ -102,46 +107,48 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
         }
         indices.extend_from_slice(t);
         if n + 1 == order.len() {
-            clusters.push(cluster(mesh, &adapter, &parts, object, &indices, first_index, cuts, key));
+            clusters.push(block.cluster(&indices, first_index, key));
         }
     }
     debug_assert_eq!(indices.len(), mesh.indices.len());
     (indices, clusters, opaque_clusters)
 }
 
-/// The cluster of `indices[first_index..]`, whose triangles' sort key is `key`: its bounds,
-/// its cut, and its cone (meshopt's) with the box of its closed parts or `object` when the
-/// triangles are opaque (back faces of a translucent surface show through it).
-#[allow(clippy::too_many_arguments)]
-fn cluster(
-    mesh: &Mesh,
-    adapter: &meshopt::VertexDataAdapter,
-    parts: &Parts,
+/// What each cluster of one block is made against: the mesh, its closed parts, the box of its
+/// object when that is closed, and the cuts its triangles are drawn at.
+struct Clustering<'a> {
+    mesh: &'a Mesh,
+    adapter: meshopt::VertexDataAdapter<'a>,
+    parts: Parts,
     object: Option<Aabb>,
-    indices: &[u32],
-    first_index: u32,
-    cuts: &[Cut],
-    key: u64,
-) -> ClusterRecord {
-    let cluster = &indices[first_index as usize..];
-    let b = meshopt::compute_cluster_bounds(cluster, adapter);
-    let cut = cuts[(key >> 33 & 0x3fff_ffff) as usize];
-    // A simplified triangle may have lost its object's closure; an original one has not.
-    let closed = if key >> 63 == 0 { parts.closed_box(cluster).or(object.filter(|_| cut.lo.error == 0.0)) } else { None };
-    let bbox = Aabb::from_points(cluster.iter().map(|&v| &mesh.positions[v as usize]));
-    ClusterRecord {
-        center: b.center,
-        radius: b.radius,
-        cone_apex: b.cone_apex,
-        cone_axis: b.cone_axis,
-        cone_cutoff: if closed.is_some() { b.cone_cutoff } else { NO_CONE },
-        first_index,
-        index_count: cluster.len() as u32,
-        bbox_min: bbox.min.into(),
-        bbox_max: bbox.max.into(),
-        closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
-        closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
-        cut,
+    cuts: &'a [Cut],
+}
+
+impl Clustering<'_> {
+    /// The cluster of `indices[first_index..]`, whose triangles' sort key is `key`: its bounds,
+    /// its cut, and its cone (meshopt's) with the box of its closed parts or the object's when
+    /// the triangles are opaque (back faces of a translucent surface show through it).
+    fn cluster(&self, indices: &[u32], first_index: u32, key: u64) -> ClusterRecord {
+        let cluster = &indices[first_index as usize..];
+        let b = meshopt::compute_cluster_bounds(cluster, &self.adapter);
+        let cut = self.cuts[(key >> 33 & 0x3fff_ffff) as usize];
+        // A simplified triangle may have lost its object's closure; an original one has not.
+        let closed = if key >> 63 == 0 { self.parts.closed_box(cluster).or(self.object.filter(|_| cut.lo.error == 0.0)) } else { None };
+        let bbox = Aabb::from_points(cluster.iter().map(|&v| &self.mesh.positions[v as usize]));
+        ClusterRecord {
+            center: b.center,
+            radius: b.radius,
+            cone_apex: b.cone_apex,
+            cone_axis: b.cone_axis,
+            cone_cutoff: if closed.is_some() { b.cone_cutoff } else { NO_CONE },
+            first_index,
+            index_count: cluster.len() as u32,
+            bbox_min: bbox.min.into(),
+            bbox_max: bbox.max.into(),
+            closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
+            closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
+            cut,
+        }
     }
 }
 

@@ -5,14 +5,13 @@
 //! reads a page of geometry. A geometry block is checked (hash, index range) the first time it
 //! is read, so a corrupted block gives an error naming the block instead of a wrong picture.
 
+use crate::block::{Geometry, geometry_of, ranges_ok};
 use crate::format::{
-    BLOCK_BYTES, BlockRecord, ClusterRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord,
-    VERSION,
+    BLOCK_BYTES, BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord,
+    VERSION, content_hash, header_hash,
 };
 use crate::instance::Placement;
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
-use crate::writer::{content_hash, header_hash};
-use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU8, Ordering};
 
@@ -38,64 +37,6 @@ pub struct SceneFile {
     header: Header,
     /// Per block: 0 = not yet checked, 1 = good, 2 = bad.
     checked: Vec<AtomicU8>,
-}
-
-/// One geometry block: a view of it in the mapped file, or, for a use of a mesh stored once,
-/// its positions, clusters and (where mirrored) indices placed.
-#[derive(Clone, Debug)]
-pub struct Geometry<'a> {
-    pub positions: Cow<'a, [[f32; 3]]>,
-    /// One per vertex, or empty when the block has no colours.
-    pub colors: &'a [[u8; 4]],
-    /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
-    pub indices: Indices<'a>,
-    pub clusters: Cow<'a, [ClusterRecord]>,
-    /// `clusters[..opaque]` are opaque, the rest translucent ([`BlockRecord::opaque_clusters`]).
-    pub opaque: usize,
-}
-
-impl Geometry<'_> {
-    /// Indices of the opaque clusters: they come first, `0..opaque_indices()`.
-    pub fn opaque_indices(&self) -> usize {
-        self.clusters.get(self.opaque).map_or(self.indices.len(), |c| c.first_index as usize)
-    }
-}
-
-#[derive(Clone, Debug)]
-pub enum Indices<'a> {
-    U16(Cow<'a, [u16]>),
-    U32(Cow<'a, [u32]>),
-}
-
-impl Indices<'_> {
-    pub fn len(&self) -> usize {
-        match self {
-            Indices::U16(s) => s.len(),
-            Indices::U32(s) => s.len(),
-        }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    pub fn get(&self, i: usize) -> u32 {
-        match self {
-            Indices::U16(s) => s[i] as u32,
-            Indices::U32(s) => s[i],
-        }
-    }
-
-    pub fn iter(&self) -> impl Iterator<Item = u32> + '_ {
-        (0..self.len()).map(|i| self.get(i))
-    }
-
-    pub fn bytes(&self) -> &[u8] {
-        match self {
-            Indices::U16(s) => bytemuck::cast_slice(s.as_ref()),
-            Indices::U32(s) => bytemuck::cast_slice(s.as_ref()),
-        }
-    }
 }
 
 impl SceneFile {
@@ -214,37 +155,6 @@ impl SceneFile {
         }
         Ok(geometry_of(bytes, &rec))
     }
-}
-
-pub(crate) fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
-    let (front, clusters) = bytes.split_at(rec.clusters_at() as usize);
-    let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
-    let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
-    let idx = &idx[..rec.index_count as usize * rec.index_bytes as usize];
-    let indices = if rec.index_bytes == 2 {
-        Indices::U16(Cow::Borrowed(bytemuck::cast_slice(idx)))
-    } else {
-        Indices::U32(Cow::Borrowed(bytemuck::cast_slice(idx)))
-    };
-    Geometry {
-        positions: Cow::Borrowed(bytemuck::cast_slice(pos)),
-        colors: bytemuck::cast_slice(colors),
-        indices,
-        clusters: Cow::Borrowed(bytemuck::cast_slice(clusters)),
-        opaque: rec.opaque_clusters as usize,
-    }
-}
-
-/// Every index names a vertex of the block, and the clusters cover the indices in turn.
-fn ranges_ok(bytes: &[u8], rec: &BlockRecord) -> bool {
-    let g = geometry_of(bytes, rec);
-    let mut next = 0u32;
-    let clusters_ok = g.clusters.iter().all(|c| {
-        let ok = c.first_index == next && c.index_count.is_multiple_of(3) && c.radius.is_finite() && c.center.iter().all(|x| x.is_finite());
-        next = next.saturating_add(c.index_count);
-        ok
-    });
-    clusters_ok && next == rec.index_count && g.indices.iter().all(|i| i < rec.vertex_count)
 }
 
 fn nodes_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [NodeRecord] {

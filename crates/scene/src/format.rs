@@ -324,6 +324,34 @@ pub fn instances_offset(blocks_offset: u64, block_count: u32) -> Option<u64> {
     blocks_offset.checked_add(block_count as u64 * BLOCK_BYTES)
 }
 
+/// Hash that names the scene's content (see the header's `content_hash`).
+pub fn content_hash(header: &Header, nodes: &[NodeRecord], blocks: &[BlockRecord], instances: &[InstanceRecord]) -> [u64; 2] {
+    hash_tables(header, |s| {
+        s.update(bytemuck::cast_slice(nodes));
+        s.update(bytemuck::cast_slice(blocks));
+        s.update(bytemuck::cast_slice(instances));
+    })
+}
+
+/// [`content_hash`] of the header and the tables that `tables` feeds in file order.
+pub fn hash_tables(header: &Header, tables: impl FnOnce(&mut xxhash_rust::xxh3::Xxh3)) -> [u64; 2] {
+    let mut h = *header;
+    h.content_hash = [0; 2];
+    h.header_hash = 0;
+    let mut s = xxhash_rust::xxh3::Xxh3::new();
+    s.update(bytemuck::bytes_of(&h));
+    tables(&mut s);
+    let v = s.digest128();
+    [v as u64, (v >> 64) as u64]
+}
+
+/// Hash of the header with its own hash zeroed.
+pub fn header_hash(header: &Header) -> u64 {
+    let mut h = *header;
+    h.header_hash = 0;
+    xxhash_rust::xxh3::xxh3_64(bytemuck::bytes_of(&h))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

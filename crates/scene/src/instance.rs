@@ -11,7 +11,7 @@
 
 use crate::aabb::Aabb;
 use crate::cluster::NO_CONE;
-use crate::file::{Geometry, Indices};
+use crate::block::{Encoded, Geometry, Indices, encode_with, geometry_of};
 use crate::format::ClusterRecord;
 use crate::mesh::Mesh;
 use glam::{DAffine3, DVec3, Vec3};
@@ -140,6 +140,15 @@ fn flipped<T: Copy>(ix: &[T]) -> Vec<T> {
     let mut out = ix.to_vec();
     out.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
     out
+}
+
+/// A block as one use of its mesh places it: what a reader of the
+/// block and its instance sees, stored as it is.
+pub fn place_block(e: &Encoded, place: &Placement) -> Encoded {
+    let g = place.geometry(&geometry_of(&e.bytes, &e.record));
+    let indices: Vec<u32> = g.indices.iter().collect();
+    let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec() };
+    encode_with(&mesh, &indices, &g.clusters, e.record.opaque_clusters)
 }
 
 #[cfg(test)]

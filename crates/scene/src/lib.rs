@@ -10,17 +10,20 @@
 //!   whose box is loose.
 //! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
 //! - [`lod`] and [`hlod`]: static LOD chains per leaf, HLODs per interior node; or [`clod`]: a
-//!   cluster hierarchy per object, its simplified groups owned by BVH nodes ([`owner`]).
-//! - [`build`]: the pipeline above, out of core ([`source`] streams the input, [`stream`] chunks
-//!   it into the [`spill`] file, [`subtree`] builds the hierarchy's geometry a subtree at a time),
-//!   plus the report of what it left out.
-//! - [`format`] and [`file`]: the versioned, hashed, memory-mapped scene file.
+//!   cluster hierarchy per object, its simplified groups owned by BVH nodes.
+//! - [`build`]: the pipeline above, out of core ([`source`] streams the input, the build's
+//!   stages chunk it into the [`spill`] file and build the hierarchy's geometry a subtree at a
+//!   time), its options, its report of what it left out, and its errors; [`progress`] for long
+//!   work.
+//! - [`format`], [`block`], [`writer`] and [`file`]: the versioned, hashed, memory-mapped scene
+//!   file, its geometry blocks encoded and decoded in one place.
 //! - [`error_metric`]: object-space error projected to pixels (tau).
 //! - [`camera`] and [`path`]: cameras, the path CSV, and walk/orbit/flyover paths.
 
 pub mod aabb;
 mod append;
 pub mod build;
+pub mod block;
 pub mod bvh;
 pub mod camera;
 pub mod chunk;
@@ -38,15 +41,13 @@ pub mod limits;
 pub mod lod;
 pub mod mesh;
 pub mod nav;
-pub mod owner;
 pub mod path;
 pub mod path_gen;
 pub mod place;
+pub mod progress;
 pub mod repeat;
 pub mod source;
 pub mod spill;
-pub mod stream;
-pub mod subtree;
 pub mod writer;
 
 pub use aabb::Aabb;

@@ -15,7 +15,7 @@
 //! (a stair's riser), and keeps a clearance from blocked floors, measured in cells over the
 //! floors it could walk.
 
-use crate::build::Progress;
+use crate::progress::Progress;
 use crate::file::SceneFile;
 use crate::format::NodeKind;
 use glam::{Vec2, Vec3};
@@ -43,6 +43,15 @@ pub struct Grid {
     pub nz: usize,
 }
 
+/// Why [`Floors::of`] found no floors: a block of the scene that cannot be read, or a Ctrl-C.
+#[derive(Debug, thiserror::Error)]
+pub enum NavError {
+    #[error(transparent)]
+    Scene(#[from] crate::SceneError),
+    #[error("stopped (Ctrl-C) before the walk was made")]
+    Cancelled,
+}
+
 /// The floors of a scene on a grid. A floor is a node: `height[i]` in cell `cell[i]`.
 pub struct Floors {
     pub grid: Grid,
@@ -57,7 +66,7 @@ pub struct Floors {
 impl Floors {
     /// The floors of `scene`'s full-detail opaque triangles, read twice (stages `floors` and
     /// `blocked` of `progress`, counted in leaves); an error names a bad block or a Ctrl-C.
-    pub fn of(scene: &SceneFile, progress: &dyn Progress) -> Result<Floors, String> {
+    pub fn of(scene: &SceneFile, progress: &dyn Progress) -> Result<Floors, NavError> {
         let root = scene.node(scene.root()).aabb();
         // At most 4096 cells a side (16M cells); at least 0.2 m so a small scene is not over-resolved.
         let cell_size = (root.extent().x.max(root.extent().z) / 4096.0).max(0.2);
@@ -327,16 +336,16 @@ fn leaves_in_parallel<T: Default + Send>(
     leaves: &[u32],
     progress: &dyn Progress,
     f: impl Fn([Vec3; 3], &mut T) + Sync,
-) -> Result<Vec<T>, String> {
+) -> Result<Vec<T>, NavError> {
     leaves
         .par_iter()
         .try_fold(T::default, |mut acc, &id| {
             progress.advance(1);
             if progress.cancelled() {
-                return Err("stopped (Ctrl-C) before the walk was made".to_string());
+                return Err(NavError::Cancelled);
             }
             let lod = scene.node(id).first_lod;
-            let g = scene.stored_geometry(lod).map_err(|e| e.to_string())?;
+            let g = scene.stored_geometry(lod)?;
             // Only an instance's corners are placed: its clusters' cuts and opacity are its
             // mesh's, and a floor is found whichever way it is wound (placing the clusters too
             // was a fifth of the walk's time on the 1B instanced plant).

@@ -87,7 +87,7 @@ pub fn parse_csv(text: &str, name: &str) -> Result<Vec<Camera>, PathError> {
             orientation: DQuat::from_xyzw(row.qx, row.qy, row.qz, row.qw),
             fovy_deg: row.fovy_deg,
         };
-        out.push(cam.validated().map_err(|e| bad(line, e))?);
+        out.push(cam.validated().map_err(|e| bad(line, e.to_string()))?);
     }
     if out.is_empty() {
         return Err(bad(1, "no cameras after the header".into()));

@@ -57,10 +57,23 @@ impl Default for PathOptions {
 /// this): a doorway of 0.9 m lets a walker through.
 pub const CLEARANCE: f32 = 0.2;
 
+/// Why no path could be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PathGenError {
+    #[error("a path needs at least one frame")]
+    NoFrames,
+    #[error("no free space to walk in at eye height ({floors} floors in {cells} cells of {cell_size} m, all blocked or too narrow)")]
+    NowhereToWalk { floors: usize, cells: usize, cell_size: f32 },
+    #[error(transparent)]
+    Floors(#[from] crate::nav::NavError),
+    #[error(transparent)]
+    Camera(#[from] crate::camera::CameraError),
+}
+
 /// Makes a path through `scene`.
-pub fn generate(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::build::Progress) -> Result<Vec<Camera>, String> {
+pub fn generate(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::progress::Progress) -> Result<Vec<Camera>, PathGenError> {
     if o.frames == 0 {
-        return Err("a path needs at least one frame".into());
+        return Err(PathGenError::NoFrames);
     }
     let root = scene.node(scene.root()).aabb();
     let (c, e) = (root.center().as_dvec3(), root.extent().as_dvec3());
@@ -87,7 +100,7 @@ pub fn generate(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::build:
             .collect(),
         PathKind::Walk => walk(scene, o, progress)?,
     };
-    cams.into_iter().map(Camera::validated).collect()
+    Ok(cams.into_iter().map(Camera::validated).collect::<Result<_, _>>()?)
 }
 
 /// Cheapest paths from floor `from` over free floors; returns parent links (u32::MAX =
@@ -150,19 +163,14 @@ fn walk_region(floors: &Floors, free: &[bool]) -> (Vec<usize>, bool) {
 /// Clearance below which a step costs more (see `paths_from`).
 const ROOMY: f32 = 2.0;
 
-fn walk(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::build::Progress) -> Result<Vec<Camera>, String> {
+fn walk(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::progress::Progress) -> Result<Vec<Camera>, PathGenError> {
     let floors = Floors::of(scene, progress)?;
     let cells = |c: f32| (c / floors.grid.cell_size).ceil() as u32;
     let clearance = floors.clearance(cells(ROOMY));
     let free: Vec<bool> = clearance.iter().map(|&d| d > cells(CLEARANCE)).collect();
     let (region, inside) = walk_region(&floors, &free);
     if region.len() < 2 {
-        return Err(format!(
-            "no free space to walk in at eye height ({} floors in {} cells of {} m, all blocked or too narrow)",
-            floors.len(),
-            floors.grid.nx * floors.grid.nz,
-            floors.grid.cell_size
-        ));
+        return Err(PathGenError::NowhereToWalk { floors: floors.len(), cells: floors.grid.nx * floors.grid.nz, cell_size: floors.grid.cell_size });
     }
     let mut rng = crate::generators::rng(o.seed, 0x9a7);
     // Inside (a region mostly under a roof), a walk starts under the roof, where a person comes

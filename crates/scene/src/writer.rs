@@ -3,104 +3,13 @@
 //! end, follow the blob. Nothing of the geometry stays in memory once written.
 
 use crate::append::Appender;
-use crate::format::{BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NONE, NodeKind, NodeRecord, VERSION};
+use crate::block::{Encoded, encode};
+use crate::format::{BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NONE, NodeKind, NodeRecord, VERSION, hash_tables, header_hash};
 use crate::limits::BLOCK_ALIGN;
 use crate::mesh::Mesh;
 use rayon::prelude::*;
 use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
-use xxhash_rust::xxh3::xxh3_64;
-
-/// One block's bytes, as [`crate::format`] lays them out, and its record without the offset.
-pub struct Encoded {
-    pub bytes: Vec<u8>,
-    pub record: BlockRecord,
-}
-
-/// The bytes of one block: positions, colours if any, then the indices in cluster order (u16
-/// when every index fits, else u32), padding to 4 bytes and the clusters. `object`: the box of
-/// the block's object when that is closed (see [`crate::cluster::clusterize`]).
-///
-/// Vertices of bit-identical position and colour are stored once: osw draws neither normals
-/// nor texture coordinates, so the seams a model splits its vertices at are not needed, and a
-/// cluster hierarchy's node gathers pieces that share their borders and the original corners
-/// of simplified triangles (docs/measurements/2026-12-07-constants.md, "encode"). Connected
-/// parts are joined by position already ([`crate::cluster`]).
-pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
-    let mesh = mesh.welded();
-    encode_with(&mesh, crate::cluster::clusterize(&mesh, object))
-}
-
-/// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut.
-pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> Encoded {
-    let mesh = piece.mesh.welded();
-    encode_with(&mesh, crate::cluster::clusterize_cut(&mesh, object, &piece.cuts, &piece.cut_of))
-}
-
-/// A block as one use of its mesh places it ([`crate::instance`]): what a reader of the
-/// block and its instance sees, stored as it is.
-pub fn place(e: &Encoded, place: &crate::instance::Placement) -> Encoded {
-    let g = place.geometry(&crate::file::geometry_of(&e.bytes, &e.record));
-    let indices: Vec<u32> = g.indices.iter().collect();
-    let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec() };
-    encode_with(&mesh, (indices, g.clusters.to_vec(), e.record.opaque_clusters))
-}
-
-/// [`encode`] with the clusters made already: `indices` in cluster order, `opaque_clusters`
-/// of them first.
-fn encode_with(mesh: &Mesh, (indices, clusters, opaque_clusters): (Vec<u32>, Vec<crate::format::ClusterRecord>, u32)) -> Encoded {
-    let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters.as_slice()));
-    bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
-    bytes.extend_from_slice(mesh.colors.as_flattened());
-    let index_bytes = if mesh.positions.len() <= 1 << 16 {
-        bytes.extend(indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
-        2
-    } else {
-        bytes.extend_from_slice(bytemuck::cast_slice(&indices));
-        4
-    };
-    bytes.resize(bytes.len().next_multiple_of(4), 0);
-    bytes.extend_from_slice(bytemuck::cast_slice(&clusters));
-    let record = BlockRecord {
-        offset: 0,
-        hash: xxh3_64(&bytes),
-        vertex_count: mesh.positions.len() as u32,
-        index_count: mesh.indices.len() as u32,
-        index_bytes,
-        color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
-        cluster_count: clusters.len() as u32,
-        opaque_clusters,
-    };
-    debug_assert_eq!(record.byte_len(), bytes.len() as u64);
-    Encoded { bytes, record }
-}
-
-/// Hash that names the scene's content: see [`crate::format`].
-pub fn content_hash(header: &Header, nodes: &[NodeRecord], blocks: &[BlockRecord], instances: &[InstanceRecord]) -> [u64; 2] {
-    hash_tables(header, |s| {
-        s.update(bytemuck::cast_slice(nodes));
-        s.update(bytemuck::cast_slice(blocks));
-        s.update(bytemuck::cast_slice(instances));
-    })
-}
-
-/// [`content_hash`] of the header and the tables that `tables` feeds in file order.
-fn hash_tables(header: &Header, tables: impl FnOnce(&mut xxhash_rust::xxh3::Xxh3)) -> [u64; 2] {
-    let mut h = *header;
-    h.content_hash = [0; 2];
-    h.header_hash = 0;
-    let mut s = xxhash_rust::xxh3::Xxh3::new();
-    s.update(bytemuck::bytes_of(&h));
-    tables(&mut s);
-    let v = s.digest128();
-    [v as u64, (v >> 64) as u64]
-}
-
-pub fn header_hash(header: &Header) -> u64 {
-    let mut h = *header;
-    h.header_hash = 0;
-    xxh3_64(bytemuck::bytes_of(&h))
-}
 
 /// The scene-wide fields of the header that the writer does not work out itself.
 #[derive(Clone, Copy, Debug, Default)]

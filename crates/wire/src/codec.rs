@@ -1,6 +1,7 @@
 //! The frames as a tokio-util codec, for the binaries' sockets.
 
-use crate::frame::{Frame, WireError, decode_frame, encode_frame};
+use crate::error::WireError;
+use crate::frame::{Frame, decode_frame, encode_frame};
 use crate::messages::Message;
 use bytes::{Buf, BytesMut};
 

@@ -62,28 +62,58 @@ pub struct Settings {
 }
 
 impl ClusterArgs {
-    pub fn resolve(&self) -> Result<Settings, String> {
+    pub fn resolve(&self) -> Result<Settings, ConfigError> {
         let config = match &self.config {
             Some(p) => Config::load(p)?,
             None => Config::default(),
         };
-        let scene = self.scene.clone().or(config.scene.clone()).ok_or("no scene: give --scene or a config with scene = ...")?;
+        let scene = self.scene.clone().or(config.scene.clone()).ok_or(ConfigError::NoScene)?;
         let tau = self.tau.or(config.tau).unwrap_or(0.0);
         if !(tau >= 0.0 && tau.is_finite()) {
-            return Err(format!("--tau {tau}: expected a finite number >= 0"));
+            return Err(ConfigError::Invalid(format!("--tau {tau}: expected a finite number >= 0")));
         }
         let batch = self.batch.or(config.batch).unwrap_or(DEFAULT_BATCH_IDS);
         if batch == 0 {
-            return Err("--batch must be at least 1".into());
+            return Err(ConfigError::Invalid("--batch must be at least 1".into()));
         }
         let size = self.size.clone().or(config.size.clone()).unwrap_or_else(|| "1024x1024".into());
         let size = size
             .split_once('x')
             .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-            .ok_or(format!("--size {size:?}: expected WIDTHxHEIGHT"))?;
+            .ok_or_else(|| ConfigError::Invalid(format!("--size {size:?}: expected WIDTHxHEIGHT")))?;
         let token = self.token.clone().or(config.token.clone());
         Ok(Settings { config, scene, tau, size, batch, token })
     }
+}
+
+/// A cluster configuration that cannot be read, or a setting of it or of the flags that is not
+/// valid; each names the file or the setting.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file cannot be read.
+    #[error("{}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// What is wrong with the configuration in a file.
+    #[error("{}", path.display())]
+    File {
+        path: PathBuf,
+        #[source]
+        source: Box<ConfigError>,
+    },
+    /// Not TOML, or keys and values that are not a configuration's.
+    #[error(transparent)]
+    Toml(#[from] toml::de::Error),
+    /// A setting out of range, named with its value.
+    #[error("{0}")]
+    Invalid(String),
+    #[error("no scene: give --scene or a config with scene = ...")]
+    NoScene,
+    #[error("no [nodes.{0}] table")]
+    NoNode(String),
 }
 
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
@@ -112,13 +142,13 @@ pub struct NodeAddress {
 
 impl Config {
     /// Parses a configuration; errors name what is wrong and where.
-    pub fn parse(text: &str) -> Result<Config, String> {
-        let c: Config = toml::from_str(text).map_err(|e| e.to_string())?;
+    pub fn parse(text: &str) -> Result<Config, ConfigError> {
+        let c: Config = toml::from_str(text)?;
         if let Some(n) = c.nodes.keys().find(|n| *n != "a" && *n != "b") {
-            return Err(format!("unknown node {n:?}: the nodes are a and b"));
+            return Err(ConfigError::Invalid(format!("unknown node {n:?}: the nodes are a and b")));
         }
         if c.tau.is_some_and(|t| !(t >= 0.0 && t.is_finite())) {
-            return Err(format!("tau {} must be a finite number >= 0", c.tau.unwrap_or_default()));
+            return Err(ConfigError::Invalid(format!("tau {} must be a finite number >= 0", c.tau.unwrap_or_default())));
         }
         Ok(c)
     }
@@ -129,14 +159,14 @@ impl Config {
         toml::to_string(self).expect("a configuration serialises")
     }
 
-    pub fn load(path: &Path) -> Result<Config, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        Config::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    pub fn load(path: &Path) -> Result<Config, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: path.to_path_buf(), source })?;
+        Config::parse(&text).map_err(|e| ConfigError::File { path: path.to_path_buf(), source: Box::new(e) })
     }
 
     /// Node `name`'s addresses, or an error naming the missing table.
-    pub fn node(&self, name: &str) -> Result<&NodeAddress, String> {
-        self.nodes.get(name).ok_or_else(|| format!("no [nodes.{name}] table"))
+    pub fn node(&self, name: &str) -> Result<&NodeAddress, ConfigError> {
+        self.nodes.get(name).ok_or_else(|| ConfigError::NoNode(name.to_owned()))
     }
 }
 
@@ -148,17 +178,17 @@ mod tests {
     fn the_shipped_configs_parse() {
         for f in ["local.toml", "three-hosts.toml", "compose.toml"] {
             let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs").join(f);
-            let c = Config::load(&p).unwrap_or_else(|e| panic!("{e}"));
+            let c = Config::load(&p).unwrap_or_else(|e| panic!("{e:?}"));
             assert!(c.node("a").is_ok() && c.node("b").is_ok(), "{f}");
         }
     }
 
     #[test]
     fn bad_configs_are_named() {
-        assert!(Config::parse("tau = -1").unwrap_err().contains("tau"));
-        assert!(Config::parse("[nodes.c]\nlisten = \"x\"\naddress = \"y\"").unwrap_err().contains("unknown node"));
+        assert!(Config::parse("tau = -1").unwrap_err().to_string().contains("tau"));
+        assert!(Config::parse("[nodes.c]\nlisten = \"x\"\naddress = \"y\"").unwrap_err().to_string().contains("unknown node"));
         assert!(Config::parse("colour = 3").is_err());
         assert!(Config::parse("tau = ").is_err());
-        assert_eq!(Config::parse("").unwrap().node("a").unwrap_err(), "no [nodes.a] table");
+        assert_eq!(Config::parse("").unwrap().node("a").unwrap_err().to_string(), "no [nodes.a] table");
     }
 }

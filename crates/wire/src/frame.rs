@@ -3,24 +3,8 @@
 //! exactly one valid message, with no bytes left over, is refused.
 
 use crate::limits::MAX_FRAME_BYTES;
+use crate::error::WireError;
 use crate::messages::Message;
-
-/// What is wrong with bytes from a peer.
-#[derive(Debug, thiserror::Error, PartialEq, Eq)]
-pub enum WireError {
-    #[error("frame of {len} bytes is over the {max}-byte limit")]
-    FrameTooLarge { len: u64, max: u32 },
-    #[error("malformed message: {0}")]
-    Malformed(String),
-    #[error("{0} bytes left over after the message in a frame")]
-    TrailingBytes(usize),
-    #[error("unusable camera: {0}")]
-    BadCamera(String),
-    #[error("node id {id} out of range (the scene has {max} nodes)")]
-    IdOutOfRange { id: u64, max: u32 },
-    #[error("bad id list: {0}")]
-    BadIds(String),
-}
 
 /// bincode's bound on what a payload's lengths may make it allocate, so that a forged length
 /// allocates nothing large: the length prefix bounds the payload to MAX_FRAME_BYTES, and

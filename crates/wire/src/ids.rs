@@ -3,7 +3,7 @@
 //! cluster in id space (breadth-first BVH ids, a node's LODs adjacent), so most gaps take one
 //! or two bytes instead of the paper's four.
 
-use crate::frame::WireError;
+use crate::error::WireError;
 use integer_encoding::VarInt;
 
 /// Appends the coding of `ids` (sorted, distinct) to `out`.

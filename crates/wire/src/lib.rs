@@ -9,7 +9,7 @@
 //! - [`ids`]: sorted node ids coded as LEB128 varints of their gaps (well under the paper's
 //!   4 bytes an id).
 //! - [`frame`]: `[u32 LE length][payload]` frames with a maximum size checked before any
-//!   allocation; incomplete input is not an error, invalid input is.
+//!   allocation; incomplete input is not an error, invalid input is ([`error`]).
 //! - [`clock`]: wall-clock stamps and the NTP-style offset estimate for one-way latency.
 //! - [`limits`]: the protocol version and the limits, each with its reason.
 
@@ -18,6 +18,7 @@ pub mod clock;
 pub mod codec;
 #[cfg(feature = "config")]
 pub mod config;
+pub mod error;
 pub mod frame;
 pub mod ids;
 pub mod limits;
@@ -25,5 +26,6 @@ pub mod messages;
 #[cfg(feature = "net")]
 pub mod net;
 
-pub use frame::{Frame, WireError, decode_frame, encode_frame};
+pub use error::WireError;
+pub use frame::{Frame, decode_frame, encode_frame};
 pub use messages::{CameraPacket, Delta, EndOfFrame, Goodbye, Hello, IdList, Keyframe, LinkStamps, Message, Ping, Pong, Role};

@@ -2,7 +2,7 @@
 //! camera of frame i to RVG first, then deltas as it finds them, then end of frame; RVG sends
 //! every camera to both nodes.
 
-use crate::frame::WireError;
+use crate::error::WireError;
 use crate::limits::{MAX_NAME_BYTES, MAX_SETTINGS, MAX_TOKEN_BYTES};
 use serde::{Deserialize, Serialize};
 

@@ -6,7 +6,7 @@ use osw_cull::hc::nearest_in_view;
 use osw_cull::hzb::{Footprint, HzbTester, PYRAMID_FINER, Pyramid, Read};
 use osw_cull::retest::retest_additions;
 use osw_cull::{HcStats, View, VisibilityTester, frustum_cull, hardware_cull_seen};
-use osw_gpu::draw::Pass;
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{BoxTest, RenderError, Renderer};
 use osw_gpu::testers::GpuTester;
 use osw_scene::{NodeId, SceneFile};
@@ -115,7 +115,7 @@ impl VisibilityTester for HybridTester<'_> {
         let Ok(()) = self.hzb().test(view, lods, &mut seen);
         self.pending.extend(lods.iter().zip(&seen).filter(|(_, v)| v.visible).map(|(&id, _)| id));
         if self.pending.len() >= self.min {
-            self.r.draw_opaque(self.scene, view, &self.pending, Pass::Depth, false)?;
+            self.r.draw_opaque(self.scene, view, &self.pending, Pass::Depth, Load::Keep)?;
             self.r.give_back(std::mem::take(&mut self.pyramid));
             self.pyramid = self.r.depth_pyramid()?;
             self.drawn.append(&mut self.pending);
@@ -262,7 +262,7 @@ fn traverse(
     let previous = match previous.is_empty() && opts.test == HcTest::Hybrid {
         true => {
             nearest = nearest_in_view(nodes, view, tau, FIRST_OCCLUDER_TRIANGLES);
-            r.draw_opaque(scene, view, &nearest, Pass::Depth, false)?;
+            r.draw_opaque(scene, view, &nearest, Pass::Depth, Load::Keep)?;
             t.drawn.extend_from_slice(&nearest);
             &nearest[..]
         }
@@ -299,7 +299,8 @@ fn traverse(
 
 /// Triangles of the first occluders of a frame without V(i-1) (about a frame's worth on the
 /// plant walks at 1024x1024). Drawing everything the frustum holds instead, as the retest
-/// would, took 13.5 to 23.8 s for the first frame of the 10B instanced plant's walk.
+/// would, took seconds for the first frame of the 10B instanced plant's walk
+/// (docs/measurements/2026-12-04-instances-10b-walk.md, "The first frame").
 const FIRST_OCCLUDER_TRIANGLES: u64 = 1 << 16;
 
 /// Boxes a pass tested and dropped as hidden, and of those the ones only adaptive culling
@@ -362,7 +363,7 @@ fn retest(
     }
     let undrawn: Vec<NodeId> = added.iter().copied().filter(|id| drawn.binary_search(id).is_err()).collect();
     if !undrawn.is_empty() {
-        r.draw_opaque(scene, view, &undrawn, Pass::Depth, false)?;
+        r.draw_opaque(scene, view, &undrawn, Pass::Depth, Load::Keep)?;
     }
     // Box by box when few (one round trip), or where Bartz 1999's eq. 1 scores each addition's own
     // pixels; through the hierarchy when many (a region came into view). Exactly on the GPU,

@@ -5,7 +5,7 @@ use osw_cull::View;
 use osw_cull::cluster::VisibleClusters;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{Pyramid, Read, visible_box};
-use osw_gpu::draw::{Layer, Pass};
+use osw_gpu::draw::{Layer, Load, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
 
@@ -16,8 +16,8 @@ pub struct Occluders<'a> {
     /// camera i (tau may also change between frames).
     pub ids: &'a [NodeId],
     pub tau: f64,
-    /// Starts a new depth buffer, else draws into the one there is.
-    pub clear: bool,
+    /// [`Load::Clear`] starts a new depth buffer, [`Load::Keep`] draws into the one there is.
+    pub load: Load,
     /// HC's notes of the frame that found `ids`: only the clusters they take are drawn (paper
     /// 004 sec. 5.3.1: the clusters visible in the last frame are the occluders; see
     /// [`note_clusters`]).
@@ -28,9 +28,9 @@ pub struct Occluders<'a> {
 /// into the depth buffer. `front` is scratch space kept across frames.
 pub fn or(r: &mut Renderer, scene: &SceneFile, view: &View, occ: Occluders, front: &mut Vec<NodeId>) -> Result<DrawStats, RenderError> {
     update_front(scene.nodes(), occ.ids, view, occ.tau, front);
-    let Some(notes) = occ.notes else { return r.draw_opaque(scene, view, front, Pass::Depth, occ.clear) };
+    let Some(notes) = occ.notes else { return r.draw_opaque(scene, view, front, Pass::Depth, occ.load) };
     let mut drawn = r.gather(scene, view, front, r.options().cluster_tests, Some(&mut |id, k| notes.takes(id, k)))?;
-    r.submit(view, Pass::Depth, Layer::Opaque, occ.clear, &mut drawn)?;
+    r.submit(view, Pass::Depth, Layer::Opaque, occ.load, &mut drawn)?;
     Ok(drawn)
 }
 

@@ -3,7 +3,7 @@
 
 use osw_cull::View;
 use osw_cull::cluster::VisibleClusters;
-use osw_gpu::draw::{Layer, Pass};
+use osw_gpu::draw::{Layer, Load, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
 
@@ -19,10 +19,10 @@ pub fn rvg(
     notes: Option<&VisibleClusters>,
     pass: Pass,
 ) -> Result<DrawStats, RenderError> {
-    let Some(notes) = notes else { return r.draw(scene, view, pvs, pass, true) };
+    let Some(notes) = notes else { return r.draw(scene, view, pvs, pass, Load::Clear) };
     let mut drawn = gather_noted(r, scene, view, pvs, notes)?;
-    r.submit(view, pass, Layer::Opaque, true, &mut drawn)?;
-    Ok(drawn + r.draw_translucent(scene, view, pvs, pass, false)?)
+    r.submit(view, pass, Layer::Opaque, Load::Clear, &mut drawn)?;
+    Ok(drawn + r.draw_translucent(scene, view, pvs, pass, Load::Keep)?)
 }
 
 /// The opaque clusters of `pvs` that `notes` take gathered, the others counted as occlusion

@@ -31,24 +31,35 @@ pub fn read<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>, ResultsError> {
     parse(&text).map_err(|e| ResultsError::new(path, e))
 }
 
-/// The rows of CSV `text`; an empty cell is a missing value (as [`to_string`] writes `None`).
-/// Errors name the line.
-pub fn parse<T: DeserializeOwned>(text: &str) -> Result<Vec<T>, String> {
-    let mut r = csv::Reader::from_reader(text.as_bytes());
-    if r.headers().map_err(|e| e.to_string())?.is_empty() {
-        return Err("empty: no header".into());
-    }
-    r.deserialize().map(|row| row.map_err(|e| error_line(&e))).collect()
+/// What is wrong with a CSV table.
+#[derive(Debug, thiserror::Error)]
+pub enum CsvError {
+    #[error("empty: no header")]
+    NoHeader,
+    /// `line` counted from 1 with the header.
+    #[error("line {line}: {what}")]
+    Row { line: u64, what: String },
 }
 
-/// A CSV error as "line N: what", the line counted from 1 with the header.
-pub fn error_line(e: &csv::Error) -> String {
-    let line = e.position().map_or(0, |p| p.line());
-    match e.kind() {
-        csv::ErrorKind::Deserialize { err, .. } => format!("line {line}: {}", err.kind()),
-        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => format!("line {line}: {len} cells, the header has {expected_len}"),
-        _ => format!("line {line}: {e}"),
+/// The rows of CSV `text`; an empty cell is a missing value (as [`to_string`] writes `None`).
+/// Errors name the line.
+pub fn parse<T: DeserializeOwned>(text: &str) -> Result<Vec<T>, CsvError> {
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    if r.headers().map_err(|e| row_error(&e))?.is_empty() {
+        return Err(CsvError::NoHeader);
     }
+    r.deserialize().map(|row| row.map_err(|e| row_error(&e))).collect()
+}
+
+/// A CSV error and the line it is on.
+fn row_error(e: &csv::Error) -> CsvError {
+    let line = e.position().map_or(0, |p| p.line());
+    let what = match e.kind() {
+        csv::ErrorKind::Deserialize { err, .. } => err.kind().to_string(),
+        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => format!("{len} cells, the header has {expected_len}"),
+        _ => e.to_string(),
+    };
+    CsvError::Row { line, what }
 }
 
 #[cfg(test)]
@@ -85,11 +96,11 @@ mod tests {
     #[test]
     fn a_renamed_column_or_a_ragged_line_is_an_error_naming_it() {
         let text = to_string(&[NodeFrame::default()]);
-        let e = parse::<NodeFrame>(&text.replace("bytes_to_peer", "bytes_to_the_peer")).unwrap_err();
+        let e = parse::<NodeFrame>(&text.replace("bytes_to_peer", "bytes_to_the_peer")).unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("missing field `bytes_to_peer`"), "{e}");
-        let e = parse::<NodeFrame>(&format!("{text}1,HC\n")).unwrap_err();
+        let e = parse::<NodeFrame>(&format!("{text}1,HC\n")).unwrap_err().to_string();
         assert!(e.contains("line 3"), "{e}");
-        let e = parse::<NodeFrame>(&text.replace("SOLO", "BOTH")).unwrap_err();
+        let e = parse::<NodeFrame>(&text.replace("SOLO", "BOTH")).unwrap_err().to_string();
         assert!(e.contains("BOTH"), "{e}");
     }
 }

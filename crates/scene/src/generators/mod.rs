@@ -47,11 +47,19 @@ pub struct Generated {
 
 /// Generator `kind`'s scene (as [`generate`]) built with the default options into `path` and
 /// opened: what the tests and benches that draw start from.
-pub fn build_generated(kind: GenKind, triangles: u64, seed: u64, path: &std::path::Path) -> Result<crate::SceneFile, String> {
+pub fn build_generated(kind: GenKind, triangles: u64, seed: u64, path: &std::path::Path) -> Result<crate::SceneFile, GeneratedError> {
     let g = generate(kind, triangles, seed);
-    crate::build_scene(g.objects, &format!("{kind:?}"), g.notes, &Default::default(), path, std::time::Instant::now(), &())
-        .map_err(|e| e.to_string())?;
-    crate::SceneFile::open(path).map_err(|e| e.to_string())
+    crate::build_scene(g.objects, &format!("{kind:?}"), g.notes, &Default::default(), path, std::time::Instant::now(), &())?;
+    Ok(crate::SceneFile::open(path)?)
+}
+
+/// Why [`build_generated`] gave no scene: the build failed, or what it wrote does not open.
+#[derive(Debug, thiserror::Error)]
+pub enum GeneratedError {
+    #[error(transparent)]
+    Build(#[from] crate::build::BuildError),
+    #[error(transparent)]
+    Open(#[from] crate::SceneError),
 }
 
 /// Runs generator `kind` for about `triangles` triangles (at least 1,000) with `seed`.

@@ -94,7 +94,7 @@ impl Site {
         // Measure the average bay on a sample, then lay out as many bays as the budget pays for.
         let n = (sample.end - sample.start).max(1);
         let sample: u64 =
-            sample.map(|i| triangles_of(&bay(Vec3::ZERO, i, seed, (Vec3::ZERO, Vec3::splat(BAY * 100.0)), detail))).sum::<u64>() / n;
+            sample.map(|i| triangles_of(&bay(Vec3::ZERO, i, seed, Vec3::ZERO, Vec3::splat(BAY * 100.0), detail))).sum::<u64>() / n;
         // Buildings (each about twice as wide as deep) on a full grid about as wide as it is
         // deep: no empty lot, so a walk through the site walks through buildings.
         let at_least = triangles.div_ceil(building).max(1);
@@ -146,7 +146,7 @@ impl Source for Site {
             if let Some(c) = &mut self.catalogue {
                 return Some(c.bays(bays.map(|b| (origin(b), first_id + b)).collect(), seed));
             }
-            return Some(bays.into_par_iter().flat_map_iter(|b| bay(origin(b), first_id + b, seed, (corner, size), 1)).collect());
+            return Some(bays.into_par_iter().flat_map_iter(|b| bay(origin(b), first_id + b, seed, corner, size, 1)).collect());
         }
         let mut objects: Vec<Object> = (0..FLOORS)
             .map(|f| Object::new(format!("structure floor {f}{}", suffix(self.building)), structure(corner, size, f, nx, nz)))
@@ -175,7 +175,7 @@ impl Catalogue {
         // A design is a bay at the origin; its pipes may reach one bay beyond it.
         let reach = (Vec3::splat(-BAY), Vec3::splat(3.0 * BAY));
         let meshes: rustc_hash::FxHashMap<u64, Vec<Object>> =
-            new.into_par_iter().map(|d| (d, bay(Vec3::ZERO, d, design_seed(seed), reach, CATALOGUE_DETAIL))).collect();
+            new.into_par_iter().map(|d| (d, bay(Vec3::ZERO, d, design_seed(seed), reach.0, reach.1, CATALOGUE_DETAIL))).collect();
         for (&d, objects) in &meshes {
             self.given[d as usize] = objects.len() as u8;
         }
@@ -220,7 +220,7 @@ fn suffix(building: usize) -> String {
 
 /// The equipment of one bay with its corner at `o`, in a building from `corner` and `size`
 /// (x, z) across; `id` seeds it, round parts have `detail` times the plant's segments.
-fn bay(o: Vec3, id: u64, seed: u64, (corner, size): (Vec3, Vec3), detail: u32) -> Vec<Object> {
+fn bay(o: Vec3, id: u64, seed: u64, corner: Vec3, size: Vec3, detail: u32) -> Vec<Object> {
     let d = detail;
     let mut r = super::rng(seed, id);
     let mut out = Vec::new();

@@ -14,7 +14,7 @@
 //! required extensions are checked by [`gltf_raw::Raw::check_extensions`].
 
 use super::gltf_raw::{self, Raw};
-use super::{ImportError, Imported};
+use super::{ImportError, Imported, ParseError};
 use crate::mesh::{Mesh, Object};
 use glam::{DAffine3, DMat4, DQuat, DVec3, Vec3};
 use gltf::accessor::{Accessor, DataType, Dimensions, Item};
@@ -24,20 +24,20 @@ use std::path::Path;
 
 /// Reads the glTF or GLB file at `path`, loading its buffers (files beside it or data URIs).
 pub fn read(path: &Path) -> Result<Imported, ImportError> {
-    let bytes = std::fs::read(path).map_err(|error| ImportError::Io { path: path.to_owned(), error })?;
-    parse(&bytes, path.parent().unwrap_or(Path::new("."))).map_err(|what| ImportError::Malformed { path: path.to_owned(), what })
+    let bytes = std::fs::read(path).map_err(ImportError::io(path))?;
+    parse(&bytes, path.parent().unwrap_or(Path::new("."))).map_err(ImportError::malformed(path))
 }
 
 /// Parses glTF or GLB bytes whose external buffers lie in `base`. Errors say what is wrong.
-pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
+pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
     let (json, blob) = if bytes.starts_with(b"glTF") {
-        let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| format!("not a valid GLB: {e}"))?;
+        let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| ParseError::caused("not a valid GLB", e))?;
         (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
     } else {
         (bytes.to_vec(), None)
     };
-    let root: gltf::json::Root = gltf::json::deserialize::from_slice(&json).map_err(|e| format!("not valid glTF: {e}"))?;
-    let raw: Raw = serde_json::from_slice(&json).map_err(|e| format!("not valid glTF: {e}"))?;
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(&json).map_err(|e| ParseError::caused("not valid glTF", e))?;
+    let raw: Raw = serde_json::from_slice(&json).map_err(|e| ParseError::caused("not valid glTF", e))?;
     raw.check_extensions()?;
     raw.check_attributes()?;
     validate(&root)?;
@@ -56,26 +56,26 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
     let mut stack: Vec<(gltf::Node, DVec3, DMat4, usize)> = roots.into_iter().map(|n| (n, DVec3::ZERO, DMat4::IDENTITY, 0)).collect();
     while let Some((node, anchor, parent, depth)) = stack.pop() {
         if depth > 256 {
-            return Err("node hierarchy deeper than 256 (a cycle?)".into());
+            return Err(ParseError::new("node hierarchy deeper than 256 (a cycle?)"));
         }
-        let raw_node = raw.nodes.get(node.index()).ok_or("node table unreadable")?;
+        let raw_node = raw.nodes.get(node.index()).ok_or_else(|| ParseError::new("node table unreadable"))?;
         let (whole, world) = crate::place::split(parent * raw_node.local());
         let anchor = anchor + whole;
         if !world.is_finite() || !anchor.is_finite() {
-            return Err(format!("node {} has a non-finite transform", node.index()));
+            return Err(ParseError::new(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(mesh) = node.mesh() {
-            let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| format!("mesh {}: {e}", mesh.index()))?;
+            let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| e.at(format!("mesh {}", mesh.index())))?;
             let name = node.name().or(mesh.name()).map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
             let prototype = Some(mesh.index() as u32);
             match &raw_node.extensions.instancing {
                 None => out.objects.push(Object { prototype, ..Object::placed(name, m, anchor, DAffine3::from_mat4(world)) }),
                 Some(inst) => {
-                    let at = |e: String| format!("node {} EXT_mesh_gpu_instancing: {e}", node.index());
+                    let at = |e: ParseError| e.at(format!("node {} EXT_mesh_gpu_instancing", node.index()));
                     for (k, t) in instances(inst, &doc, &buffers).map_err(at)?.into_iter().enumerate() {
                         let (whole, placement) = crate::place::split(world * t);
                         if !placement.is_finite() || !whole.is_finite() {
-                            return Err(at(format!("instance {k} has a non-finite transform")));
+                            return Err(at(ParseError::new(format!("instance {k} has a non-finite transform"))));
                         }
                         let placement = DAffine3::from_mat4(placement);
                         let o = Object::placed(format!("{name} instance {k}"), m.clone(), anchor + whole, placement);
@@ -94,7 +94,7 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, String> {
 
 /// The `gltf` crate's validation (indices in range, so that its accessors cannot panic),
 /// without its check of `extensionsRequired`.
-fn validate(root: &gltf::json::Root) -> Result<(), String> {
+fn validate(root: &gltf::json::Root) -> Result<(), ParseError> {
     use gltf::json::validation::Validate;
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, e| {
@@ -105,32 +105,33 @@ fn validate(root: &gltf::json::Root) -> Result<(), String> {
     });
     match errors.as_slice() {
         [] => Ok(()),
-        [first, ..] => Err(format!("not valid glTF: {first} ({} problems)", errors.len())),
+        [first, ..] => Err(ParseError::new(format!("not valid glTF: {first} ({} problems)", errors.len()))),
     }
 }
 
 /// Every buffer's bytes; EXT_meshopt_compression fallback buffers (no data of their own) are
 /// made as large as the views decoded into them, then filled by decoding.
-fn load_buffers(doc: &gltf::Document, raw: &Raw, base: &Path, mut blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, String> {
+fn load_buffers(doc: &gltf::Document, raw: &Raw, base: &Path, mut blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, ParseError> {
     let fallback = super::meshopt_views::fallback_sizes(doc, raw);
     let mut buffers = Vec::with_capacity(doc.buffers().len());
     for b in doc.buffers() {
         let is_fallback = raw.buffers.get(b.index()).and_then(|r| r.extensions.meshopt.as_ref()).is_some_and(|m| m.fallback);
         let data = if is_fallback {
             if fallback[b.index()] > b.length() {
-                return Err(format!(
+                return Err(ParseError::new(format!(
                     "buffer {}: compressed views decode to {} bytes, past its length {}",
                     b.index(),
                     fallback[b.index()],
                     b.length()
-                ));
+                )));
             }
             vec![0u8; fallback[b.index()]]
         } else {
             let d = gltf::buffer::Data::from_source_and_blob(b.source(), Some(base), &mut blob)
-                .map_err(|e| format!("cannot load a buffer (buffer {}): {e}", b.index()))?;
+                .map_err(|e| ParseError::caused(format!("cannot load a buffer (buffer {})", b.index()), e))?;
             if d.len() < b.length() {
-                return Err(format!("buffer {} has {} bytes, {} declared (file truncated?)", b.index(), d.len(), b.length()));
+                let (at, len, declared) = (b.index(), d.len(), b.length());
+                return Err(ParseError::new(format!("buffer {at} has {len} bytes, {declared} declared (file truncated?)")));
             }
             d.0
         };
@@ -141,14 +142,14 @@ fn load_buffers(doc: &gltf::Document, raw: &Raw, base: &Path, mut blob: Option<V
 }
 
 /// The triangles of every primitive of `mesh`, in the mesh's frame.
-fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], skipped: &mut Vec<String>) -> Result<Mesh, String> {
+fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], skipped: &mut Vec<String>) -> Result<Mesh, ParseError> {
     let mut m = Mesh::default();
     for prim in mesh.primitives() {
         if matches!(prim.mode(), Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
             skipped.push(format!("mesh {} primitive {}: mode {:?} has no triangles", mesh.index(), prim.index(), prim.mode()));
             continue;
         }
-        let (p, notes) = primitive(&prim, buffers).map_err(|e| format!("primitive {}: {e}", prim.index()))?;
+        let (p, notes) = primitive(&prim, buffers).map_err(|e| e.at(format!("primitive {}", prim.index())))?;
         skipped.extend(notes.into_iter().map(|n| format!("mesh {} primitive {}: {n}", mesh.index(), prim.index())));
         m.append(&p);
     }
@@ -156,17 +157,17 @@ fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], skipped: &mut Vec<String>) -> R
 }
 
 /// A primitive's triangles and colours, and what of its material was left out.
-fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<String>), String> {
-    let pos = prim.get(&gltf::Semantic::Positions).ok_or("no POSITION attribute")?;
+fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<String>), ParseError> {
+    let pos = prim.get(&gltf::Semantic::Positions).ok_or_else(|| ParseError::new("no POSITION attribute"))?;
     if pos.dimensions() != Dimensions::Vec3 {
-        return Err(format!("POSITION is {:?}, expected VEC3", pos.dimensions()));
+        return Err(ParseError::new(format!("POSITION is {:?}, expected VEC3", pos.dimensions())));
     }
-    let positions: Vec<[f32; 3]> = floats(&pos, buffers).map_err(|e| format!("POSITION: {e}"))?;
+    let positions: Vec<[f32; 3]> = floats(&pos, buffers).map_err(|e| e.at("POSITION"))?;
     let order: Vec<u32> = match prim.indices() {
         Some(idx) => {
             check(&idx, buffers)?;
             let reader = prim.reader(|b| buffers.get(b.index()).copied());
-            reader.read_indices().ok_or("index data missing")?.into_u32().collect()
+            reader.read_indices().ok_or_else(|| ParseError::new("index data missing"))?.into_u32().collect()
         }
         None => (0..positions.len() as u32).collect(),
     };
@@ -202,7 +203,7 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
 /// The primitive's linear colour per vertex: COLOR_0 times the material's baseColorFactor
 /// (glTF 2.0 sec. 3.9.2). None for a primitive with neither a material nor COLOR_0 (glTF's
 /// default material is plain white, which would hide the objects from each other).
-fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<Option<Vec<[f32; 4]>>, String> {
+fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<Option<Vec<[f32; 4]>>, ParseError> {
     let material = prim.material();
     let color0 = prim.get(&gltf::Semantic::Colors(0));
     if material.index().is_none() && color0.is_none() {
@@ -215,11 +216,11 @@ fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<
             let rgba = match acc.dimensions() {
                 Dimensions::Vec3 => floats::<3>(&acc, buffers).map(|v| v.into_iter().map(|[r, g, b]| [r, g, b, 1.0]).collect()),
                 Dimensions::Vec4 => floats::<4>(&acc, buffers),
-                d => return Err(format!("COLOR_0 is {d:?}, expected VEC3 or VEC4")),
+                d => return Err(ParseError::new(format!("COLOR_0 is {d:?}, expected VEC3 or VEC4"))),
             }
-            .map_err(|e| format!("COLOR_0: {e}"))?;
+            .map_err(|e| e.at("COLOR_0"))?;
             if rgba.len() != vertices {
-                return Err(format!("COLOR_0 has {} elements for {vertices} vertices", rgba.len()));
+                return Err(ParseError::new(format!("COLOR_0 has {} elements for {vertices} vertices", rgba.len())));
             }
             rgba
         }
@@ -245,19 +246,20 @@ fn triangle_list(mode: Mode, v: &[u32]) -> Vec<u32> {
 }
 
 /// The per-instance transforms of EXT_mesh_gpu_instancing (T · R · S each).
-fn instances(inst: &gltf_raw::Instancing, doc: &gltf::Document, buffers: &[&[u8]]) -> Result<Vec<DMat4>, String> {
-    let accessor = |name: &str| -> Result<Option<Accessor>, String> {
-        inst.attributes.get(name).map(|&i| doc.accessors().nth(i).ok_or(format!("{name} accessor {i} does not exist"))).transpose()
+fn instances(inst: &gltf_raw::Instancing, doc: &gltf::Document, buffers: &[&[u8]]) -> Result<Vec<DMat4>, ParseError> {
+    let accessor = |name: &str| -> Result<Option<Accessor>, ParseError> {
+        let missing = |i: usize| ParseError::new(format!("{name} accessor {i} does not exist"));
+        inst.attributes.get(name).map(|&i| doc.accessors().nth(i).ok_or_else(|| missing(i))).transpose()
     };
-    let vec3s = |name: &str| -> Result<Option<Vec<[f32; 3]>>, String> {
-        accessor(name)?.map(|a| floats::<3>(&a, buffers).map_err(|e| format!("{name}: {e}"))).transpose()
+    let vec3s = |name: &str| -> Result<Option<Vec<[f32; 3]>>, ParseError> {
+        accessor(name)?.map(|a| floats::<3>(&a, buffers).map_err(|e| e.at(name))).transpose()
     };
     let (t, s) = (vec3s("TRANSLATION")?, vec3s("SCALE")?);
-    let r = accessor("ROTATION")?.map(|a| floats::<4>(&a, buffers).map_err(|e| format!("ROTATION: {e}"))).transpose()?;
+    let r = accessor("ROTATION")?.map(|a| floats::<4>(&a, buffers).map_err(|e| e.at("ROTATION"))).transpose()?;
     let counts: Vec<usize> = [t.as_ref().map(Vec::len), r.as_ref().map(Vec::len), s.as_ref().map(Vec::len)].into_iter().flatten().collect();
-    let count = *counts.first().ok_or("no TRANSLATION, ROTATION or SCALE attribute")?;
+    let count = *counts.first().ok_or_else(|| ParseError::new("no TRANSLATION, ROTATION or SCALE attribute"))?;
     if counts.iter().any(|&c| c != count) {
-        return Err(format!("attribute counts differ: {counts:?}"));
+        return Err(ParseError::new(format!("attribute counts differ: {counts:?}")));
     }
     let d3 = |v: &Option<Vec<[f32; 3]>>, k: usize, or: DVec3| v.as_ref().map_or(or, |v| Vec3::from_array(v[k]).as_dvec3());
     Ok((0..count)
@@ -271,7 +273,7 @@ fn instances(inst: &gltf_raw::Instancing, doc: &gltf::Document, buffers: &[&[u8]
 /// A float or integer accessor of N components as f32: normalized integers mapped to [-1, 1]
 /// or [0, 1] as glTF 2.0 sec. 3.11 defines, others as their values (KHR_mesh_quantization's
 /// positions: the node transform dequantizes them, in f64).
-fn floats<const N: usize>(acc: &Accessor, buffers: &[&[u8]]) -> Result<Vec<[f32; N]>, String>
+fn floats<const N: usize>(acc: &Accessor, buffers: &[&[u8]]) -> Result<Vec<[f32; N]>, ParseError>
 where
     [f32; N]: Item,
     [i8; N]: Item,
@@ -293,32 +295,32 @@ where
         DataType::I16 => items::<[i16; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| scale(c as f32, 32767.0))).collect(),
         DataType::U16 => items::<[u16; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| scale(c as f32, 65535.0))).collect(),
         DataType::U32 if !norm => items::<[u32; N]>(acc, buffers)?.into_iter().map(|v| v.map(|c| c as f32)).collect(),
-        t => return Err(format!("component type {t:?}{} is not allowed here", if norm { " normalized" } else { "" })),
+        t => return Err(ParseError::new(format!("component type {t:?}{} is not allowed here", if norm { " normalized" } else { "" }))),
     })
 }
 
 /// An accessor's elements, sparse substitution applied by the `gltf` crate.
-fn items<T: Item + Copy>(acc: &Accessor, buffers: &[&[u8]]) -> Result<Vec<T>, String> {
+fn items<T: Item + Copy>(acc: &Accessor, buffers: &[&[u8]]) -> Result<Vec<T>, ParseError> {
     let iter = gltf::accessor::Iter::<T>::new(acc.clone(), |b| buffers.get(b.index()).copied());
-    let v: Vec<T> = iter.ok_or(format!("accessor {} data missing", acc.index()))?.collect();
+    let v: Vec<T> = iter.ok_or_else(|| ParseError::new(format!("accessor {} data missing", acc.index())))?.collect();
     if v.len() != acc.count() {
-        return Err(format!("accessor {} has {} of {} elements", acc.index(), v.len(), acc.count()));
+        return Err(ParseError::new(format!("accessor {} has {} of {} elements", acc.index(), v.len(), acc.count())));
     }
     Ok(v)
 }
 
 /// Checks that `acc` (and its sparse indices and values) lies inside its buffer view and the
 /// view inside its buffer, so that reading it cannot go out of bounds.
-fn check(acc: &Accessor, buffers: &[&[u8]]) -> Result<(), String> {
+fn check(acc: &Accessor, buffers: &[&[u8]]) -> Result<(), ParseError> {
     let elem = acc.size();
     match (acc.view(), acc.sparse()) {
-        (None, None) => return Err(format!("accessor {} has no buffer view", acc.index())),
+        (None, None) => return Err(ParseError::new(format!("accessor {} has no buffer view", acc.index()))),
         (Some(view), _) => in_view(acc.index(), &view, acc.offset(), acc.count(), elem, buffers)?,
         (None, Some(_)) => {}
     }
     if let Some(sp) = acc.sparse() {
         if sp.count() == 0 || sp.count() > acc.count() {
-            return Err(format!("accessor {}: sparse count {} outside 1..={}", acc.index(), sp.count(), acc.count()));
+            return Err(ParseError::new(format!("accessor {}: sparse count {} outside 1..={}", acc.index(), sp.count(), acc.count())));
         }
         let (i, v) = (sp.indices(), sp.values());
         in_view(acc.index(), &i.view(), i.offset(), sp.count(), i.index_type().size(), buffers)?;
@@ -327,7 +329,7 @@ fn check(acc: &Accessor, buffers: &[&[u8]]) -> Result<(), String> {
     Ok(())
 }
 
-fn in_view(acc: usize, view: &gltf::buffer::View, offset: usize, count: usize, elem: usize, buffers: &[&[u8]]) -> Result<(), String> {
+fn in_view(acc: usize, view: &gltf::buffer::View, offset: usize, count: usize, elem: usize, buffers: &[&[u8]]) -> Result<(), ParseError> {
     let len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
     let stride = view.stride().unwrap_or(elem).max(elem);
     let view_end = view.offset().checked_add(view.length());
@@ -336,7 +338,8 @@ fn in_view(acc: usize, view: &gltf::buffer::View, offset: usize, count: usize, e
         n => (n - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(elem)),
     };
     if view_end.is_none_or(|e| e > len) || need.is_none_or(|n| n > view.length()) {
-        return Err(format!("accessor {acc} reaches past the end of its buffer (buffer {} has {len} bytes)", view.buffer().index()));
+        let buffer = view.buffer().index();
+        return Err(ParseError::new(format!("accessor {acc} reaches past the end of its buffer (buffer {buffer} has {len} bytes)")));
     }
     Ok(())
 }

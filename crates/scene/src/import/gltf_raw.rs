@@ -3,6 +3,7 @@
 //! node, where f32 is off by up to 32 units), and the extensions osw reads itself
 //! (EXT_meshopt_compression, EXT_mesh_gpu_instancing) or refuses (KHR_draco_mesh_compression).
 
+use super::ParseError;
 use glam::{DMat4, DQuat, DVec3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -112,18 +113,18 @@ pub struct Primitive {
 impl Raw {
     /// Refuses a file that requires an extension osw cannot honour, naming it; Draco with how
     /// to re-export.
-    pub fn check_extensions(&self) -> Result<(), String> {
+    pub fn check_extensions(&self) -> Result<(), ParseError> {
         let draco = self.meshes.iter().flat_map(|m| &m.primitives).any(|p| p.extensions.contains_key(DRACO));
         if draco || self.extensions_required.iter().any(|e| e == DRACO) {
-            return Err(format!(
+            return Err(ParseError::new(format!(
                 "{DRACO}: Draco-compressed meshes are not read (no well-kept pure-Rust decoder); re-export without Draco, \
                  e.g. `gltfpack -i in.glb -o out.glb` (quantized, or -cc for EXT_meshopt_compression) or \
                  `gltf-transform meshopt in.glb out.glb`"
-            ));
+            )));
         }
         match self.extensions_required.iter().find(|e| !READ.contains(&e.as_str()) && !IGNORABLE_PREFIXES.iter().any(|p| e.starts_with(p)))
         {
-            Some(e) => Err(format!("requires extension {e}, which osw does not read (it reads {})", READ.join(", "))),
+            Some(e) => Err(ParseError::new(format!("requires extension {e}, which osw does not read (it reads {})", READ.join(", ")))),
             None => Ok(()),
         }
     }
@@ -132,12 +133,14 @@ impl Raw {
 impl Raw {
     /// Checks what the `gltf` crate's validation reads unchecked (gltf-json 1.4.1 indexes the
     /// accessor of a primitive's POSITION before checking that it exists, and panics).
-    pub fn check_attributes(&self) -> Result<(), String> {
+    pub fn check_attributes(&self) -> Result<(), ParseError> {
         for (m, mesh) in self.meshes.iter().enumerate() {
             for (p, prim) in mesh.primitives.iter().enumerate() {
                 for (name, index) in &prim.attributes {
                     if index.as_u64().is_none_or(|i| i >= self.accessors.len() as u64) {
-                        return Err(format!("meshes[{m}].primitives[{p}].attributes.{name}: accessor {index} does not exist"));
+                        return Err(ParseError::new(format!(
+                            "meshes[{m}].primitives[{p}].attributes.{name}: accessor {index} does not exist"
+                        )));
                     }
                 }
             }
@@ -177,10 +180,10 @@ mod tests {
     #[test]
     fn draco_and_unknown_required_extensions_are_refused_by_name() {
         let raw: Raw = serde_json::from_str(r#"{"meshes":[{"primitives":[{"extensions":{"KHR_draco_mesh_compression":{}}}]}]}"#).unwrap();
-        let e = raw.check_extensions().unwrap_err();
+        let e = raw.check_extensions().unwrap_err().to_string();
         assert!(e.contains("KHR_draco_mesh_compression") && e.contains("gltfpack"), "{e}");
         let raw: Raw = serde_json::from_str(r#"{"extensionsRequired":["KHR_mesh_quantization","EXT_weird"]}"#).unwrap();
-        assert!(raw.check_extensions().unwrap_err().contains("EXT_weird"));
+        assert!(raw.check_extensions().unwrap_err().to_string().contains("EXT_weird"));
         let raw: Raw = serde_json::from_str(r#"{"extensionsRequired":["KHR_mesh_quantization","KHR_texture_basisu"]}"#).unwrap();
         assert!(raw.check_extensions().is_ok());
     }
@@ -188,7 +191,7 @@ mod tests {
     #[test]
     fn attributes_naming_missing_accessors_are_refused() {
         let raw: Raw = serde_json::from_str(r#"{"accessors":[{}],"meshes":[{"primitives":[{"attributes":{"POSITION":1}}]}]}"#).unwrap();
-        assert!(raw.check_attributes().unwrap_err().contains("POSITION: accessor 1 does not exist"));
+        assert!(raw.check_attributes().unwrap_err().to_string().contains("POSITION: accessor 1 does not exist"));
         let raw: Raw = serde_json::from_str(r#"{"accessors":[{}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]}"#).unwrap();
         assert!(raw.check_attributes().is_ok());
     }

@@ -2,6 +2,7 @@
 //! Each such view is decoded into its place in the view's own buffer (the file's fallback
 //! buffer, which has no data of its own), so that accessors then read it as any other view.
 
+use super::ParseError;
 use super::gltf_raw::{MeshoptView, Raw};
 
 /// A compressed view may claim at most this many decoded bytes per compressed byte (plus a
@@ -25,27 +26,26 @@ pub fn fallback_sizes(doc: &gltf::Document, raw: &Raw) -> Vec<usize> {
 }
 
 /// Decodes every compressed view of `doc` into `buffers`.
-pub fn decode_views(doc: &gltf::Document, raw: &Raw, buffers: &mut [Vec<u8>]) -> Result<(), String> {
+pub fn decode_views(doc: &gltf::Document, raw: &Raw, buffers: &mut [Vec<u8>]) -> Result<(), ParseError> {
     for view in doc.views() {
         let Some(m) = raw.buffer_views.get(view.index()).and_then(|v| v.extensions.meshopt.as_ref()) else { continue };
-        let at = |e: String| {
-            format!("bufferView {} (EXT_meshopt_compression {} {}): {e}", view.index(), m.mode, m.filter.as_deref().unwrap_or("NONE"))
-        };
+        let place = format!("bufferView {} (EXT_meshopt_compression {} {})", view.index(), m.mode, m.filter.as_deref().unwrap_or("NONE"));
+        let bad = |what: String| ParseError::new(what).at(&place);
         let src = buffers
             .get(m.buffer)
             .and_then(|b| b.get(m.byte_offset..m.byte_offset.checked_add(m.byte_length)?))
-            .ok_or_else(|| at(format!("its {} compressed bytes at {} reach past buffer {}", m.byte_length, m.byte_offset, m.buffer)))?;
+            .ok_or_else(|| bad(format!("its {} compressed bytes at {} reach past buffer {}", m.byte_length, m.byte_offset, m.buffer)))?;
         let n =
             m.count.checked_mul(m.byte_stride).filter(|&n| n <= view.length()).ok_or_else(|| {
-                at(format!("{} elements of {} bytes do not fit the view's {} bytes", m.count, m.byte_stride, view.length()))
+                bad(format!("{} elements of {} bytes do not fit the view's {} bytes", m.count, m.byte_stride, view.length()))
             })?;
         if n > src.len().saturating_mul(MAX_RATIO) + SLACK {
-            return Err(at(format!("claims {n} decoded bytes from {} compressed: not a meshopt stream", src.len())));
+            return Err(bad(format!("claims {n} decoded bytes from {} compressed: not a meshopt stream", src.len())));
         }
-        let decoded = decode(m, src).map_err(at)?;
+        let decoded = decode(m, src).map_err(|e| e.at(&place))?;
         let dst = buffers[view.buffer().index()]
             .get_mut(view.offset()..view.offset() + n)
-            .ok_or_else(|| at(format!("the view reaches past buffer {}", view.buffer().index())))?;
+            .ok_or_else(|| bad(format!("the view reaches past buffer {}", view.buffer().index())))?;
         dst.copy_from_slice(&bytemuck::cast_slice::<u32, u8>(&decoded)[..n]);
     }
     Ok(())
@@ -53,9 +53,9 @@ pub fn decode_views(doc: &gltf::Document, raw: &Raw, buffers: &mut [Vec<u8>]) ->
 
 /// Decodes one view's stream and filter (EXT_meshopt_compression, "Decoding"). Words of 4
 /// bytes keep the filters' element types aligned.
-fn decode(m: &MeshoptView, src: &[u8]) -> Result<Vec<u32>, String> {
+fn decode(m: &MeshoptView, src: &[u8]) -> Result<Vec<u32>, ParseError> {
     let (count, stride) = (m.count, m.byte_stride);
-    let bad = |e: meshopt::Error| format!("corrupt or truncated stream ({e:?})");
+    let bad = |e: meshopt::Error| ParseError::caused("corrupt or truncated stream", e);
     let words: Vec<u32> = match (m.mode.as_str(), stride) {
         ("ATTRIBUTES", s) if s % 4 == 0 && (4..=256).contains(&s) => {
             let mut out = vec![0u32; count * s / 4];
@@ -65,7 +65,7 @@ fn decode(m: &MeshoptView, src: &[u8]) -> Result<Vec<u32>, String> {
             // vertices of `s` bytes, and it reads at most `src.len()` bytes of `src`.
             let rc = unsafe { meshopt::ffi::meshopt_decodeVertexBuffer(out.as_mut_ptr().cast(), count, s, src.as_ptr(), src.len()) };
             if rc != 0 {
-                return Err(format!("corrupt or truncated vertex stream (meshopt code {rc})"));
+                return Err(ParseError::new(format!("corrupt or truncated vertex stream (meshopt code {rc})")));
             }
             out
         }
@@ -73,7 +73,7 @@ fn decode(m: &MeshoptView, src: &[u8]) -> Result<Vec<u32>, String> {
         ("TRIANGLES", 4) if count % 3 == 0 => meshopt::decode_index_buffer::<u32>(src, count).map_err(bad)?,
         ("INDICES", 2) => widen16(meshopt::decode_index_sequence::<u16>(src, count).map_err(bad)?),
         ("INDICES", 4) => meshopt::decode_index_sequence::<u32>(src, count).map_err(bad)?,
-        (mode, s) => return Err(format!("mode {mode} with {count} elements of {s} bytes is not a valid combination")),
+        (mode, s) => return Err(ParseError::new(format!("mode {mode} with {count} elements of {s} bytes is not a valid combination"))),
     };
     filter(m, words)
 }
@@ -85,10 +85,10 @@ fn widen16(v: Vec<u16>) -> Vec<u32> {
     w
 }
 
-fn filter(m: &MeshoptView, mut w: Vec<u32>) -> Result<Vec<u32>, String> {
+fn filter(m: &MeshoptView, mut w: Vec<u32>) -> Result<Vec<u32>, ParseError> {
     let f = m.filter.as_deref().unwrap_or("NONE");
     if f != "NONE" && m.mode != "ATTRIBUTES" {
-        return Err(format!("filter {f} on mode {} (filters apply to ATTRIBUTES only)", m.mode));
+        return Err(ParseError::new(format!("filter {f} on mode {} (filters apply to ATTRIBUTES only)", m.mode)));
     }
     match (f, m.byte_stride) {
         ("NONE", _) => {}
@@ -101,7 +101,7 @@ fn filter(m: &MeshoptView, mut w: Vec<u32>) -> Result<Vec<u32>, String> {
         ("EXPONENTIAL", 8) => meshopt::decode_filter_exp::<2>(bytemuck::cast_slice_mut(&mut w)),
         ("EXPONENTIAL", 12) => meshopt::decode_filter_exp::<3>(bytemuck::cast_slice_mut(&mut w)),
         ("EXPONENTIAL", 16) => meshopt::decode_filter_exp::<4>(bytemuck::cast_slice_mut(&mut w)),
-        (f, s) => return Err(format!("filter {f} with a {s}-byte stride is not one EXT_meshopt_compression defines")),
+        (f, s) => return Err(ParseError::new(format!("filter {f} with a {s}-byte stride is not one EXT_meshopt_compression defines"))),
     }
     Ok(w)
 }
@@ -138,9 +138,9 @@ mod tests {
         for n in [0, 1, enc.len() / 2, enc.len() - 1] {
             assert!(decode(&view("ATTRIBUTES", 64, 12, None), &enc[..n]).is_err(), "prefix {n}");
         }
-        assert!(decode(&view("ATTRIBUTES", 64, 10, None), &enc).unwrap_err().contains("not a valid combination"));
+        assert!(decode(&view("ATTRIBUTES", 64, 10, None), &enc).unwrap_err().to_string().contains("not a valid combination"));
         assert!(decode(&view("TRIANGLES", 4, 2, None), &enc).is_err());
-        assert!(decode(&view("ATTRIBUTES", 64, 12, Some("OCTAHEDRAL")), &enc).unwrap_err().contains("OCTAHEDRAL"));
-        assert!(decode(&view("ATTRIBUTES", 64, 12, Some("SPIRAL")), &enc).unwrap_err().contains("SPIRAL"));
+        assert!(decode(&view("ATTRIBUTES", 64, 12, Some("OCTAHEDRAL")), &enc).unwrap_err().to_string().contains("OCTAHEDRAL"));
+        assert!(decode(&view("ATTRIBUTES", 64, 12, Some("SPIRAL")), &enc).unwrap_err().to_string().contains("SPIRAL"));
     }
 }

@@ -11,16 +11,61 @@ pub mod ply;
 use crate::mesh::Object;
 use std::path::{Path, PathBuf};
 
-/// An input that cannot be read. The message names the file and what is wrong.
+/// An input that cannot be read: the file, and what is wrong as its source.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
-    /// (Not a `source`: the message already says it, and once is enough.)
-    #[error("{path}: {error}")]
-    Io { path: PathBuf, error: std::io::Error },
-    #[error("{path}: {what}")]
-    Malformed { path: PathBuf, what: String },
+    #[error("{path}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}")]
+    Malformed {
+        path: PathBuf,
+        #[source]
+        source: ParseError,
+    },
     #[error("{0}: unknown input format (expected .gltf, .glb, .obj or .ply)")]
     UnknownFormat(PathBuf),
+}
+
+impl ImportError {
+    /// An io error reading the file at `path`.
+    pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ImportError {
+        move |source| ImportError::Io { path: path.to_owned(), source }
+    }
+
+    /// The contents of the file at `path` not being what they should.
+    pub(crate) fn malformed(path: &Path) -> impl FnOnce(ParseError) -> ImportError {
+        move |source| ImportError::Malformed { path: path.to_owned(), source }
+    }
+}
+
+/// What is wrong with an input's contents, led by where in it (a mesh, a primitive, an
+/// element); the error of the library that read it, if any, is its source.
+#[derive(Debug, thiserror::Error)]
+#[error("{what}")]
+pub struct ParseError {
+    what: String,
+    #[source]
+    source: Option<Box<dyn std::error::Error + Send + Sync>>,
+}
+
+impl ParseError {
+    pub(crate) fn new(what: impl Into<String>) -> ParseError {
+        ParseError { what: what.into(), source: None }
+    }
+
+    /// `what`, caused by `source`.
+    pub(crate) fn caused(what: impl Into<String>, source: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> ParseError {
+        ParseError { what: what.into(), source: Some(source.into()) }
+    }
+
+    /// The error at `place`: "place: what".
+    pub(crate) fn at(self, place: impl std::fmt::Display) -> ParseError {
+        ParseError { what: format!("{place}: {}", self.what), ..self }
+    }
 }
 
 /// What an importer skipped with a warning (the build report lists these).

@@ -5,7 +5,7 @@
 //! its translucency. All objects of a file share one f32 anchor (see
 //! [`crate::place`]).
 
-use super::{ImportError, Imported};
+use super::{ImportError, Imported, ParseError};
 use crate::mesh::{Mesh, Object};
 use glam::{DAffine3, DVec3};
 use std::cell::RefCell;
@@ -13,21 +13,21 @@ use std::path::{Path, PathBuf};
 
 /// Reads the OBJ file at `path` and the material libraries it names.
 pub fn read(path: &Path) -> Result<Imported, ImportError> {
-    let file = std::fs::File::open(path).map_err(|error| ImportError::Io { path: path.to_owned(), error })?;
+    let file = std::fs::File::open(path).map_err(ImportError::io(path))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse(&mut std::io::BufReader::new(file), base).map_err(|what| ImportError::Malformed { path: path.to_owned(), what })
+    parse(&mut std::io::BufReader::new(file), base).map_err(ImportError::malformed(path))
 }
 
 /// Parses OBJ text whose material libraries lie in `base`. Errors say what is wrong.
-pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, String> {
-    let failed_mtl: RefCell<Option<(PathBuf, String)>> = RefCell::new(None);
+pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, ParseError> {
+    let failed_mtl: RefCell<Option<(PathBuf, Box<dyn std::error::Error + Send + Sync>)>> = RefCell::new(None);
     let load_mtl = |name: &Path| {
         let full = base.join(name);
         let r = tobj::load_mtl(&full);
         if let Err(e) = &r {
-            let why = match std::fs::metadata(&full) {
-                Err(io) => io.to_string(),
-                Ok(_) => e.to_string(),
+            let why: Box<dyn std::error::Error + Send + Sync> = match std::fs::metadata(&full) {
+                Err(io) => Box::new(io),
+                Ok(_) => Box::new(*e),
             };
             failed_mtl.borrow_mut().get_or_insert((full, why));
         }
@@ -36,9 +36,9 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, S
     let opts = tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
     let (models, materials) = tobj::load_obj_buf(obj, &opts, load_mtl).map_err(describe)?;
     if let Some((mtl, why)) = failed_mtl.into_inner() {
-        return Err(format!("material library {}: {why}", mtl.display()));
+        return Err(ParseError::caused(format!("material library {}", mtl.display()), why));
     }
-    let materials = materials.map_err(|e| format!("material library: {e}"))?;
+    let materials = materials.map_err(|e| ParseError::caused("material library", e))?;
 
     let points = models.iter().flat_map(|m| m.mesh.positions.chunks_exact(3)).map(|p| DVec3::new(p[0], p[1], p[2]));
     let anchor = crate::place::anchor(points);
@@ -63,9 +63,9 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, S
     Ok(Imported { objects, skipped: Vec::new() })
 }
 
-fn describe(e: tobj::LoadError) -> String {
+fn describe(e: tobj::LoadError) -> ParseError {
     match e {
-        tobj::LoadError::FaceVertexOutOfBounds => "a face names a vertex the file does not have (index out of range)".into(),
-        e => format!("not a valid OBJ file: {e}"),
+        tobj::LoadError::FaceVertexOutOfBounds => ParseError::new("a face names a vertex the file does not have (index out of range)"),
+        e => ParseError::caused("not a valid OBJ file", e),
     }
 }

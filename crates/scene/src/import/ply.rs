@@ -5,7 +5,7 @@
 //! or floats from 0 to 1) are their colours, an alpha below 1 translucent; every other element
 //! and property is skipped.
 
-use super::ImportError;
+use super::{ImportError, ParseError};
 use crate::mesh::{Mesh, Object};
 use std::path::Path;
 
@@ -22,8 +22,8 @@ enum Scalar {
 }
 
 impl Scalar {
-    fn parse(s: &str) -> Option<Scalar> {
-        Some(match s {
+    fn parse(s: &str) -> Result<Scalar, ParseError> {
+        Ok(match s {
             "char" | "int8" => Scalar::I8,
             "uchar" | "uint8" => Scalar::U8,
             "short" | "int16" => Scalar::I16,
@@ -32,7 +32,7 @@ impl Scalar {
             "uint" | "uint32" => Scalar::U32,
             "float" | "float32" => Scalar::F32,
             "double" | "float64" => Scalar::F64,
-            _ => return None,
+            _ => return Err(ParseError::new(format!("bad type {s}"))),
         })
     }
 
@@ -68,16 +68,16 @@ enum Body<'a> {
 }
 
 impl Body<'_> {
-    fn value(&mut self, ty: Scalar) -> Result<f64, String> {
+    fn value(&mut self, ty: Scalar) -> Result<f64, ParseError> {
         match self {
             Body::Ascii(tokens) => {
-                let t = tokens.next().ok_or("unexpected end of data")?;
-                t.parse::<f64>().map_err(|_| format!("bad number {t:?}"))
+                let t = tokens.next().ok_or_else(|| ParseError::new("unexpected end of data"))?;
+                t.parse::<f64>().map_err(|e| ParseError::caused(format!("bad number {t:?}"), e))
             }
             Body::Binary { bytes, big_endian } => {
                 let n = ty.size();
                 if bytes.len() < n {
-                    return Err("unexpected end of data (file truncated?)".into());
+                    return Err(ParseError::new("unexpected end of data (file truncated?)"));
                 }
                 let (v, rest) = bytes.split_at(n);
                 *bytes = rest;
@@ -105,25 +105,31 @@ impl Body<'_> {
 
 /// Reads the PLY file at `path` as one object named after the file.
 pub fn read(path: &Path) -> Result<Object, ImportError> {
-    let bytes = std::fs::read(path).map_err(|error| ImportError::Io { path: path.to_owned(), error })?;
-    let mut o = parse(&bytes).map_err(|what| ImportError::Malformed { path: path.to_owned(), what })?;
+    let bytes = std::fs::read(path).map_err(ImportError::io(path))?;
+    let mut o = parse(&bytes).map_err(ImportError::malformed(path))?;
     o.name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     Ok(o)
 }
 
 /// Parses PLY bytes into an unnamed object. Errors say what is wrong; the mesh is not cleaned
 /// up.
-pub fn parse(bytes: &[u8]) -> Result<Object, String> {
-    let end = find(bytes, b"end_header").ok_or("no end_header line: not a PLY file, or truncated")?;
-    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "header is not text")?;
+pub fn parse(bytes: &[u8]) -> Result<Object, ParseError> {
+    let (elements, src) = header(bytes)?;
+    read_body(&elements, src, bytes.len())
+}
+
+/// The elements the header of `bytes` declares, and the source of their values after it.
+fn header(bytes: &[u8]) -> Result<(Vec<Element>, Body<'_>), ParseError> {
+    let end = find(bytes, b"end_header").ok_or_else(|| ParseError::new("no end_header line: not a PLY file, or truncated"))?;
+    let head = std::str::from_utf8(&bytes[..end]).map_err(|e| ParseError::caused("header is not text", e))?;
     let mut body = &bytes[end + b"end_header".len()..];
     body = match body {
         [b'\r', b'\n', rest @ ..] | [b'\n', rest @ ..] => rest,
         _ => body,
     };
-    let mut lines = header.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("comment") && !l.starts_with("obj_info"));
+    let mut lines = head.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("comment") && !l.starts_with("obj_info"));
     if lines.next() != Some("ply") {
-        return Err("does not start with \"ply\"".into());
+        return Err(ParseError::new("does not start with \"ply\""));
     }
     let mut format = None;
     let mut elements: Vec<Element> = Vec::new();
@@ -131,54 +137,58 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
         let w: Vec<&str> = line.split_ascii_whitespace().collect();
         match w.as_slice() {
             ["format", f @ ("ascii" | "binary_little_endian" | "binary_big_endian"), _] => format = Some(*f),
-            ["format", f, _] => return Err(format!("unsupported format {f} (ascii, binary_little_endian and binary_big_endian are)")),
+            ["format", f, _] => {
+                return Err(ParseError::new(format!("unsupported format {f} (ascii, binary_little_endian and binary_big_endian are)")));
+            }
             ["element", name, count] => {
-                let count = count.parse().map_err(|_| format!("bad element count {count:?}"))?;
+                let count = count.parse::<usize>().map_err(|e| ParseError::caused(format!("bad element count {count:?}"), e))?;
                 elements.push(Element { name: name.to_string(), count, props: Vec::new() });
             }
             ["property", "list", c, t, name] => {
-                let (list, ty) = (Scalar::parse(c).ok_or(format!("bad type {c}"))?, Scalar::parse(t).ok_or(format!("bad type {t}"))?);
-                elements.last_mut().ok_or("property before any element")?.props.push(Property {
-                    name: name.to_string(),
-                    list: Some(list),
-                    ty,
-                });
+                let property = Property { name: name.to_string(), list: Some(Scalar::parse(c)?), ty: Scalar::parse(t)? };
+                elements.last_mut().ok_or_else(|| ParseError::new("property before any element"))?.props.push(property);
             }
             ["property", t, name] => {
-                let ty = Scalar::parse(t).ok_or(format!("bad type {t}"))?;
-                elements.last_mut().ok_or("property before any element")?.props.push(Property { name: name.to_string(), list: None, ty });
+                let property = Property { name: name.to_string(), list: None, ty: Scalar::parse(t)? };
+                elements.last_mut().ok_or_else(|| ParseError::new("property before any element"))?.props.push(property);
             }
-            _ => return Err(format!("bad header line {line:?}")),
+            _ => return Err(ParseError::new(format!("bad header line {line:?}"))),
         }
     }
-    let text;
-    let mut src = match format.ok_or("no format line")? {
+    let src = match format.ok_or_else(|| ParseError::new("no format line"))? {
         "ascii" => {
-            text = std::str::from_utf8(body).map_err(|_| "ASCII body is not text")?;
+            let text = std::str::from_utf8(body).map_err(|e| ParseError::caused("ASCII body is not text", e))?;
             Body::Ascii(text.split_ascii_whitespace())
         }
         f => Body::Binary { bytes: body, big_endian: f == "binary_big_endian" },
     };
+    Ok((elements, src))
+}
+
+/// Reads the values of `elements` from `src` into an unnamed object: the vertices' positions
+/// and colours, the faces fanned into triangles. `bytes`, the file's length, bounds what a
+/// lying vertex count reserves.
+fn read_body(elements: &[Element], mut src: Body<'_>, bytes: usize) -> Result<Object, ParseError> {
     let mut positions: Vec<[f64; 3]> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
     let mut colors: Vec<[u8; 4]> = Vec::new();
-    for el in &elements {
+    for el in elements {
         let xyz = ["x", "y", "z"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
         let rgb = ["red", "green", "blue", "alpha"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
         let has_rgb = el.name == "vertex" && rgb[..3].iter().all(Option::is_some);
         let faces = el.props.iter().position(|p| (p.name == "vertex_indices" || p.name == "vertex_index") && p.list.is_some());
         if el.name == "vertex" && xyz.iter().any(Option::is_none) {
-            return Err("vertex element without x, y, z".into());
+            return Err(ParseError::new("vertex element without x, y, z"));
         }
         // Guard the reservation against a lying count.
         if el.name == "vertex" {
-            positions.reserve(el.count.min(bytes.len() / 12 + 1));
+            positions.reserve(el.count.min(bytes / 12 + 1));
         }
         for i in 0..el.count {
             let mut p = [0f64; 3];
             let mut c = [0u8, 0, 0, 255];
             for (k, prop) in el.props.iter().enumerate() {
-                let at = |e: String| format!("element {} {i}, property {}: {e}", el.name, prop.name);
+                let at = |e: ParseError| e.at(format!("element {} {i}, property {}", el.name, prop.name));
                 match prop.list {
                     None => {
                         let v = src.value(prop.ty).map_err(at)?;
@@ -193,12 +203,12 @@ pub fn parse(bytes: &[u8]) -> Result<Object, String> {
                     Some(count_ty) => {
                         let n = src.value(count_ty).map_err(at)?;
                         if !(0.0..=1e6).contains(&n) {
-                            return Err(at(format!("bad list length {n}")));
+                            return Err(at(ParseError::new(format!("bad list length {n}"))));
                         }
-                        let items = (0..n as usize).map(|_| src.value(prop.ty)).collect::<Result<Vec<f64>, String>>().map_err(at)?;
+                        let items = (0..n as usize).map(|_| src.value(prop.ty)).collect::<Result<Vec<f64>, ParseError>>().map_err(at)?;
                         if el.name == "face" && faces == Some(k) {
                             if items.iter().any(|&v| v < 0.0 || v > u32::MAX as f64 || v.fract() != 0.0) {
-                                return Err(at(format!("bad vertex index in {items:?}")));
+                                return Err(at(ParseError::new(format!("bad vertex index in {items:?}"))));
                             }
                             for j in 1..items.len().saturating_sub(1) {
                                 indices.extend([items[0] as u32, items[j] as u32, items[j + 1] as u32]);
@@ -310,9 +320,9 @@ mod tests {
 
     #[test]
     fn bad_headers_are_named() {
-        assert!(parse(b"ply\nformat binary_middle_endian 1.0\nend_header\n").unwrap_err().contains("binary_middle_endian"));
-        assert!(parse(b"plx\nend_header\n").unwrap_err().contains("ply"));
+        assert!(parse(b"ply\nformat binary_middle_endian 1.0\nend_header\n").unwrap_err().to_string().contains("binary_middle_endian"));
+        assert!(parse(b"plx\nend_header\n").unwrap_err().to_string().contains("ply"));
         let bad_index = ASCII.replace("4 0 1 2 3", "3 0 1 -2");
-        assert!(parse(bad_index.as_bytes()).unwrap_err().contains("bad vertex index"));
+        assert!(parse(bad_index.as_bytes()).unwrap_err().to_string().contains("bad vertex index"));
     }
 }

@@ -14,7 +14,7 @@
 //! does not hold, not at all.
 
 use crate::bvh::BvhNode;
-use crate::stream::Chunk;
+use super::stream::Chunked;
 
 pub struct Owners {
     /// Per BVH node, the simplified clusters it owns (indices into the stream's `coarse`; empty
@@ -24,9 +24,10 @@ pub struct Owners {
     pub open: Vec<bool>,
 }
 
-/// The owners of `coarse` in `tree`, whose leaves are `chunks`; the coarse pieces come with
-/// the chunk each lies in.
-pub fn owners(tree: &[BvhNode], chunks: &[Chunk], (coarse, home): (&[Chunk], &[u32]), objects: usize) -> Owners {
+/// The owners of the simplified pieces `c.coarse` in `tree`, whose leaves are `c.chunks`; each
+/// piece comes with the chunk it lies in (`c.coarse_chunk`).
+pub fn owners(tree: &[BvhNode], c: &Chunked) -> Owners {
+    let (chunks, coarse, home, objects) = (&c.chunks, &c.coarse, &c.coarse_chunk, c.closed_objects.len());
     let parent = |id: u32| tree[id as usize].parent.expect("not the root");
     // Breadth-first ids: a parent comes before its children.
     let mut depth = vec![0u32; tree.len()];
@@ -78,6 +79,7 @@ pub fn owners(tree: &[BvhNode], chunks: &[Chunk], (coarse, home): (&[Chunk], &[u
 mod tests {
     use super::*;
     use crate::aabb::Aabb;
+    use crate::build::stream::Chunk;
     use glam::Vec3;
 
     /// The BVH over chunks `(box, object)` and the owners of `coarse` (box, object, chunk), with
@@ -88,9 +90,17 @@ mod tests {
         let mut spill = crate::spill::Spill::create(&d.path().join("s.osw")).unwrap();
         let r = spill.append(&crate::clod::Piece::default()).unwrap();
         let at = |b: Aabb, object: u32| Chunk::own(b, object, 1, r);
-        let leaves: Vec<Chunk> = chunks.iter().map(|&(b, o)| at(b, o)).collect();
         let (pieces, home): (Vec<Chunk>, Vec<u32>) = coarse.iter().map(|&(b, o, c)| (at(b, o), c)).unzip();
-        let o = owners(&tree, &leaves, (&pieces, &home), 3);
+        let chunked = Chunked {
+            chunks: chunks.iter().map(|&(b, o)| at(b, o)).collect(),
+            coarse: pieces,
+            coarse_chunk: home,
+            closed_objects: vec![None; 3],
+            origin: glam::DVec3::ZERO,
+            prototypes: Default::default(),
+            instances: Vec::new(),
+        };
+        let o = owners(&tree, &chunked);
         let leaf = (0..chunks.len() as u32).map(|item| tree.iter().position(|n| n.item == Some(item)).unwrap()).collect();
         (tree, o, leaf)
     }

@@ -10,11 +10,14 @@
 //! representations.
 //!
 //! With cluster hierarchies ([`crate::clod`]) a node's geometry is its cut node instead: its
-//! chunk (a leaf) and the simplified groups it owns ([`crate::owner`]), one block whose clusters
+//! chunk (a leaf) and the simplified groups it owns ([`super::owner`]), one block whose clusters
 //! a cut takes one by one. Its coarsest representation is what its groups never simplify
 //! further, and a group gets an HLOD only where no object under it reaches outside it.
 
-use crate::build::{BuildError, BuildReport, Instances, Lod, Progress, Times};
+use super::error::BuildError;
+use super::options::{BuildOptions, Instances, Lod};
+use super::report::{BuildReport, GroupsNotBuilt, Times};
+use crate::progress::Progress;
 use crate::bvh::BvhNode;
 use crate::clod::Piece;
 use crate::format::{BlockRecord, ErrorBound, FLAG_BOUNDED, FLAG_CUT, InstanceRecord, NONE, NodeKind, NodeRecord};
@@ -22,10 +25,11 @@ use crate::hlod::NoHlod;
 use crate::instance::Placement;
 use crate::lod::{Level, LodStats};
 use crate::mesh::Mesh;
-use crate::owner::Owners;
+use super::owner::Owners;
 use crate::spill::Sealed;
-use crate::stream::{Chunk, Prototypes};
-use crate::writer::{Encoded, SceneWriter, encode, encode_cut};
+use super::stream::{Chunk, Chunked, Prototypes};
+use crate::block::{Encoded, encode, encode_cut};
+use crate::writer::SceneWriter;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::ops::Range;
@@ -92,7 +96,7 @@ pub type Owned = (Piece, u32);
 
 /// The simplified groups (`coarse` read back from `spill`, owners' lists `owned`) that `nodes`
 /// own, one piece per node that owns any.
-pub fn read_owned(nodes: &[u32], (coarse, owned): (&[Chunk], &[Vec<u32>]), spill: &Sealed) -> std::io::Result<FxHashMap<u32, Owned>> {
+pub fn read_owned(nodes: &[u32], coarse: &[Chunk], owned: &[Vec<u32>], spill: &Sealed) -> std::io::Result<FxHashMap<u32, Owned>> {
     let mut out = FxHashMap::default();
     for &id in nodes {
         for &k in owned.get(id as usize).into_iter().flatten() {
@@ -108,19 +112,19 @@ pub fn read_owned(nodes: &[u32], (coarse, owned): (&[Chunk], &[Vec<u32>]), spill
 }
 
 /// Reads the chunks of the subtrees under `roots` from the spill, in the order they lie in it
-/// (the next bucket is read this way while the current one is built, see [`crate::build`]),
+/// (the next bucket is read this way while the current one is built, see [`super`]),
 /// and the prototypes' parts for which `first_needed` says so.
 pub fn read(
     tree: &[BvhNode],
-    chunks: &[Chunk],
-    coarse: (&[Chunk], &[Vec<u32>]),
+    chunked: &Chunked,
+    owned: &[Vec<u32>],
     spill: &Sealed,
     roots: &[u32],
     first_needed: impl Fn(u32) -> bool,
 ) -> std::io::Result<Bucket> {
     let layers = layers(tree, roots, |_| false);
     let leaves: Vec<u32> = layers.iter().flatten().copied().filter(|&id| tree[id as usize].item.is_some()).collect();
-    let chunk = |k: usize| &chunks[tree[leaves[k] as usize].item.expect("a leaf") as usize];
+    let chunk = |k: usize| &chunked.chunks[tree[leaves[k] as usize].item.expect("a leaf") as usize];
     let mut order: Vec<usize> = (0..leaves.len()).collect();
     order.sort_unstable_by_key(|&k| chunk(k).spill.offset);
     let mut meshes = vec![Piece::default(); leaves.len()];
@@ -134,7 +138,7 @@ pub fn read(
             parts.push((c.part, spill.read(&c.spill)?.mesh));
         }
     }
-    let owned = read_owned(&layers.concat(), coarse, spill)?;
+    let owned = read_owned(&layers.concat(), &chunked.coarse, owned, spill)?;
     Ok(Bucket { layers, leaves, meshes, parts, owned })
 }
 
@@ -153,25 +157,17 @@ pub fn layers(tree: &[BvhNode], roots: &[u32], stop: impl Fn(u32) -> bool) -> Ve
 }
 
 impl<'a> Built<'a> {
-    pub fn new(
-        tree: &'a [BvhNode],
-        chunks: &'a [Chunk],
-        closed_objects: &'a [Option<crate::Aabb>],
-        min_error: f32,
-        (lod, instances_option): (Lod, Instances),
-        owners: &'a Owners,
-        (prototypes, instances): (&'a Prototypes, &'a [InstanceRecord]),
-    ) -> Built<'a> {
+    pub fn new(tree: &'a [BvhNode], chunked: &'a Chunked, owners: &'a Owners, min_error: f32, opts: &BuildOptions) -> Built<'a> {
         Built {
             tree,
-            chunks,
-            closed_objects,
+            chunks: &chunked.chunks,
+            closed_objects: &chunked.closed_objects,
             min_error,
-            lod,
+            lod: opts.lod,
             owners,
-            prototypes,
-            instances,
-            expand: instances_option == Instances::Expand,
+            prototypes: &chunked.prototypes,
+            instances: &chunked.instances,
+            expand: opts.instances == Instances::Expand,
             parts: FxHashMap::default(),
             shared_bytes: 0,
             part_bytes: 0,
@@ -352,7 +348,7 @@ impl<'a> Built<'a> {
                     *block
                 }
                 Err(e) => {
-                    let placed = crate::writer::place(e, &place);
+                    let placed = crate::instance::place_block(e, &place);
                     times.run("write", || w.block(placed)).map_err(|e| write_error(w, e))?
                 }
             };
@@ -529,13 +525,13 @@ impl<'a> Built<'a> {
         report.stored_triangles = own + self.part_triangles;
         report.bytes_saved = self.shared_bytes.saturating_sub(self.part_bytes);
         report.nodes = (nodes.len() + levels.len()) as u64;
-        crate::build::report_left_out(report, &self.lod_stats, [self.not_coarser, self.vanished, self.open]);
+        super::report::report_left_out(report, &self.lod_stats, GroupsNotBuilt { not_coarser: self.not_coarser, vanished: self.vanished, open: self.open });
         (nodes, self.levels)
     }
 }
 
 fn write_error(w: &SceneWriter, error: std::io::Error) -> BuildError {
-    BuildError::Write { path: w.partial_path().display().to_string(), error }
+    BuildError::Write { path: w.partial_path().display().to_string(), source: error }
 }
 
 /// The LOD node of a static level or HLOD of BVH node `id`.

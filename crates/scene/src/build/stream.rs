@@ -7,7 +7,10 @@
 //! [`InstanceRecord`] and a chunk per part with the part's placed box (see [`crate::instance`]).
 
 use crate::aabb::Aabb;
-use crate::build::{BuildError, BuildOptions, BuildReport, Instances, Lod, Progress, Times};
+use super::error::BuildError;
+use super::options::{BuildOptions, Instances, Lod};
+use super::report::{BuildReport, Times};
+use crate::progress::Progress;
 use crate::chunk::SplitOptions;
 use crate::clod::Piece;
 use crate::format::{InstanceRecord, NONE};
@@ -57,14 +60,20 @@ pub struct Part {
     pub spill: SpillRef,
 }
 
-/// What the stream left for the rest of the build.
+/// What the stream left for the rest of the build: the chunks, and the spill file holding
+/// their triangles.
 pub struct Streamed {
+    pub chunked: Chunked,
+    pub spill: Sealed,
+}
+
+/// The model cut into chunks, each naming its triangles in the spill.
+pub struct Chunked {
     pub chunks: Vec<Chunk>,
     /// The pieces of the simplified clusters of the objects' cluster hierarchies (none for LOD
     /// chains), and the chunk each lies in.
     pub coarse: Vec<Chunk>,
     pub coarse_chunk: Vec<u32>,
-    pub spill: Sealed,
     /// Per object: its box when it is closed and wound outwards (see [`crate::cluster`]).
     pub closed_objects: Vec<Option<Aabb>>,
     pub origin: glam::DVec3,
@@ -82,11 +91,14 @@ pub fn stream(
 ) -> Result<Streamed, BuildError> {
     let origin = source.world_bounds().origin();
     let spill = Spill::create(out).map_err(|e| BuildError::temp(out, e))?;
-    let split = SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split };
     // Meshes are stored once only with LOD chains: a cluster hierarchy's groups coarser than a
-    // chunk belong to BVH nodes (crate::owner), which differ from use to use.
+    // chunk belong to BVH nodes (the build's owner stage), which differ from use to use.
     let instancing = opts.lod == Lod::Chains;
     let mut s = Stream {
+        opts,
+        origin,
+        split: SplitOptions { max_triangles: opts.chunk_triangles, loose: opts.loose_split },
+        instancing,
         spill,
         report,
         chunks: Vec::new(),
@@ -102,119 +114,154 @@ pub fn stream(
         repeats: Repeats::default(),
         clean_stats: CleanStats::default(),
         empty: Vec::new(),
+        objects_seen: 0,
+        colors_dropped: 0,
     };
-    let (mut seen, mut colors_dropped) = (0, 0);
     progress.stage("input", source.triangles_hint());
     loop {
         if progress.cancelled() {
             return Err(BuildError::Interrupted);
         }
-        let Some(mut batch) = times.run("input", || source.next_batch()) else { break };
+        let Some(batch) = times.run("input", || source.next_batch()) else { break };
         let before = s.report.input_triangles;
-        s.report.input_triangles += batch.iter().map(|o| o.mesh.triangle_count() as u64).sum::<u64>();
-        if !opts.model_colors {
-            colors_dropped += batch.iter().filter(|o| !o.mesh.colors.is_empty()).count();
+        s.batch(batch, times)?;
+        progress.advance(s.report.input_triangles - before);
+    }
+    s.finish(out)
+}
+
+/// An object cleaned and cut.
+struct CutObject {
+    name: String,
+    /// The input mesh it uses, if it names one.
+    prototype: Option<u32>,
+    kept: Kept,
+    stats: CleanStats,
+    /// Its box when it is closed and wound outwards.
+    closed: Option<Aabb>,
+    /// Its cluster hierarchy (chunks alone for LOD chains) and the loose splits it took; none
+    /// when nothing of it was left.
+    hierarchy: Option<(crate::clod::Hierarchy, u32)>,
+}
+
+impl Stream<'_> {
+    /// One batch of the input: uses of stored-once meshes, objects of their own cleaned, cut
+    /// into chunks and appended to the spill.
+    fn batch(&mut self, mut batch: Vec<Object>, times: &mut Times) -> Result<(), BuildError> {
+        self.report.input_triangles += batch.iter().map(|o| o.mesh.triangle_count() as u64).sum::<u64>();
+        if !self.opts.model_colors {
+            self.colors_dropped += batch.iter().filter(|o| !o.mesh.colors.is_empty()).count();
             batch.iter_mut().for_each(|o| o.mesh.colors = Vec::new());
         }
-        let first = seen;
-        seen += batch.len();
+        let first = self.objects_seen;
+        self.objects_seen += batch.len();
+        let instancing = self.instancing;
         let (uses, own): (Vec<_>, Vec<_>) =
             batch.into_iter().enumerate().map(|(i, o)| (first + i, o)).partition(|(_, o)| instancing && o.prototype.is_some());
+        let (origin, split) = (self.origin, self.split);
         for (index, o) in uses {
-            times.run("clean", || s.add_use(index, o, origin, split))?;
+            times.run("clean", || self.add_use(index, o, origin, split))?;
         }
-        let own = times.run("repeats", || s.found_repeats(own, origin, split))?;
+        let own = times.run("repeats", || self.found_repeats(own, origin, split))?;
         let (indices, mut own): (Vec<usize>, Vec<Object>) = own.into_iter().unzip();
         times.run("place", || crate::place::to_local(&mut own, origin));
         let cleaned = times.run("clean", || clean(indices.into_iter().zip(own).collect()))?;
-        // Whether each object is closed and wound outwards is decided on the whole object,
-        // before chunks cut it open (see crate::cluster).
-        let split: Vec<_> = times.run("chunk", || {
-            cleaned
-                .into_par_iter()
-                .map(|(o, stats)| {
-                    let closed = crate::cluster::Parts::of(&o.mesh).all_closed().then(|| o.mesh.bounds());
-                    let chunks = (!o.mesh.is_empty()).then(|| match opts.lod {
-                        Lod::Chains => {
-                            let c = crate::chunk::split(&o.mesh, split);
-                            let chunks = c.meshes.into_iter().map(Piece::always).collect();
-                            (crate::clod::Hierarchy { chunks, ..Default::default() }, c.loose_splits)
-                        }
-                        Lod::Clusters => (crate::clod::build(&o.mesh, split.max_triangles), 0),
-                    });
-                    let kept = Kept::of(&o.mesh);
-                    (o.name, o.prototype, kept, stats, closed, chunks)
-                })
-                .collect()
-        });
-        times.run("spill", || -> Result<(), BuildError> {
-            for (name, prototype, kept, stats, closed, split) in split {
-                s.clean_stats.add(stats);
-                let Some((h, loose_splits)) = split else {
-                    s.empty.push(name);
-                    continue;
-                };
-                s.repeats.add(prototype, kept.triangles);
-                let object = s.object(closed, &kept);
-                s.report.loose_splits += loose_splits as u64;
-                s.report.cluster_levels_max = s.report.cluster_levels_max.max(h.levels as u64);
-                s.report.simplified_groups += h.groups;
-                s.report.simplified_pieces += h.coarse.len() as u64;
-                s.report.fin_triangles_dropped += h.fins;
-                let first = s.chunks.len() as u32;
-                s.coarse_chunk.extend(h.home.iter().map(|&k| first + k));
-                for (coarse, pieces) in [(false, &h.chunks), (true, &h.coarse)] {
-                    for p in pieces {
-                        let at = s.spill.append(p).map_err(|e| BuildError::temp(s.spill.path(), e))?;
-                        let c = Chunk::own(p.mesh.bounds(), object, p.mesh.triangle_count() as u32, at);
-                        if coarse { s.coarse.push(c) } else { s.chunks.push(c) }
-                    }
-                }
+        let lod = self.opts.lod;
+        let cut: Vec<CutObject> = times.run("chunk", || cleaned.into_par_iter().map(|(o, stats)| cut(o, stats, lod, split)).collect());
+        times.run("spill", || cut.into_iter().try_for_each(|c| self.spill_object(c)))
+    }
+
+    /// Appends an object's chunks and simplified pieces to the spill.
+    fn spill_object(&mut self, o: CutObject) -> Result<(), BuildError> {
+        let CutObject { name, prototype, kept, stats, closed, hierarchy } = o;
+        self.clean_stats.add(stats);
+        let Some((h, loose_splits)) = hierarchy else {
+            self.empty.push(name);
+            return Ok(());
+        };
+        self.repeats.add(prototype, kept.triangles);
+        let object = self.object(closed, &kept);
+        self.report.loose_splits += loose_splits as u64;
+        self.report.cluster_levels_max = self.report.cluster_levels_max.max(h.levels as u64);
+        self.report.simplified_groups += h.groups;
+        self.report.simplified_pieces += h.coarse.len() as u64;
+        self.report.fin_triangles_dropped += h.fins;
+        let first = self.chunks.len() as u32;
+        self.coarse_chunk.extend(h.home.iter().map(|&k| first + k));
+        for (coarse, pieces) in [(false, &h.chunks), (true, &h.coarse)] {
+            for p in pieces {
+                let at = self.spill.append(p).map_err(|e| BuildError::temp(self.spill.path(), e))?;
+                let c = Chunk::own(p.mesh.bounds(), object, p.mesh.triangle_count() as u32, at);
+                if coarse { self.coarse.push(c) } else { self.chunks.push(c) }
             }
-            Ok(())
-        })?;
-        progress.advance(s.report.input_triangles - before);
+        }
+        Ok(())
     }
-    let Stream { spill, report, chunks, coarse, coarse_chunk, closed_objects, prototypes, instances, repeats, clean_stats, empty, .. } = s;
-    report.objects = closed_objects.len() as u64;
-    report.chunks = chunks.len() as u64;
-    report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
-    report.degenerate_triangles_dropped = clean_stats.degenerate_triangles;
-    if colors_dropped > 0 {
-        report.left_out.push(format!("the model's colours and translucency of {colors_dropped} objects (--colors hashed)"));
+
+    /// The report's counts and what the stream left out; the spill sealed for reading.
+    fn finish(self, out: &Path) -> Result<Streamed, BuildError> {
+        let Stream { opts, origin, instancing, spill, report, chunks, coarse, coarse_chunk, closed_objects, prototypes, instances, repeats, clean_stats, empty, colors_dropped, .. } = self;
+        report.objects = closed_objects.len() as u64;
+        report.chunks = chunks.len() as u64;
+        report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
+        report.degenerate_triangles_dropped = clean_stats.degenerate_triangles;
+        if colors_dropped > 0 {
+            report.left_out.push(format!("the model's colours and translucency of {colors_dropped} objects (--colors hashed)"));
+        }
+        if clean_stats.degenerate_triangles > 0 {
+            report
+                .left_out
+                .push(format!("{} degenerate triangles (repeated index or zero area): they cover no pixel", clean_stats.degenerate_triangles));
+        }
+        if report.fin_triangles_dropped > 0 {
+            report.left_out.push(format!(
+                "{} triangles of simplified groups in fins: pairs on the same corners wound opposite ways, folded by simplification within the group's error of the surface kept",
+                report.fin_triangles_dropped
+            ));
+        }
+        if !empty.is_empty() {
+            let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();
+            report.left_out.push(format!("{} objects with no triangles left after clean-up, e.g. {}", empty.len(), names.join(", ")));
+        }
+        let why = match (instancing, opts.instances) {
+            (false, _) => Some("cluster hierarchies (--lod clusters) are built per object"),
+            (true, Instances::Expand) => Some("--instances expand"),
+            (true, Instances::Keep) => None,
+        };
+        repeats.report(report, why, opts.find_repeats);
+        report.prototypes = if why.is_none() { prototypes.closed.len() as u64 } else { 0 };
+        if chunks.is_empty() {
+            return Err(BuildError::Empty(format!("no triangles in the input ({} objects)", empty.len())));
+        }
+        report.temp_bytes = spill.bytes();
+        let spill = spill.seal().map_err(|e| BuildError::temp(out, e))?;
+        Ok(Streamed { chunked: Chunked { chunks, coarse, coarse_chunk, closed_objects, origin, prototypes, instances }, spill })
     }
-    if clean_stats.degenerate_triangles > 0 {
-        report
-            .left_out
-            .push(format!("{} degenerate triangles (repeated index or zero area): they cover no pixel", clean_stats.degenerate_triangles));
-    }
-    if report.fin_triangles_dropped > 0 {
-        report.left_out.push(format!(
-            "{} triangles of simplified groups in fins: pairs on the same corners wound opposite ways, folded by simplification within the group's error of the surface kept",
-            report.fin_triangles_dropped
-        ));
-    }
-    if !empty.is_empty() {
-        let names: Vec<&str> = empty.iter().take(5).map(String::as_str).collect();
-        report.left_out.push(format!("{} objects with no triangles left after clean-up, e.g. {}", empty.len(), names.join(", ")));
-    }
-    let why = match (instancing, opts.instances) {
-        (false, _) => Some("cluster hierarchies (--lod clusters) are built per object"),
-        (true, Instances::Expand) => Some("--instances expand"),
-        (true, Instances::Keep) => None,
-    };
-    repeats.report(report, why, opts.find_repeats);
-    report.prototypes = if why.is_none() { prototypes.closed.len() as u64 } else { 0 };
-    if chunks.is_empty() {
-        return Err(BuildError::Empty(format!("no triangles in the input ({} objects)", empty.len())));
-    }
-    report.temp_bytes = spill.bytes();
-    let spill = spill.seal().map_err(|e| BuildError::temp(out, e))?;
-    Ok(Streamed { chunks, coarse, coarse_chunk, spill, closed_objects, origin, prototypes, instances })
+}
+
+/// An object cut into chunks (LOD chains) or its cluster hierarchy. Whether it is closed and
+/// wound outwards is decided on the whole object, before chunks cut it open (see
+/// [`crate::cluster`]).
+fn cut(o: Object, stats: CleanStats, lod: Lod, split: SplitOptions) -> CutObject {
+    let closed = crate::cluster::Parts::of(&o.mesh).all_closed().then(|| o.mesh.bounds());
+    let hierarchy = (!o.mesh.is_empty()).then(|| match lod {
+        Lod::Chains => {
+            let c = crate::chunk::split(&o.mesh, split);
+            let chunks = c.meshes.into_iter().map(Piece::always).collect();
+            (crate::clod::Hierarchy { chunks, ..Default::default() }, c.loose_splits)
+        }
+        Lod::Clusters => (crate::clod::build(&o.mesh, split.max_triangles), 0),
+    });
+    CutObject { kept: Kept::of(&o.mesh), name: o.name, prototype: o.prototype, stats, closed, hierarchy }
 }
 
 /// What the stream gathers, object by object.
 struct Stream<'a> {
+    opts: &'a BuildOptions,
+    origin: glam::DVec3,
+    split: SplitOptions,
+    /// Whether uses of one mesh are kept as its instances (LOD chains only).
+    instancing: bool,
     spill: Spill,
     report: &'a mut BuildReport,
     chunks: Vec<Chunk>,
@@ -236,6 +283,9 @@ struct Stream<'a> {
     repeats: Repeats,
     clean_stats: CleanStats,
     empty: Vec<String>,
+    /// Input objects seen so far, and those whose colours were dropped (`--colors hashed`).
+    objects_seen: usize,
+    colors_dropped: usize,
 }
 
 /// A prototype while the input streams: what each of its uses needs.

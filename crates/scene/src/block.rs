@@ -1,0 +1,154 @@
+//! One geometry block's bytes, encoded by the build and decoded in place by every reader:
+//! positions, colours if any, the indices in cluster order (u16 when every index fits, else
+//! u32), padding to 4 bytes and the clusters ([`crate::format`] lays out the file around them).
+
+use crate::format::{BlockRecord, ClusterRecord};
+use crate::mesh::Mesh;
+use std::borrow::Cow;
+use xxhash_rust::xxh3::xxh3_64;
+
+/// One block's bytes, as [`crate::format`] lays them out, and its record without the offset.
+pub struct Encoded {
+    pub bytes: Vec<u8>,
+    pub record: BlockRecord,
+}
+
+/// The bytes of one block. `object`: the box of
+/// the block's object when that is closed (see [`crate::cluster::clusterize`]).
+///
+/// Vertices of bit-identical position and colour are stored once: osw draws neither normals
+/// nor texture coordinates, so the seams a model splits its vertices at are not needed, and a
+/// cluster hierarchy's node gathers pieces that share their borders and the original corners
+/// of simplified triangles (docs/measurements/2026-12-07-constants.md, "encode"). Connected
+/// parts are joined by position already ([`crate::cluster`]).
+pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
+    let mesh = mesh.welded();
+    let (indices, clusters, opaque) = crate::cluster::clusterize(&mesh, object);
+    encode_with(&mesh, &indices, &clusters, opaque)
+}
+
+/// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut.
+pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> Encoded {
+    let mesh = piece.mesh.welded();
+    let (indices, clusters, opaque) = crate::cluster::clusterize_cut(&mesh, object, &piece.cuts, &piece.cut_of);
+    encode_with(&mesh, &indices, &clusters, opaque)
+}
+
+/// [`encode`] with the clusters made already: `indices` in cluster order, `opaque_clusters`
+/// of them first.
+pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecord], opaque_clusters: u32) -> Encoded {
+    let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters));
+    bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
+    bytes.extend_from_slice(mesh.colors.as_flattened());
+    let index_bytes = if mesh.positions.len() <= 1 << 16 {
+        bytes.extend(indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
+        2
+    } else {
+        bytes.extend_from_slice(bytemuck::cast_slice(indices));
+        4
+    };
+    bytes.resize(bytes.len().next_multiple_of(4), 0);
+    bytes.extend_from_slice(bytemuck::cast_slice(clusters));
+    let record = BlockRecord {
+        offset: 0,
+        hash: xxh3_64(&bytes),
+        vertex_count: mesh.positions.len() as u32,
+        index_count: mesh.indices.len() as u32,
+        index_bytes,
+        color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
+        cluster_count: clusters.len() as u32,
+        opaque_clusters,
+    };
+    debug_assert_eq!(record.byte_len(), bytes.len() as u64);
+    Encoded { bytes, record }
+}
+
+/// One geometry block: a view of it in the mapped file, or, for a use of a mesh stored once,
+/// its positions, clusters and (where mirrored) indices placed.
+#[derive(Clone, Debug)]
+pub struct Geometry<'a> {
+    pub positions: Cow<'a, [[f32; 3]]>,
+    /// One per vertex, or empty when the block has no colours.
+    pub colors: &'a [[u8; 4]],
+    /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
+    pub indices: Indices<'a>,
+    pub clusters: Cow<'a, [ClusterRecord]>,
+    /// `clusters[..opaque]` are opaque, the rest translucent ([`BlockRecord::opaque_clusters`]).
+    pub opaque: usize,
+}
+
+impl Geometry<'_> {
+    /// Indices of the opaque clusters: they come first, `0..opaque_indices()`.
+    pub fn opaque_indices(&self) -> usize {
+        self.clusters.get(self.opaque).map_or(self.indices.len(), |c| c.first_index as usize)
+    }
+}
+
+#[derive(Clone, Debug)]
+pub enum Indices<'a> {
+    U16(Cow<'a, [u16]>),
+    U32(Cow<'a, [u32]>),
+}
+
+impl Indices<'_> {
+    pub fn len(&self) -> usize {
+        match self {
+            Indices::U16(s) => s.len(),
+            Indices::U32(s) => s.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    pub fn get(&self, i: usize) -> u32 {
+        match self {
+            Indices::U16(s) => s[i] as u32,
+            Indices::U32(s) => s[i],
+        }
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.len()).map(|i| self.get(i))
+    }
+
+    pub fn bytes(&self) -> &[u8] {
+        match self {
+            Indices::U16(s) => bytemuck::cast_slice(s.as_ref()),
+            Indices::U32(s) => bytemuck::cast_slice(s.as_ref()),
+        }
+    }
+}
+
+/// A block's bytes read in place ([`ranges_ok`] says whether they can be trusted).
+pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
+    let (front, clusters) = bytes.split_at(rec.clusters_at() as usize);
+    let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
+    let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
+    let idx = &idx[..rec.index_count as usize * rec.index_bytes as usize];
+    let indices = if rec.index_bytes == 2 {
+        Indices::U16(Cow::Borrowed(bytemuck::cast_slice(idx)))
+    } else {
+        Indices::U32(Cow::Borrowed(bytemuck::cast_slice(idx)))
+    };
+    Geometry {
+        positions: Cow::Borrowed(bytemuck::cast_slice(pos)),
+        colors: bytemuck::cast_slice(colors),
+        indices,
+        clusters: Cow::Borrowed(bytemuck::cast_slice(clusters)),
+        opaque: rec.opaque_clusters as usize,
+    }
+}
+
+/// Every index names a vertex of the block, and the clusters cover the indices in turn.
+pub fn ranges_ok(bytes: &[u8], rec: &BlockRecord) -> bool {
+    let g = geometry_of(bytes, rec);
+    let mut next = 0u32;
+    let clusters_ok = g.clusters.iter().all(|c| {
+        let ok = c.first_index == next && c.index_count.is_multiple_of(3) && c.radius.is_finite() && c.center.iter().all(|x| x.is_finite());
+        next = next.saturating_add(c.index_count);
+        ok
+    });
+    clusters_ok && next == rec.index_count && g.indices.iter().all(|i| i < rec.vertex_count)
+}
