@@ -4,6 +4,7 @@
 //! reads whichever node has the frame (failover: a node lost, a node rejoining).
 
 use osw_wire::clock::Offset;
+use osw_wire::auth::Token;
 use osw_wire::messages::{Hello, Message};
 use osw_wire::net::{NetError, connect, handshake, probe_clock, run_connection};
 use osw_wire::{Frame, WireError};
@@ -26,16 +27,22 @@ pub enum Note {
     Down { node: usize, why: String, ever_up: bool },
 }
 
+/// What the display says of itself at each handshake, and the cluster token it proves it holds.
+pub struct Me {
+    pub hello: Hello,
+    pub token: Option<Token>,
+}
+
 /// Keeps node `node` at `addr` connected: the first connection is tried for `first_within`,
 /// later ones for as long as the display runs.
-pub async fn keep_node(node: usize, addr: String, me: Hello, notes: Sender<Note>, first_within: Duration) {
+pub async fn keep_node(node: usize, addr: String, me: Me, notes: Sender<Note>, first_within: Duration) {
     let mut ever_up = false;
     let start = std::time::Instant::now();
     loop {
         let attempt = async {
             let within = if ever_up { Duration::from_secs(3600) } else { first_within.saturating_sub(start.elapsed()) };
             let mut c = connect(&addr, within).await?;
-            handshake(&mut c, &me, Duration::from_secs(10)).await?;
+            handshake(&mut c, &me.hello, me.token.as_ref(), Duration::from_secs(10)).await?;
             let clock = probe_clock(&mut c, CLOCK_PROBES, Duration::from_secs(10)).await?;
             Ok::<_, osw_wire::net::NetError>((c, clock))
         };

@@ -164,7 +164,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let path = a.path.as_deref().map(osw_scene::path::read).transpose()?.unwrap_or_default();
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
     let agreed = a.agreed.resolve(&set.config)?;
-    let me = Hello::new(scene.content_hash(), "display", Role::Display, set.token.clone(), agreed.said(set.size));
+    let me = Hello::new(scene.content_hash(), "display", Role::Display, agreed.said(set.size));
     let (mut ui, gpu) = open(a, &set, &scene, path.first())?;
     // The next frame's gather overlaps this frame's draw (measured in
     // docs/measurements/2026-12-07-constants.md, "The display's overlap"). RVG's stage time then
@@ -177,7 +177,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (notes_tx, notes) = std::sync::mpsc::channel();
     for (k, addr) in addrs.iter().enumerate() {
-        rt.spawn(links::keep_node(k, addr.clone(), me.clone(), notes_tx.clone(), Duration::from_secs(10)));
+        let who = links::Me { hello: me.clone(), token: set.token.clone() };
+        rt.spawn(links::keep_node(k, addr.clone(), who, notes_tx.clone(), Duration::from_secs(10)));
     }
     drop(notes_tx);
     let wait = Duration::try_from_secs_f64(a.frame_timeout).map_err(|e| anyhow::anyhow!("--frame-timeout {}: {e}", a.frame_timeout))?;

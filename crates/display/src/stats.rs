@@ -58,6 +58,7 @@ pub fn write_outputs(
             peer_link_ms_median: quantile(&rows[..rows.len().saturating_sub(1)].iter().map(|r| r.peer_link_ms).collect::<Vec<_>>(), 0.5),
             node_losses: cluster.losses,
             node_rejoins: cluster.rejoins,
+            auth_refusals: osw_wire::net::auth_refusals(),
             degraded_frames: degraded.len() as u64,
             degraded_first_frame: degraded.first().copied(),
             degraded_last_frame: degraded.last().copied(),

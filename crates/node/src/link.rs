@@ -4,6 +4,7 @@
 //! of its own, so the frame loop never waits on the network to send, and a dead connection's
 //! queue goes with it.
 
+use osw_wire::auth::Token;
 use osw_wire::messages::{Hello, Message, Role};
 use osw_wire::net::{conn, handshake, run_connection};
 use std::sync::Arc;
@@ -78,6 +79,8 @@ static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 #[derive(Clone)]
 pub struct Me {
     pub hello: Hello,
+    /// The cluster token it proves it holds (osw_wire::auth).
+    pub token: Option<Arc<Token>>,
     pub serving: Arc<AtomicBool>,
 }
 
@@ -85,8 +88,9 @@ pub struct Me {
 /// `gate`) until it ends.
 pub async fn serve(c: osw_wire::net::Conn, me: Me, events: Sender<Event>, gate: Arc<CameraGate>) {
     let mut c = c;
+    let token = me.token.clone();
     let me = Hello { serving: me.serving.load(Ordering::Acquire), ..me.hello };
-    let peer = match handshake(&mut c, &me, HANDSHAKE).await {
+    let peer = match handshake(&mut c, &me, token.as_deref(), HANDSHAKE).await {
         Ok(h) => h,
         Err(e) => {
             tracing::warn!("{}: {e}", me.name);

@@ -87,7 +87,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let (w, h) = set.size;
     let scene = osw_scene::SceneFile::open(&set.scene)?;
     let agreed = a.agreed.resolve(cfg)?;
-    let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, set.token.clone(), agreed.said(set.size));
+    let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, agreed.said(set.size));
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
     let options = osw_gpu::RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, ..Default::default() };
     let renderer = osw_gpu::Renderer::new(gpu, &scene, w, h, options)?;
@@ -98,10 +98,14 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (events_tx, events) = std::sync::mpsc::channel();
     let listener = rt.block_on(tokio::net::TcpListener::bind(&listen)).map_err(|e| anyhow::anyhow!("cannot listen on {listen}: {e}"))?;
-    writeln!(std::io::stdout(), "listening on {}", listener.local_addr()?)?;
+    let bound = listener.local_addr()?;
+    if set.token.is_none() && !bound.ip().is_loopback() {
+        tracing::warn!("listening on {bound} without a cluster token: anyone who can reach this port can join the cluster (set --token-file)");
+    }
+    writeln!(std::io::stdout(), "listening on {bound}")?;
     std::io::stdout().flush()?;
     let gate = Arc::new(link::CameraGate::default());
-    let me = link::Me { hello: me, serving: Arc::default() };
+    let me = link::Me { hello: me, token: set.token.clone().map(Arc::new), serving: Arc::default() };
     rt.spawn(link::accept(listener, me.clone(), events_tx.clone(), Arc::clone(&gate)));
     if let Some(peer) = &peer {
         rt.spawn(link::keep_connected(peer.clone(), me.clone(), events_tx, Arc::clone(&gate)));

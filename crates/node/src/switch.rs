@@ -216,6 +216,7 @@ impl Switch {
         self.visible = pvs;
         [f.bytes_to_peer, f.bytes_to_display] = self.io.sent;
         (f.ms, f.tests, f.retests, f.rss_kb) = (ms(t), hc.tests, hc.retests, rss_kb());
+        f.auth_refusals = osw_wire::net::auth_refusals();
         Ok(Some(f))
     }
 
@@ -311,6 +312,7 @@ impl Switch {
             or_gpu_ms,
             nodes_drawn: drawn.nodes,
             rss_kb: rss_kb(),
+            auth_refusals: osw_wire::net::auth_refusals(),
             ..NodeFrame::default()
         }))
     }

@@ -293,6 +293,7 @@ fn summarize(out: &Path) -> anyhow::Result<Summary> {
                 let frames: Vec<NodeFrame> = results::csv::read(&path)?;
                 (*hc, *or) = (duty_median_ms(&frames, Duty::Hc), duty_median_ms(&frames, Duty::Or));
                 or_gpu.extend(frames.iter().filter(|f| f.duty == Duty::Or).map(|f| f.or_gpu_ms));
+                sw.auth_refusals += frames.last().map_or(0, |f| f.auth_refusals);
             }
         }
         sw.or_gpu_ms_median = osw_render::stats::gpu_median(or_gpu.into_iter());

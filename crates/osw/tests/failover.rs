@@ -343,39 +343,34 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
     let mut nodes = [node("a", &scene, &addr_a, None, &logs[0]), node("b", &scene, &addr_b, Some(&addr_a), &logs[1])];
     let settings = osw_render::settings::Agreed::default().said((192, 192));
     assert_eq!(settings[0], ("--size".into(), SIZE.into()));
-    let hello = Hello::new(osw_scene::SceneFile::open(&scene).unwrap().content_hash(), "flood", Role::Display, None, settings);
+    let hello = Hello::new(osw_scene::SceneFile::open(&scene).unwrap().content_hash(), "flood", Role::Display, settings);
     let frame = |m: &Message| {
         let mut b = Vec::new();
         encode_frame(m, &mut b).unwrap();
         b
     };
-    // Each connection's messages, read as they come (the nodes' frames are drained too).
+    // Each connection's messages after the handshake, read as they come (the nodes' frames
+    // are drained too).
     let (tx, rx) = std::sync::mpsc::channel::<(usize, Message)>();
     let mut socks = Vec::new();
     for (k, addr) in [&addr_a, &addr_b].into_iter().enumerate() {
-        let t = std::time::Instant::now();
-        let mut c = loop {
-            match std::net::TcpStream::connect(addr) {
-                Ok(c) => break c,
-                Err(_) if t.elapsed().as_secs() < 20 => std::thread::sleep(std::time::Duration::from_millis(50)),
-                Err(e) => panic!("node {k} does not listen: {e}"),
-            }
-        };
-        std::io::Write::write_all(&mut c, &frame(&Message::Hello(hello.clone()))).unwrap();
-        let (mut r, tx) = (c.try_clone().unwrap(), tx.clone());
+        let mut peer = RawPeer::connect(addr);
+        assert!(peer.handshake(&hello, None).is_some(), "node {k} did not finish the handshake");
+        let (mut r, tx, mut buf) = (peer.sock.try_clone().unwrap(), tx.clone(), std::mem::take(&mut peer.buf));
         std::thread::spawn(move || {
-            let (mut buf, mut chunk) = (Vec::new(), vec![0u8; 1 << 16]);
-            while let Ok(n @ 1..) = std::io::Read::read(&mut r, &mut chunk) {
-                buf.extend_from_slice(&chunk[..n]);
+            let mut chunk = vec![0u8; 1 << 16];
+            loop {
                 while let Ok(Some((m, used))) = decode_frame(&buf) {
                     buf.drain(..used);
                     if tx.send((k, m)).is_err() {
                         return;
                     }
                 }
+                let Ok(n @ 1..) = std::io::Read::read(&mut r, &mut chunk) else { return };
+                buf.extend_from_slice(&chunk[..n]);
             }
         });
-        socks.push(c);
+        socks.push(peer.sock);
     }
     // Waits for a message matching `what` from each node in `from`.
     let wait_for = |what: &dyn Fn(&Message) -> bool, label: &str, from: [bool; 2]| {
@@ -385,7 +380,6 @@ fn a_camera_flood_is_dropped_counted_and_bounded() {
             got[k] |= what(&m);
         }
     };
-    wait_for(&|m| matches!(m, Message::Hello(_)), "hello", [true; 2]);
     let hwm_kb = |p: &Proc| -> u64 {
         let status = std::fs::read_to_string(format!("/proc/{}/status", p.0.id())).unwrap();
         let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();

@@ -6,7 +6,8 @@
 //! tau = 1.0
 //! size = "1024x1024"
 //! batch = 1024
-//! token = "secret"            # optional: every connection must present it
+//! token_file = "cluster.key"  # optional: every connection must prove it holds this secret
+//!                             # (or token = "..."; a file keeps it out of `ps` and of the config)
 //! adaptive = 0.0              # the settings every process must agree on (`osw run` writes
 //! always_cull = false         # them; each process's flags override them)
 //! cluster_tests = "frustum,cone,backface,small,occlusion"
@@ -18,6 +19,7 @@
 //! address = "127.0.0.1:7102"
 //! ```
 
+use crate::auth::Token;
 use crate::limits::DEFAULT_BATCH_IDS;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -42,9 +44,13 @@ pub struct ClusterArgs {
     /// Ids per delta batch, the paper's b [default: the config's, else 1024].
     #[arg(long)]
     pub batch: Option<usize>,
-    /// Shared cluster token every connection must present [default: the config's, if any].
-    #[arg(long)]
+    /// Shared cluster token: every connection must prove it holds it (it is never sent). Shows
+    /// in `ps`: prefer --token-file [default: the config's, if any].
+    #[arg(long, conflicts_with = "token_file")]
     pub token: Option<String>,
+    /// File holding the cluster token (its first line) [default: the config's, if any].
+    #[arg(long, value_name = "PATH")]
+    pub token_file: Option<PathBuf>,
     /// Adapter: the first whose name contains this text [default: a GPU, else lavapipe].
     #[arg(long)]
     pub adapter: Option<String>,
@@ -58,7 +64,7 @@ pub struct Settings {
     pub tau: f64,
     pub size: (u32, u32),
     pub batch: usize,
-    pub token: Option<String>,
+    pub token: Option<Token>,
 }
 
 impl ClusterArgs {
@@ -81,9 +87,40 @@ impl ClusterArgs {
             .split_once('x')
             .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
             .ok_or_else(|| ConfigError::Invalid(format!("--size {size:?}: expected WIDTHxHEIGHT")))?;
-        let token = self.token.clone().or(config.token.clone());
-        Ok(Settings { config, scene, tau, size, batch, token })
+        let token = match (&self.token, &self.token_file) {
+            (Some(t), _) => Some(t.clone()),
+            (None, Some(p)) => Some(read_token(p)?),
+            (None, None) => match (&config.token, &config.token_file) {
+                (Some(t), _) => Some(t.clone()),
+                (None, Some(p)) => Some(read_token(p)?),
+                (None, None) => None,
+            },
+        };
+        Ok(Settings { config, scene, tau, size, batch, token: token.map(checked_token).transpose()? })
     }
+}
+
+/// The example configurations' stand-in for a secret: refused, so that a cluster never runs
+/// on a token anyone can read.
+pub const PLACEHOLDER_TOKEN: &str = "replace with a shared secret";
+
+/// The first line of the token file `path`.
+fn read_token(path: &Path) -> Result<String, ConfigError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: path.to_owned(), source })?;
+    Ok(text.lines().next().unwrap_or("").trim().to_owned())
+}
+
+/// A token that can serve as a secret: not empty, not the examples' placeholder.
+fn checked_token(t: String) -> Result<Token, ConfigError> {
+    if t.is_empty() {
+        return Err(ConfigError::Invalid("the cluster token is empty".into()));
+    }
+    if t == PLACEHOLDER_TOKEN {
+        return Err(ConfigError::Invalid(format!(
+            "the cluster token is the example's placeholder {PLACEHOLDER_TOKEN:?}: set a secret of your own (e.g. `head -c 32 /dev/urandom | base64 > cluster.key` and token_file = \"cluster.key\")"
+        )));
+    }
+    Ok(Token::new(t))
 }
 
 /// A cluster configuration that cannot be read, or a setting of it or of the flags that is not
@@ -124,6 +161,7 @@ pub struct Config {
     pub size: Option<String>,
     pub batch: Option<usize>,
     pub token: Option<String>,
+    pub token_file: Option<PathBuf>,
     /// The settings every process must agree on (`osw_render::settings`): adaptive culling's
     /// threshold, occlusion culling on every frame, the cluster tests.
     pub adaptive: Option<f64>,
@@ -181,6 +219,28 @@ mod tests {
             let c = Config::load(&p).unwrap_or_else(|e| panic!("{e:?}"));
             assert!(c.node("a").is_ok() && c.node("b").is_ok(), "{f}");
         }
+    }
+
+    #[test]
+    fn a_token_comes_from_a_file_and_the_placeholder_or_an_empty_one_is_refused() {
+        let file = std::env::temp_dir().join(format!("osw-token-test-{}.key", std::process::id()));
+        std::fs::write(&file, "from-the-file\nsecond line\n").unwrap();
+        let args = |token: Option<&str>, token_file: Option<&Path>| ClusterArgs {
+            scene: Some("s.osw".into()),
+            token: token.map(str::to_owned),
+            token_file: token_file.map(Path::to_owned),
+            ..Default::default()
+        };
+        let resolved = args(None, Some(&file)).resolve().unwrap();
+        assert_eq!(resolved.token, Some(Token::new("from-the-file")));
+        assert_eq!(args(Some("flag"), None).resolve().unwrap().token, Some(Token::new("flag")));
+        let e = args(Some(PLACEHOLDER_TOKEN), None).resolve().unwrap_err().to_string();
+        assert!(e.contains("placeholder"), "{e}");
+        assert!(args(Some(""), None).resolve().unwrap_err().to_string().contains("empty"));
+        let missing = file.with_extension("missing");
+        assert!(args(None, Some(&missing)).resolve().unwrap_err().to_string().contains("missing"));
+        std::fs::remove_file(&file).unwrap();
+        assert_eq!(args(None, None).resolve().unwrap().token, None);
     }
 
     #[test]

@@ -87,9 +87,9 @@ mod tests {
                 scene_hash: [1, 2],
                 name: "a".into(),
                 role: Role::Node,
-                token: Some("t".into()),
                 serving: true,
                 settings: vec![("--size".into(), "8x8".into())],
+                tag: [7; 32],
             }),
             Message::Camera(CameraPacket {
                 frame: 7,
@@ -113,6 +113,8 @@ mod tests {
             Message::Goodbye(Goodbye { reason: "done".into() }),
             Message::StartOver(StartOver { restarts: 1 }),
             Message::Clusters(ClusterMask { frame: 7, bits: vec![5, 0x80] }),
+            Message::Challenge(Challenge { version: 12, nonce: [3; 32] }),
+            Message::Proof(Proof { tag: [4; 32] }),
         ]
     }
 
@@ -126,15 +128,23 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_11() {
+    fn golden_bytes_of_version_12() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 11);
-        // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), token
-        // "t", the serving flag (protocol 6), and the settings (protocol 9): one, "--size"
-        // "8x8".
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 12);
+        // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), the
+        // serving flag (protocol 6), the settings (protocol 9): one, "--size" "8x8", and its
+        // tag (protocol 12, which no longer sends a token).
         let mut b = Vec::new();
         encode_frame(&samples()[0], &mut b).unwrap();
-        assert_eq!(b, [&[23, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, b't', 1, 1, 6][..], b"--size", &[3], b"8x8"].concat());
+        assert_eq!(b, [&[52, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, 6][..], b"--size", &[3], b"8x8", &[7; 32]].concat());
+        // A challenge (protocol 12): variant 12, the version, a nonce of 32 bytes; a proof:
+        // variant 13, its tag of 32.
+        let mut b = Vec::new();
+        encode_frame(&samples()[12], &mut b).unwrap();
+        assert_eq!(b, [&[34, 0, 0, 0, 12, 12][..], &[3; 32]].concat());
+        let mut b = Vec::new();
+        encode_frame(&samples()[13], &mut b).unwrap();
+        assert_eq!(b, [&[33, 0, 0, 0, 13][..], &[4; 32]].concat());
         // An end of frame: length 14, variant 3, frame 7, tests 10, levels 2, hc_us 5, HC's
         // passes 3, 1, 1 (protocol 9), pvs 3, culling not skipped, then the link stamps 1, 2,
         // 3, 4 (bincode standard: varint integers; protocol 7 dropped an OR time that was

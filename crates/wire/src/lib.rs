@@ -10,9 +10,11 @@
 //!   4 bytes an id).
 //! - [`frame`]: `[u32 LE length][payload]` frames with a maximum size checked before any
 //!   allocation; incomplete input is not an error, invalid input is ([`error`]).
+//! - [`auth`]: proofs of the cluster token that never send it.
 //! - [`clock`]: wall-clock stamps and the NTP-style offset estimate for one-way latency.
 //! - [`limits`]: the protocol version and the limits, each with its reason.
 
+pub mod auth;
 pub mod clock;
 #[cfg(feature = "net")]
 pub mod codec;

@@ -1,7 +1,7 @@
 //! Protocol version and limits, each with its reason.
 
 /// Bumped whenever a message's encoding changes; the handshake refuses a different one.
-pub const PROTOCOL_VERSION: u32 = 11;
+pub const PROTOCOL_VERSION: u32 = 12;
 
 /// Largest frame payload, refused before allocating by the decoder and before sending by the
 /// encoder. Every message but a keyframe is small (a delta holds at most b ids of each kind at
@@ -14,9 +14,8 @@ pub const MAX_FRAME_BYTES: u32 = 16 << 20;
 /// parts, the list's length) take at most 1 + 10 + 5 + 5 + 10 bytes.
 pub const KEYFRAME_PART_BYTES: usize = MAX_FRAME_BYTES as usize - 32;
 
-/// Longest node name and cluster token in a handshake.
+/// Longest node name in a handshake.
 pub const MAX_NAME_BYTES: usize = 64;
-pub const MAX_TOKEN_BYTES: usize = 256;
 
 /// Most settings a hello carries (osw says 5), each flag and value within MAX_NAME_BYTES.
 pub const MAX_SETTINGS: usize = 32;

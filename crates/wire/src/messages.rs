@@ -3,7 +3,8 @@
 //! every camera to both nodes.
 
 use crate::error::WireError;
-use crate::limits::{MAX_NAME_BYTES, MAX_SETTINGS, MAX_TOKEN_BYTES};
+use crate::auth::{NONCE_BYTES, TAG_BYTES};
+use crate::limits::{MAX_NAME_BYTES, MAX_SETTINGS};
 use serde::{Deserialize, Serialize};
 
 /// What a peer is.
@@ -15,7 +16,22 @@ pub enum Role {
     Display,
 }
 
-/// The first message on every connection, both ways.
+/// The first message on every connection, both ways: the protocol spoken and a fresh nonce
+/// ([`crate::auth`]). Nothing else is said before the peer has proved it holds the token.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Challenge {
+    pub version: u32,
+    pub nonce: [u8; NONCE_BYTES],
+}
+
+/// The second message, both ways: the sender's proof that it holds the cluster token, over
+/// its nonce and the receiver's ([`crate::auth`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Proof {
+    pub tag: [u8; TAG_BYTES],
+}
+
+/// The third message, both ways, once the peer's proof has checked.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Hello {
     pub version: u32,
@@ -23,8 +39,6 @@ pub struct Hello {
     pub scene_hash: [u64; 2],
     pub name: String,
     pub role: Role,
-    /// Shared cluster token, when the configuration sets one.
-    pub token: Option<String>,
     /// A node that has run frames (it holds a visible set), not one just started: a running
     /// node asks a serving peer to rejoin when their link comes back, and a started one waits
     /// for it to ask.
@@ -32,13 +46,16 @@ pub struct Hello {
     /// The settings every process of the cluster must share, as (flag, value): the handshake
     /// refuses a peer that says another value or another set of settings.
     pub settings: Vec<(String, String)>,
+    /// The HMAC of this hello (with a zero tag) under the token and both nonces
+    /// ([`crate::auth::Purpose::Hello`]).
+    pub tag: [u8; TAG_BYTES],
 }
 
 impl Hello {
     /// This build's greeting for a process holding the scene `scene_hash` with `settings`: not
     /// serving yet.
-    pub fn new(scene_hash: [u64; 2], name: impl Into<String>, role: Role, token: Option<String>, settings: Vec<(String, String)>) -> Hello {
-        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, token, serving: false, settings }
+    pub fn new(scene_hash: [u64; 2], name: impl Into<String>, role: Role, settings: Vec<(String, String)>) -> Hello {
+        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, serving: false, settings, tag: [0; TAG_BYTES] }
     }
 
     /// Why `peer`'s settings are not these, naming the first that differs.
@@ -227,6 +244,8 @@ pub enum Message {
     Rejoin(Rejoin),
     StartOver(StartOver),
     Clusters(ClusterMask),
+    Challenge(Challenge),
+    Proof(Proof),
 }
 
 impl Message {
@@ -252,11 +271,10 @@ impl Message {
             }
             Message::Hello(h)
                 if h.name.len() > MAX_NAME_BYTES
-                    || h.token.as_ref().is_some_and(|t| t.len() > MAX_TOKEN_BYTES)
                     || h.settings.len() > MAX_SETTINGS
                     || h.settings.iter().any(|(k, v)| k.len() + v.len() > MAX_NAME_BYTES) =>
             {
-                return Err(WireError::Malformed("hello: name, token or settings too long".into()));
+                return Err(WireError::Malformed("hello: name or settings too long".into()));
             }
             _ => {}
         }

@@ -1,10 +1,12 @@
 //! Connections: TCP with TCP_NODELAY, frames through [`WireCodec`], and the handshake that
-//! refuses a peer with another protocol version, another scene or another cluster token.
+//! refuses a peer without the cluster token ([`crate::auth`]), with another protocol version,
+//! another scene or other settings.
 
 use crate::codec::{CodecError, WireCodec};
 use crate::frame::Frame;
+use crate::auth::{self, Purpose, TAG_BYTES, Token, nonce};
 use crate::limits::PROTOCOL_VERSION;
-use crate::messages::{Hello, Message};
+use crate::messages::{Challenge, Hello, Message, Proof};
 use futures_util::{SinkExt, StreamExt};
 use std::time::Duration;
 use tokio::net::TcpStream;
@@ -61,39 +63,77 @@ pub async fn recv(c: &mut Conn, who: &str) -> Result<Message, NetError> {
     }
 }
 
-/// Sends `me`, reads the peer's hello within `within`, and checks that both run the same
-/// protocol version, hold the same scene, run with the same settings and share the same
-/// cluster token.
-pub async fn handshake(c: &mut Conn, me: &Hello, within: Duration) -> Result<Hello, NetError> {
-    send(c, &Message::Hello(me.clone())).await?;
+/// How long a process waits before it drops a peer whose proof failed: a fixed delay, so that
+/// guessing tokens over many connections is slow.
+pub const REFUSAL_DELAY: Duration = Duration::from_millis(250);
+
+/// Peers this process refused for a wrong proof of the token.
+static AUTH_REFUSALS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Peers this process refused for a wrong proof of the token ([`handshake`]).
+pub fn auth_refusals() -> u64 {
+    AUTH_REFUSALS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The handshake ([`crate::auth`]): nonces both ways, then proofs of `token` both ways, and
+/// only once the peer's proof checks, hellos (each tagged under both nonces). The peer's hello
+/// must speak the same protocol version, hold the same scene and run with the same settings.
+/// Each step waits at most `within` for the peer.
+pub async fn handshake(c: &mut Conn, me: &Hello, token: Option<&Token>, within: Duration) -> Result<Hello, NetError> {
     let peer = c.get_ref().peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
-    let msg = tokio::time::timeout(within, recv(c, &peer))
-        .await
-        .map_err(|_| NetError::Timeout(format!("no hello from {peer} within {within:?}")))??;
-    let Message::Hello(h) = msg else {
-        return Err(NetError::Refused { peer, why: "the first message was not a hello".into() });
+    let refuse = |peer: &str, why: String| Err(NetError::Refused { peer: peer.to_owned(), why });
+    let mine = nonce();
+    send(c, &Message::Challenge(Challenge { version: PROTOCOL_VERSION, nonce: mine })).await?;
+    let theirs = match next(c, &peer, within, "a challenge").await? {
+        Message::Challenge(ch) if ch.version == PROTOCOL_VERSION => ch.nonce,
+        Message::Challenge(ch) => return refuse(&peer, format!("protocol version {} (this build speaks {PROTOCOL_VERSION})", ch.version)),
+        _ => return refuse(&peer, "the first message was not a challenge (another protocol version?)".into()),
     };
-    let refuse = |why: String| Err(NetError::Refused { peer: format!("{} ({peer})", h.name), why });
+    send(c, &Message::Proof(Proof { tag: auth::tag(token, Purpose::Proof, &mine, &theirs, &[]) })).await?;
+    let proved = match next(c, &peer, within, "a proof").await? {
+        Message::Proof(p) => auth::verify(token, Purpose::Proof, &theirs, &mine, &[], &p.tag),
+        _ => false,
+    };
+    if !proved {
+        AUTH_REFUSALS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        tokio::time::sleep(REFUSAL_DELAY).await;
+        return refuse(&peer, if token.is_some() { "a wrong or missing cluster token" } else { "a cluster token this process was not given" }.into());
+    }
+    let tag = auth::tag(token, Purpose::Hello, &mine, &theirs, untagged(me).bytes());
+    send(c, &Message::Hello(Hello { tag, ..me.clone() })).await?;
+    let Message::Hello(h) = next(c, &peer, within, "a hello").await? else {
+        return refuse(&peer, "the message after its proof was not a hello".into());
+    };
+    if !auth::verify(token, Purpose::Hello, &theirs, &mine, untagged(&h).bytes(), &h.tag) {
+        return refuse(&peer, "its hello does not carry its tag (changed on the way?)".into());
+    }
+    let peer = format!("{} ({peer})", h.name);
     if h.version != PROTOCOL_VERSION {
-        return refuse(format!("protocol version {} (this build speaks {PROTOCOL_VERSION})", h.version));
+        return refuse(&peer, format!("protocol version {} (this build speaks {PROTOCOL_VERSION})", h.version));
     }
     if h.scene_hash != me.scene_hash {
-        return refuse(format!(
-            "a different scene (content hash {:016x}{:016x}, ours {:016x}{:016x})",
-            h.scene_hash[1], h.scene_hash[0], me.scene_hash[1], me.scene_hash[0]
-        ));
+        return refuse(
+            &peer,
+            format!(
+                "a different scene (content hash {:016x}{:016x}, ours {:016x}{:016x})",
+                h.scene_hash[1], h.scene_hash[0], me.scene_hash[1], me.scene_hash[0]
+            ),
+        );
     }
     if let Some(why) = me.disagreement(&h) {
-        return refuse(why);
-    }
-    if h.token != me.token {
-        return refuse(if me.token.is_some() {
-            "a wrong or missing cluster token".into()
-        } else {
-            "a cluster token this process was not given".into()
-        });
+        return refuse(&peer, why);
     }
     Ok(h)
+}
+
+/// A hello's frame with a zero tag: what its tag covers.
+fn untagged(h: &Hello) -> Frame {
+    Frame::new(&Message::Hello(Hello { tag: [0; TAG_BYTES], ..h.clone() })).expect("a hello within the limits encodes")
+}
+
+/// The peer's next message within `within`; `what` names it in the error.
+async fn next(c: &mut Conn, peer: &str, within: Duration, what: &str) -> Result<Message, NetError> {
+    tokio::time::timeout(within, recv(c, peer)).await.map_err(|_| NetError::Timeout(format!("no {what} from {peer} within {within:?}")))?
 }
 
 /// Estimates the peer's clock offset from `samples` ping-pong exchanges (see [`crate::clock`]);

@@ -348,3 +348,95 @@ pub fn differing(a: &Path, b: &Path, frames: u64) -> f64 {
         })
         .fold(0.0, f64::max)
 }
+
+/// A peer made of a blocking socket, speaking the wire as the tests choose: frames sent as
+/// they are given, every byte received and sent kept (`got`, `sent`) so that a test can search
+/// or replay it.
+pub struct RawPeer {
+    pub sock: std::net::TcpStream,
+    /// Bytes received and not yet decoded.
+    pub buf: Vec<u8>,
+    /// Every byte received.
+    pub got: Vec<u8>,
+    /// Every byte sent.
+    pub sent: Vec<u8>,
+}
+
+impl RawPeer {
+    /// Connects to `addr`, trying again for up to 20 s while it does not listen yet.
+    pub fn connect(addr: &str) -> RawPeer {
+        let t = std::time::Instant::now();
+        let sock = loop {
+            match std::net::TcpStream::connect(addr) {
+                Ok(c) => break c,
+                Err(_) if t.elapsed().as_secs() < 20 => std::thread::sleep(std::time::Duration::from_millis(50)),
+                Err(e) => panic!("{addr} does not listen: {e}"),
+            }
+        };
+        RawPeer::on(sock)
+    }
+
+    /// A peer on a connected socket.
+    pub fn on(sock: std::net::TcpStream) -> RawPeer {
+        RawPeer { sock, buf: Vec::new(), got: Vec::new(), sent: Vec::new() }
+    }
+
+    pub fn send(&mut self, m: &osw_wire::Message) {
+        let mut b = Vec::new();
+        osw_wire::encode_frame(m, &mut b).unwrap();
+        self.send_bytes(&b);
+    }
+
+    pub fn send_bytes(&mut self, b: &[u8]) {
+        self.sent.extend_from_slice(b);
+        // A peer that has closed the connection makes a write fail: not this helper's concern.
+        let _ = self.sock.write_all(b);
+    }
+
+    /// The next message within `within`; None when the peer closes, sends what does not
+    /// decode, or says nothing in time.
+    pub fn next(&mut self, within: std::time::Duration) -> Option<osw_wire::Message> {
+        let deadline = std::time::Instant::now() + within;
+        loop {
+            match osw_wire::decode_frame(&self.buf) {
+                Ok(Some((m, used))) => {
+                    self.buf.drain(..used);
+                    return Some(m);
+                }
+                Ok(None) => {}
+                Err(_) => return None,
+            }
+            let left = deadline.checked_duration_since(std::time::Instant::now())?;
+            self.sock.set_read_timeout(Some(left.max(std::time::Duration::from_millis(1)))).unwrap();
+            let mut chunk = [0u8; 1 << 16];
+            match std::io::Read::read(&mut self.sock, &mut chunk) {
+                Ok(0) | Err(_) => return None,
+                Ok(n) => {
+                    self.buf.extend_from_slice(&chunk[..n]);
+                    self.got.extend_from_slice(&chunk[..n]);
+                }
+            }
+        }
+    }
+
+    /// The handshake of osw_wire::net::handshake, as a client holding `token` says it: its
+    /// challenge, its proof and `hello` (tagged), each after the peer's. Returns the peer's
+    /// hello, or None where the peer stops answering.
+    pub fn handshake(&mut self, hello: &osw_wire::Hello, token: Option<&osw_wire::auth::Token>) -> Option<osw_wire::Hello> {
+        use osw_wire::auth::{Purpose, nonce, tag};
+        use osw_wire::messages::{Challenge, Proof};
+        use osw_wire::{Frame, Hello, Message};
+        let wait = std::time::Duration::from_secs(20);
+        let mine = nonce();
+        self.send(&Message::Challenge(Challenge { version: osw_wire::limits::PROTOCOL_VERSION, nonce: mine }));
+        let Message::Challenge(theirs) = self.next(wait)? else { return None };
+        self.send(&Message::Proof(Proof { tag: tag(token, Purpose::Proof, &mine, &theirs.nonce, &[]) }));
+        let Message::Proof(_) = self.next(wait)? else { return None };
+        let untagged = Frame::new(&Message::Hello(Hello { tag: [0; 32], ..hello.clone() })).unwrap();
+        self.send(&Message::Hello(Hello { tag: tag(token, Purpose::Hello, &mine, &theirs.nonce, untagged.bytes()), ..hello.clone() }));
+        match self.next(wait)? {
+            Message::Hello(h) => Some(h),
+            _ => None,
+        }
+    }
+}

@@ -45,6 +45,9 @@ pub struct NodeFrame {
     pub bytes_to_display: u64,
     /// Resident memory at the end of the frame (a soak shows it flat).
     pub rss_kb: u64,
+    /// Peers refused so far for a wrong proof of the cluster token (osw_wire::auth).
+    #[serde(default)]
+    pub auth_refusals: u64,
 }
 
 /// The median frame time of `frames` with `duty`, if there are any.

@@ -139,6 +139,10 @@ pub struct SwitchSummary {
     /// alone, and the first and last of them.
     pub node_losses: u32,
     pub node_rejoins: u32,
+    /// Peers refused for a wrong proof of the cluster token: the display's, and the nodes'
+    /// merged in by `osw run`.
+    #[serde(default)]
+    pub auth_refusals: u64,
     pub degraded_frames: u64,
     #[serde(deserialize_with = "required")]
     pub degraded_first_frame: Option<u64>,
