@@ -30,22 +30,17 @@ pub enum Containment {
     Inside,
 }
 
-/// A fault for the tests' negative control: with `OSW_BROKEN_FRUSTUM=1` in the environment the
-/// left plane is pushed inwards by a quarter of the view's width, so frustum culling drops
-/// visible geometry at the left edge. The render tests must then fail against the independent
-/// exact reference (`crates/osw/tests/references.rs`); nothing else reads this.
-fn broken_for_tests() -> bool {
-    static BROKEN: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *BROKEN.get_or_init(|| std::env::var_os("OSW_BROKEN_FRUSTUM").is_some_and(|v| v == "1"))
-}
-
 impl Frustum {
     /// `focal_px`: pixels per unit of size at unit distance.
     pub fn new(eye: DVec3, orientation: DQuat, fovy: f64, aspect: f64, near: f64, focal_px: f64) -> Frustum {
         let (r, u, f) = (orientation * DVec3::X, orientation * DVec3::Y, orientation * DVec3::NEG_Z);
         let ty = (fovy * 0.5).tan();
         let tx = ty * aspect;
-        let tl = if broken_for_tests() { tx * 0.5 } else { tx };
+        // The tests' negative control (the `broken-frustum` feature, built only for it): the
+        // left plane pushed inwards by a quarter of the view's width, so that culling drops
+        // visible geometry at the left edge and the render checks must fail against the
+        // independent exact reference (crates/osw/tests/references.rs).
+        let tl = if cfg!(feature = "broken-frustum") { tx * 0.5 } else { tx };
         // Inward normals of the side planes through the eye.
         let side = |n: DVec3| (n.normalize(), -n.normalize().dot(eye));
         let planes = [

@@ -70,10 +70,12 @@ fn run_build(input: &Path, out: &Path) -> std::process::Output {
     osw(&a.iter().map(String::as_str).collect::<Vec<_>>())
 }
 
-fn build_err(input: &Path, out: &Path, needle: &str) {
+/// The error of a build that must fail, which `needle` must be in.
+fn build_err(input: &Path, out: &Path, needle: &str) -> String {
     let a = build_args(input, out);
-    osw_err(&a.iter().map(String::as_str).collect::<Vec<_>>(), needle);
+    let err = osw_err(&a.iter().map(String::as_str).collect::<Vec<_>>(), needle);
     assert!(!out.exists(), "a failed build left {}", out.display());
+    err
 }
 
 #[test]
@@ -125,6 +127,14 @@ fn broken_gltf_and_glb_name_the_file_and_the_problem() {
     std::fs::write(p("badidx.bin"), &bad).unwrap();
     std::fs::write(p("badidx.gltf"), gltf_json(Some("badidx.bin"), bad.len(), 4, Some(6), "")).unwrap();
     build_err(&p("badidx.gltf"), &out, "out of range");
+    // The same index in the first of two primitives: merged with the second's four vertices it
+    // would name one of those. Refused naming the primitive, the error said once.
+    let bad = quad_buffer([0, 1, 2, 0, 2, 4]);
+    std::fs::write(p("twoprim.bin"), &bad).unwrap();
+    let second = r#",{"attributes":{"POSITION":0}}"#;
+    std::fs::write(p("twoprim.gltf"), gltf_json(Some("twoprim.bin"), bad.len(), 4, Some(6), second)).unwrap();
+    let err = build_err(&p("twoprim.gltf"), &out, "primitive 0: index 4 at position 5 is out of range");
+    assert_eq!(err.matches("out of range").count(), 1, "said more than once: {err}");
     // NaN position.
     let mut nan = bin.clone();
     nan[4..8].copy_from_slice(&f32::NAN.to_le_bytes());

@@ -1,9 +1,9 @@
 //! The references the other tests lean on share nothing with what they check:
 //! - `osw exact` draws every leaf at full detail and lets the GPU clip (no frustum test, no
 //!   traversal), and finds the same visible leaves as the frustum-culled cut it replaced;
-//! - with the frustum deliberately broken (`OSW_BROKEN_FRUSTUM=1`, a side plane pushed in), the
-//!   render checks fail against it: the negative control the old reference could not give,
-//!   since it drew the same broken cut.
+//! - with the frustum deliberately broken (an `osw` built with the `broken-frustum` feature into
+//!   a target folder of its own, a side plane pushed in), the render checks fail against it:
+//!   the negative control the old reference could not give, since it drew the same broken cut.
 
 mod common;
 use common::*;
@@ -36,15 +36,46 @@ fn the_independent_reference_draws_every_leaf_and_agrees_with_the_frustum_cut() 
     }
 }
 
-/// `osw` with the frustum's left plane pushed inwards.
+/// `osw` with the frustum's left plane pushed inwards: built with the `broken-frustum` feature
+/// into `target/negative`, so that no other build has the fault (Cargo would unify the feature
+/// into the `osw` the other tests run, were it built in the same folder).
+fn broken_osw() -> &'static Path {
+    static BUILT: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    BUILT.get_or_init(|| {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let target = root.join("target/negative");
+        let status = std::process::Command::new(env!("CARGO"))
+            .current_dir(&root)
+            .args(["build", "--release", "--locked", "-p", "osw", "--bin", "osw", "--features", "broken-frustum", "--target-dir"])
+            .arg(&target)
+            .status()
+            .unwrap();
+        assert!(status.success(), "building the negative control's osw failed");
+        target.join("release/osw")
+    })
+}
+
 fn osw_broken(args: &[&str]) {
+    let out = std::process::Command::new(broken_osw()).args(args).output().unwrap();
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// The `osw` the other tests run ignores what once broke its frustum from the environment.
+#[test]
+fn the_environment_cannot_break_the_frustum() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "plant", 100_000, 2);
+    let path = camera_path(&scene, "walk", 16);
+    render(&scene, &path, ("vfc", "exact"), "0", &d.path().join("vfc"));
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_osw"))
-        .args(args)
+        .args(["render", "--scene", s(&scene), "--path", s(&path), "--mode", "vfc", "--size", SIZE, "--out"])
+        .arg(d.path().join("vfc-env"))
         .env("OSW_BROKEN_FRUSTUM", "1")
-        .env("OSW_MESH_CACHE", "/nonexistent")
         .output()
         .unwrap();
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let pvs = |run: &str| std::fs::read_to_string(d.path().join(run).join("pvs.txt")).unwrap();
+    assert_eq!(pvs("vfc"), pvs("vfc-env"), "OSW_BROKEN_FRUSTUM changed what vfc culls");
 }
 
 #[test]

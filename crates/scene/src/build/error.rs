@@ -6,7 +6,7 @@ use std::path::Path;
 /// Why a build stopped. The partial scene and the temporary files are removed either way.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
-    #[error("object {index} ({name}): {source}")]
+    #[error("object {index} ({name})")]
     Mesh { index: usize, name: String, source: MeshError },
     #[error("empty scene: {0}")]
     Empty(String),
