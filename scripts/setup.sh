@@ -6,6 +6,9 @@
 # (an X server without a screen), xdotool and xwd (the window test's scripted input and
 # screen grab). Needs root (or sudo) only when something is missing.
 set -euo pipefail
+cd "$(dirname "$0")/.."
+sudo_cmd=""
+[ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
 missing=()
 for pkg in mesa-vulkan-drivers libvulkan1 fonts-dejavu-core iproute2 \
   libx11-6 libxcursor1 libxi6 libxrandr2 libxkbcommon-x11-0 xvfb xdotool x11-apps; do
@@ -13,9 +16,30 @@ for pkg in mesa-vulkan-drivers libvulkan1 fonts-dejavu-core iproute2 \
 done
 if ((${#missing[@]})); then
   echo "setup: installing ${missing[*]}" >&2
-  sudo_cmd=""
-  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
   $sudo_cmd apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 command -v cargo >/dev/null || { echo "setup: cargo not found: install Rust (rustup) first" >&2; exit 1; }
+# Real models made by others for the tests, where ../shared/models/ (our machines and CI) is
+# not beside the clone: Debian's assimp-testmodels holds glTF 2.0 models (a two-cylinder engine
+# of repeated parts, a textured box) and a corpus of malformed glTF that the tests use as bad
+# input. Into models/ (git-ignored), once; skipped where apt-get is not there.
+if [[ ! -e models/.filled ]] && command -v apt-get >/dev/null; then
+  tmp=$(mktemp -d)
+  trap 'rm -rf "$tmp"' EXIT
+  if (cd "$tmp" && apt-get download -qq assimp-testmodels 2>/dev/null) ||
+    { $sudo_cmd apt-get update -qq && (cd "$tmp" && apt-get download -qq assimp-testmodels 2>/dev/null); }; then
+    dpkg-deb -x "$tmp"/assimp-testmodels_*.deb "$tmp/x"
+    src="$tmp/x/usr/share/assimp/models/glTF2"
+    mkdir -p models/bad
+    cp "$src/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" "$src/BoxTextured-glTF-Binary/BoxTextured.glb" models/
+    for d in IndexOutOfRange IncorrectVertexArrays MissingBin SchemaFailures TestNoRootNode RecursiveNodes wrongTypes \
+      BoxWithInfinites-glTF-Binary; do
+      cp -r "$src/$d" models/bad/
+    done
+    touch models/.filled
+    echo "setup: real models for the tests in models/ ($(ls models/*.glb | wc -l) models, $(find models/bad -name '*.gl*' | wc -l) malformed)" >&2
+  else
+    echo "setup: Debian's assimp-testmodels not found: the tests that need real models will say so" >&2
+  fi
+fi

@@ -9,6 +9,8 @@ scripts/check-shape.sh
 # No loop of imports between the files of a crate (each loop kept is named in the check).
 python3 scripts/check-imports.py
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+# Where ../shared/models is (our machines and CI), every test of real models must run.
+[[ -d ../shared/models ]] && export OSW_REQUIRE_MODELS=1
 # The switch tests start the node and display binaries: build every binary first.
 cargo build --release --workspace --locked --bins
 # The criterion benches at least compile (running them is for measurements, not CI).

@@ -36,11 +36,9 @@ impl Frustum {
         let (r, u, f) = (orientation * DVec3::X, orientation * DVec3::Y, orientation * DVec3::NEG_Z);
         let ty = (fovy * 0.5).tan();
         let tx = ty * aspect;
-        // The tests' negative control (the `broken-frustum` feature, built only for it): the
-        // left plane pushed inwards by a quarter of the view's width, so that culling drops
-        // visible geometry at the left edge and the render checks must fail against the
-        // independent exact reference (crates/osw/tests/references.rs).
-        let tl = if cfg!(feature = "broken-frustum") { tx * 0.5 } else { tx };
+        // A negative control's fault (crate::fault): culling drops visible geometry at the
+        // left edge, and the render checks must fail against the independent exact reference.
+        let tl = if crate::fault::on("frustum") { tx * 0.5 } else { tx };
         // Inward normals of the side planes through the eye.
         let side = |n: DVec3| (n.normalize(), -n.normalize().dot(eye));
         let planes = [

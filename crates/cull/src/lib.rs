@@ -20,6 +20,7 @@ pub mod chc;
 pub mod cluster;
 pub mod delta;
 pub mod distance_queue;
+mod fault;
 pub mod front;
 pub mod frustum;
 pub mod gathered;

@@ -31,6 +31,7 @@ pub enum Note {
 pub struct Me {
     pub hello: Hello,
     pub token: Option<Token>,
+    pub tls: Option<osw_wire::tls::Tls>,
 }
 
 /// Keeps node `node` at `addr` connected: the first connection is tried for `first_within`,
@@ -41,7 +42,7 @@ pub async fn keep_node(node: usize, addr: String, me: Me, notes: Sender<Note>, f
     loop {
         let attempt = async {
             let within = if ever_up { Duration::from_secs(3600) } else { first_within.saturating_sub(start.elapsed()) };
-            let mut c = connect(&addr, within).await?;
+            let mut c = connect(&addr, within, me.tls.as_ref()).await?;
             handshake(&mut c, &me.hello, me.token.as_ref(), Duration::from_secs(10)).await?;
             let clock = probe_clock(&mut c, CLOCK_PROBES, Duration::from_secs(10)).await?;
             Ok::<_, osw_wire::net::NetError>((c, clock))

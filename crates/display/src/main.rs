@@ -165,6 +165,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
     let agreed = a.agreed.resolve(&set.config)?;
     let me = Hello::new(scene.content_hash(), "display", Role::Display, agreed.said(set.size));
+    let tls = set.tls.as_ref().map(|f| osw_wire::tls::Tls::load(&f.cert, &f.key, &f.ca)).transpose()?;
     let (mut ui, gpu) = open(a, &set, &scene, path.first())?;
     // The next frame's gather overlaps this frame's draw (measured in
     // docs/measurements/2026-12-07-constants.md, "The display's overlap"). RVG's stage time then
@@ -177,7 +178,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let (notes_tx, notes) = std::sync::mpsc::channel();
     for (k, addr) in addrs.iter().enumerate() {
-        let who = links::Me { hello: me.clone(), token: set.token.clone() };
+        let who = links::Me { hello: me.clone(), token: set.token.clone(), tls: tls.clone() };
         rt.spawn(links::keep_node(k, addr.clone(), who, notes_tx.clone(), Duration::from_secs(10)));
     }
     drop(notes_tx);

@@ -6,8 +6,9 @@
 //!
 //! The reference shares nothing with the culling it judges ([`Reference::Independent`]): at tau
 //! 0 it draws every leaf's level 0, found by scanning the node table, and lets the GPU clip; at
-//! tau > 0 it takes the LOD cut at tau without a frustum. [`Reference::FrustumCut`] draws the cut
-//! frustum culling makes (faster on large scenes, but a frustum bug is then shared).
+//! tau > 0 it picks each node's level from the node table and the eye alone
+//! ([`independent_cut`]). [`Reference::FrustumCut`] draws the cut frustum culling makes (faster
+//! on large scenes, but a frustum bug and the traversal's cut selection are then shared).
 
 use crate::draw::{Layer, Load, Pass};
 use crate::renderer::{RenderError, Renderer};
@@ -59,9 +60,7 @@ fn drawn(scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Vec<
         Reference::Independent if tau == 0.0 => {
             ids.extend((0..scene.bvh_count()).map(|id| scene.node(id)).filter(|n| n.kind() == NodeKind::Leaf).map(|n| n.first_lod))
         }
-        Reference::Independent => {
-            frustum_cull(scene.nodes(), &view.without_frustum(), tau, &mut ids);
-        }
+        Reference::Independent => ids = independent_cut(scene, view.eye, view.focal_px, tau),
         Reference::FrustumCut => {
             frustum_cull(scene.nodes(), view, tau, &mut ids);
         }
@@ -69,6 +68,43 @@ fn drawn(scene: &SceneFile, view: &View, tau: f64, reference: Reference) -> Vec<
     // Sorted: where two surfaces tie in depth the first drawn keeps the pixel.
     ids.sort_unstable();
     ids
+}
+
+/// The LOD cut at `tau` made from the node table and the eye alone, per BVH node and without
+/// a traversal or any test of `osw_cull` (whose cut selection it judges): a node is reached
+/// when its parent is reached and neither stands for it with a static LOD or HLOD within tau
+/// nor holds a cluster hierarchy coarse enough below (occlusion switch sec. 4.1: the coarsest
+/// level within tau). A node reached draws its coarsest static level within tau, else its cut
+/// node where the cut may take a cluster of it.
+fn independent_cut(scene: &SceneFile, eye: glam::DVec3, focal_px: f64, tau: f64) -> Vec<NodeId> {
+    let nodes = scene.nodes();
+    // Pixels of `error` on geometry in `b`: the error over the distance to the box, times the
+    // focal length; unbounded with the eye in the box.
+    let px = |error: f32, b: &osw_scene::Aabb| {
+        let d = (b.min.as_dvec3() - eye).max(eye - b.max.as_dvec3()).max(glam::DVec3::ZERO).length();
+        if error <= 0.0 { 0.0 } else if d <= 0.0 { f64::INFINITY } else { error as f64 * focal_px / d }
+    };
+    let lod = osw_scene::error_metric::LodView { eye, focal_px, tau };
+    let mut reached = vec![false; scene.bvh_count() as usize];
+    reached[scene.root() as usize] = true;
+    let mut cut = Vec::new();
+    // BVH ids are breadth first: a parent is decided before its children.
+    for id in 0..reached.len() {
+        if !reached[id] {
+            continue;
+        }
+        let n = &nodes[id];
+        let b = n.aabb();
+        if let Some(l) = n.lods().rev().find(|&l| !nodes[l as usize].is_cut() && px(nodes[l as usize].error, &b) <= tau) {
+            cut.push(l);
+            continue;
+        }
+        cut.extend(n.lods().find(|&l| nodes[l as usize].is_cut() && lod.may_take(&nodes[l as usize])));
+        if n.kind() == NodeKind::Group && (!n.is_bounded() || n.cut_hi.px(eye, focal_px) > tau) {
+            n.children().for_each(|c| reached[c as usize] = true);
+        }
+    }
+    cut
 }
 
 impl Renderer {

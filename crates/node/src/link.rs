@@ -6,7 +6,9 @@
 
 use osw_wire::auth::Token;
 use osw_wire::messages::{Hello, Message, Role};
-use osw_wire::net::{conn, handshake, run_connection};
+use osw_wire::limits::HANDSHAKE;
+use osw_wire::net::{End, conn, handshake, run_connection};
+use osw_wire::tls::Tls;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
@@ -35,7 +37,6 @@ pub enum Event {
     },
 }
 
-pub const HANDSHAKE: Duration = Duration::from_secs(10);
 
 /// Most cameras from the display waiting for the frame loop. Playback needs three (k-1 in
 /// case of a takeover, k, k+1); more is a display sending faster than frames are made.
@@ -81,6 +82,8 @@ pub struct Me {
     pub hello: Hello,
     /// The cluster token it proves it holds (osw_wire::auth).
     pub token: Option<Arc<Token>>,
+    /// Mutual TLS on every link, where the cluster has it (osw_wire::tls).
+    pub tls: Option<Tls>,
     pub serving: Arc<AtomicBool>,
 }
 
@@ -120,7 +123,13 @@ pub async fn accept(listener: tokio::net::TcpListener, me: Me, events: Sender<Ev
     loop {
         match listener.accept().await {
             Ok((s, _)) => {
-                tokio::spawn(serve(conn(s), me.clone(), events.clone(), Arc::clone(&gate)));
+                let (me, events, gate) = (me.clone(), events.clone(), Arc::clone(&gate));
+                tokio::spawn(async move {
+                    match conn(s, me.tls.as_ref(), End::Accepted, HANDSHAKE).await {
+                        Ok(c) => serve(c, me, events, gate).await,
+                        Err(e) => tracing::warn!("{}: {e}", me.hello.name),
+                    }
+                });
             }
             Err(e) => tracing::warn!("accept: {e}"),
         }
@@ -131,7 +140,7 @@ pub async fn accept(listener: tokio::net::TcpListener, me: Me, events: Sender<Ev
 /// again whenever the connection ends, for as long as the process runs.
 pub async fn keep_connected(addr: String, me: Me, events: Sender<Event>, gate: Arc<CameraGate>) {
     loop {
-        match osw_wire::net::connect(&addr, Duration::from_secs(3600)).await {
+        match osw_wire::net::connect(&addr, Duration::from_secs(3600), me.tls.as_ref()).await {
             Ok(c) => serve(c, me.clone(), events.clone(), Arc::clone(&gate)).await,
             Err(e) => tracing::warn!("{}: {e}", me.hello.name),
         }

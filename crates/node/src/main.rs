@@ -105,7 +105,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     writeln!(std::io::stdout(), "listening on {bound}")?;
     std::io::stdout().flush()?;
     let gate = Arc::new(link::CameraGate::default());
-    let me = link::Me { hello: me, token: set.token.clone().map(Arc::new), serving: Arc::default() };
+    let tls = set.tls.as_ref().map(|f| osw_wire::tls::Tls::load(&f.cert, &f.key, &f.ca)).transpose()?;
+    let me = link::Me { hello: me, token: set.token.clone().map(Arc::new), tls, serving: Arc::default() };
     rt.spawn(link::accept(listener, me.clone(), events_tx.clone(), Arc::clone(&gate)));
     if let Some(peer) = &peer {
         rt.spawn(link::keep_connected(peer.clone(), me.clone(), events_tx, Arc::clone(&gate)));

@@ -288,7 +288,7 @@ fn compare_culling(a: &Args, exact: &Path, summaries: [&Summary; 2], rows: &mut 
             s.drawn_exact_triangles_ratio_mean =
                 Some(drawn.iter().zip(&tris).take(frames).map(|(&d, &t)| d as f64 / t.max(1) as f64).sum::<f64>() / frames.max(1) as f64);
         }
-        if let Some((lod_leaves, lod_rows)) = &lod {
+        if let (Some((lod_leaves, lod_rows)), Some(lod_dir)) = (&lod, &a.exact_lod) {
             let mut missed = Vec::with_capacity(frames);
             for f in 0..frames {
                 let e = cull_error(&scene, &pvs[f], &lod_leaves[f], lod_rows[f].visible_triangles)?;
@@ -296,11 +296,32 @@ fn compare_culling(a: &Args, exact: &Path, summaries: [&Summary; 2], rows: &mut 
             }
             s.lod_false_culled_total = Some(missed.iter().sum());
             s.lod_frames_with_false_culling = Some(missed.iter().filter(|&&m| m > 0).count() as u64);
+            s.lod_not_drawn_total = lods_not_drawn(lod_dir, &pvs[..frames])?;
         }
         if which == 0 { report.culling_a = Some(s) } else { report.culling_b = Some(s) }
     }
     report.exact = Some(exact.display().to_string());
     Ok(())
+}
+
+/// LOD nodes the item buffers in `reference` show that `pvs` does not hold, summed over the
+/// frames; None where the reference wrote no item buffers.
+fn lods_not_drawn(reference: &Path, pvs: &[Vec<NodeId>]) -> anyhow::Result<Option<u64>> {
+    if !items_path(reference, 0).exists() {
+        return Ok(None);
+    }
+    let mut total = 0;
+    for (i, drawn) in pvs.iter().enumerate() {
+        let mut drawn = drawn.clone();
+        drawn.sort_unstable();
+        let path = items_path(reference, i as u64);
+        let (_, _, mut items) = read_items(&path).with_context(|| path.display().to_string())?;
+        items.sort_unstable();
+        items.dedup();
+        // An item is a LOD node's id plus one, 0 where nothing is drawn.
+        total += items.iter().filter(|&&item| item != 0 && drawn.binary_search(&(item - 1)).is_err()).count() as u64;
+    }
+    Ok(Some(total))
 }
 
 impl FrameRow {
@@ -348,7 +369,10 @@ fn print(report: &Compare, [sa, sb]: [&Summary; 2], images: bool, out: &Path) {
         report.culling_a.as_ref().map_or(String::new(), |s| format!(
             ", a: {} false-culled leaves{}, PVS/exact leaves {:.2}{}",
             s.false_culled_leaves_total,
-            s.lod_false_culled_total.map_or(String::new(), |n| format!(" ({n} against visibility at its tau)")),
+            s.lod_false_culled_total.map_or(String::new(), |n| format!(
+                " ({n} against visibility at its tau, {} visible LODs not drawn at their level)",
+                s.lod_not_drawn_total.unwrap_or(0)
+            )),
             s.pvs_exact_leaves_ratio_mean,
             s.drawn_exact_triangles_ratio_mean.map_or(String::new(), |r| format!(", drawn/exact triangles {r:.1}"))
         )),

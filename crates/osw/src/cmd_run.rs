@@ -58,6 +58,10 @@ pub struct Args {
     /// full detail of a billion triangles needs more than the default).
     #[arg(long, value_name = "SECS")]
     frame_timeout: Option<f64>,
+    /// Mutual TLS on every link, with the certificates `osw certs --out DIR` made: ca.pem and
+    /// node-a, node-b and display (.pem and .key).
+    #[arg(long, value_name = "DIR")]
+    tls: Option<PathBuf>,
     /// Output directory: frames/, stats.csv, pvs.txt, summary.json (the display's), node-a.csv
     /// and node-b.csv (each node's frames), and each process's log.
     #[arg(long)]
@@ -184,8 +188,16 @@ fn write_config(a: &Args) -> anyhow::Result<PathBuf> {
 fn start(a: &Args, config: &Path) -> anyhow::Result<[Proc; 3]> {
     let (node, display) = (sibling("osw-node")?, sibling("osw-display")?);
     let s = |p: &Path| p.display().to_string();
+    // Each process's certificate and key, named as `osw certs` names them, and the CA's.
+    let tls = |who: &str| -> Vec<String> {
+        a.tls.as_ref().map_or(Vec::new(), |d| {
+            let f = |n: String| s(&d.join(n));
+            vec!["--tls-cert".into(), f(format!("{who}.pem")), "--tls-key".into(), f(format!("{who}.key")), "--tls-ca".into(), f("ca.pem".into())]
+        })
+    };
     let common = |name: &str| {
         let mut v: Vec<String> = vec!["--config".into(), s(config), "--name".into(), name.into(), "--listen".into(), "127.0.0.1:0".into()];
+        v.extend(tls(&format!("node-{name}")));
         for (on, flag) in [(a.full, "--full"), (a.gpu_times, "--gpu-times")] {
             if on {
                 v.push(flag.into());
@@ -205,6 +217,7 @@ fn start(a: &Args, config: &Path) -> anyhow::Result<[Proc; 3]> {
     let mut pb = spawn("node b", &node, &args_b, &a.out)?;
     let addr_b = address(&mut pb)?;
     let mut args_d = vec!["--config".into(), s(config), "--nodes".into(), format!("{addr_a},{addr_b}"), "--out".into(), s(&a.out)];
+    args_d.extend(tls("display"));
     if let Some(p) = &a.path {
         args_d.extend(["--path".into(), s(p)]);
     }

@@ -13,6 +13,7 @@ macro_rules! out {
 
 mod cmd_bandwidth;
 mod cmd_build;
+mod cmd_certs;
 mod cmd_compare;
 mod cmd_exact;
 mod cmd_info;
@@ -68,6 +69,8 @@ enum Cmd {
     /// A TCP relay that delays and loses like a lossy network (for kernels without netem):
     /// put one in front of a node and point its peer and the display at it.
     Link(cmd_link::Args),
+    /// A cluster's own CA and a certificate for each process, for mutual TLS on every link.
+    Certs(cmd_certs::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -88,6 +91,7 @@ fn main() -> std::process::ExitCode {
         Cmd::Bandwidth(a) => cmd_bandwidth::run(a),
         Cmd::Latency(a) => cmd_latency::run(a),
         Cmd::Link(a) => cmd_link::run(a),
+        Cmd::Certs(a) => cmd_certs::run(a),
     };
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -336,3 +336,32 @@ fn a_renamed_key_in_a_summary_is_named_by_the_tools_that_read_it() {
         }
     }
 }
+
+/// The malformed glTF of a peer's importer (Debian's assimp-testmodels, `models/bad`, which
+/// `scripts/setup.sh` fills): each builds, or is refused with exit 1 and an error naming its
+/// file; none panics or leaves a scene behind.
+#[test]
+fn a_peers_corpus_of_malformed_gltf_is_refused_by_name_or_built() {
+    let Some(files) = bad_models("a_peers_corpus_of_malformed_gltf_is_refused_by_name_or_built") else { return };
+    assert!(files.len() >= 10, "{files:?}");
+    let d = tempfile::tempdir().unwrap();
+    let (mut built, mut refused) = (0, 0);
+    for (k, f) in files.iter().enumerate() {
+        let out = d.path().join(format!("{k}.osw"));
+        let r = osw(&["build", s(f), "-o", s(&out)]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!err.contains("panicked"), "{}: {err}", f.display());
+        match r.status.code() {
+            Some(0) => built += 1,
+            Some(1) => {
+                let name = f.file_name().unwrap().to_str().unwrap();
+                assert!(err.contains("osw: error:") && err.contains(name), "{}: the error does not name the file: {err}", f.display());
+                assert!(!out.exists(), "{}: a refused build left a scene", f.display());
+                refused += 1;
+            }
+            c => panic!("{}: exit {c:?}: {err}", f.display()),
+        }
+    }
+    eprintln!("{built} built, {refused} refused by name");
+    assert!(refused > 0, "a corpus of malformed files refused nothing");
+}

@@ -27,6 +27,7 @@ fn check_tau_one(dir: &Path, scene: &Path, path: &Path, label: &str) {
         osw_ok(&[&["compare"], &args[..], &["--out", s(&out)]].concat());
         let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
         assert_eq!(c["culling_a"]["lod_false_culled_total"], 0, "{label} {name}: a visible node of the cut culled: {c}");
+        assert_eq!(c["culling_a"]["lod_not_drawn_total"], 0, "{label} {name}: a visible LOD of the cut not drawn: {c}");
         assert_same_frames(&c, frames, &format!("{label} {name} against vfc at tau 1"));
     }
     // The cut is coarser than the original: fewer of its triangles pass the cluster tests at

@@ -210,3 +210,71 @@ fn a_node_open_beyond_loopback_without_a_token_says_anyone_can_join() {
         assert_eq!(text.contains("anyone who can reach this port can join"), warns, "listening on {listen}: {text}");
     }
 }
+
+/// With mutual TLS the walk runs with every frame; a client whose certificate another CA
+/// signed is refused in the TLS handshake, before any osw byte, and a plain client gets no osw
+/// byte either.
+#[test]
+fn with_tls_only_the_clusters_certificates_get_in() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = build_gen(d.path(), "city", 20_000, 1);
+    let path = camera_path(&scene, "orbit", FRAMES);
+    let (certs, other) = (d.path().join("certs"), d.path().join("other"));
+    osw_ok(&["certs", "--out", s(&certs)]);
+    osw_ok(&["certs", "--names", "stranger", "--out", s(&other)]);
+    let tls_args = |who: &str| {
+        let f = |n: String| certs.join(n).display().to_string();
+        vec!["--tls-cert".to_string(), f(format!("{who}.pem")), "--tls-key".into(), f(format!("{who}.key")), "--tls-ca".into(), f("ca.pem".into())]
+    };
+    let start = |name: &str, peer: Option<&str>| {
+        let mut c = Command::new(bin("osw-node"));
+        c.args(["--name", name, "--scene", s(&scene), "--size", SIZE, "--token", TOKEN, "--listen", "127.0.0.1:0"]);
+        c.args(tls_args(&format!("node-{name}")));
+        if let Some(p) = peer {
+            c.args(["--peer", p]);
+        }
+        let log = d.path().join(format!("{name}.log"));
+        let mut p = Proc(c.stdout(Stdio::piped()).stderr(std::fs::File::create(&log).unwrap()).spawn().unwrap());
+        let mut line = String::new();
+        std::io::BufRead::read_line(&mut std::io::BufReader::new(p.0.stdout.take().unwrap()), &mut line).unwrap();
+        (p, line.trim().strip_prefix("listening on ").unwrap_or_else(|| panic!("node {name}: {line:?}")).to_owned(), log)
+    };
+    let (_a, addr_a, a_log) = start("a", None);
+    let (_b, addr_b, _) = start("b", Some(&addr_a));
+    let secrets = secrets(&scene);
+
+    // A TLS client with a certificate of another CA (trusting the cluster's, so that only its
+    // own certificate is at fault).
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    let stranger = osw_wire::tls::Tls::load(&other.join("stranger.pem"), &other.join("stranger.key"), &certs.join("ca.pem")).unwrap();
+    let refused = rt.block_on(async {
+        let mut c = osw_wire::net::connect(&addr_a, Duration::from_secs(10), Some(&stranger)).await?;
+        // TLS 1.3 sends the client's certificate after the server's finished: its refusal comes
+        // as the first read.
+        osw_wire::net::recv(&mut c, "node a").await
+    });
+    assert!(refused.is_err(), "a certificate of another CA got a message: {refused:?}");
+    // A plain client, as on a cluster without TLS, and one that sends garbage: no osw byte.
+    for garbage in [false, true] {
+        let mut plain = RawPeer::connect(&addr_a);
+        if garbage {
+            plain.send_bytes(&[0x16, 3, 3, 0, 4, 1, 2, 3, 4]);
+        }
+        let got = std::iter::from_fn(|| plain.next(Duration::from_secs(2))).count();
+        assert_eq!(got, 0, "a plain client decoded osw messages");
+        assert_tells_nothing(&plain.got, &secrets, "a plain client at a TLS node");
+    }
+
+    let out = d.path().join("run");
+    let status = Command::new(bin("osw-display"))
+        .args(["--scene", s(&scene), "--path", s(&path), "--nodes", &format!("{addr_a},{addr_b}"), "--size", SIZE, "--token", TOKEN])
+        .args(tls_args("display"))
+        .args(["--out", s(&out)])
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success(), "the walk over TLS failed");
+    assert_eq!(csv_column(&out.join("stats.csv"), "frame").len(), FRAMES as usize, "the walk lost frames");
+    let log = std::fs::read_to_string(&a_log).unwrap();
+    assert!(log.contains("TLS"), "node a did not say it refused a TLS peer: {log}");
+}

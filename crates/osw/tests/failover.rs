@@ -14,6 +14,12 @@ use std::process::{Command, Stdio};
 
 const SIZE: &str = "192x192";
 
+/// Whether a TCP connection to local port `port` is established (`ss`).
+fn established_to(port: &str) -> bool {
+    let out = Command::new("ss").args(["-Htn", "state", "established", &format!("( sport = :{port} )")]).output().unwrap();
+    !out.stdout.is_empty()
+}
+
 /// A loopback address with a port free now.
 fn free_addr() -> String {
     let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
@@ -145,11 +151,14 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
             let (slot, to_a, addr_a) = (std::sync::Arc::clone(&display_to_a), to_a.clone(), addr_a.clone());
             let (delay, loss) = impaired.map_or(("0".to_string(), "0".to_string()), |(d, l)| (d.to_string(), l.to_string()));
             relay_back = Some(std::thread::spawn(move || {
+                // Until node b holds a connection to the restarted node a (the display's relay
+                // is down, so b's is the only one), polled.
+                let port = addr_a.rsplit(':').next().unwrap().to_owned();
                 let t = std::time::Instant::now();
-                while std::net::TcpStream::connect(&addr_a).is_err() && t.elapsed().as_secs() < 20 {
+                while !established_to(&port) {
+                    assert!(t.elapsed().as_secs() < 20, "node b did not reconnect to the restarted node a");
                     std::thread::sleep(std::time::Duration::from_millis(20));
                 }
-                std::thread::sleep(std::time::Duration::from_millis(300));
                 *slot.lock().unwrap() = Some(link(&to_a, &addr_a, &delay, &loss, "4").0);
             }));
         }

@@ -404,9 +404,8 @@ fn a_coloured_model_renders_in_its_colours() {
 /// `mesh` removed), which has no repeats: its triangles after clean-up are the unique ones.
 #[test]
 fn the_engines_repeated_meshes_are_counted_once() {
-    let Some(dir) = real_models_dir("the_engines_repeated_meshes_are_counted_once") else { return };
+    let Some(engine) = real_model("the_engines_repeated_meshes_are_counted_once", "2CylinderEngine.glb") else { return };
     let d = tempfile::tempdir().unwrap();
-    let engine = dir.join("2CylinderEngine.glb");
     let (mut uses, mut repeated) = (std::collections::HashMap::new(), (0, 0));
     let once = edit_glb(&engine, |doc| {
         for node in doc["nodes"].as_array_mut().unwrap() {
@@ -458,12 +457,12 @@ fn glb_mesh_triangles(path: &Path) -> u64 {
 /// visibility of the same LODs finds visible, and the same image error as the copies.
 #[test]
 fn the_engines_meshes_stored_once_draw_as_their_copies() {
-    let Some(dir) = real_models_dir("the_engines_meshes_stored_once_draw_as_their_copies") else { return };
     let d = tempfile::tempdir().unwrap();
     for model in ["2CylinderEngine.glb", "2CylinderEngine.instanced.glb"] {
+        let Some(file) = real_model("the_engines_meshes_stored_once_draw_as_their_copies", model) else { continue };
         let [keep, expand] = ["keep", "expand"].map(|m| d.path().join(format!("{model}-{m}.osw")));
         for (scene, m) in [(&keep, "keep"), (&expand, "expand")] {
-            osw_ok(&["build", s(&dir.join(model)), "--instances", m, "-o", s(scene)]);
+            osw_ok(&["build", s(&file), "--instances", m, "-o", s(scene)]);
         }
         let report = |p: &Path| -> serde_json::Value {
             serde_json::from_str(&std::fs::read_to_string(p.with_extension("build.json")).unwrap()).unwrap()
@@ -471,7 +470,7 @@ fn the_engines_meshes_stored_once_draw_as_their_copies() {
         let (rk, re) = (report(&keep), report(&expand));
         let n = |r: &serde_json::Value, k: &str| r[k].as_u64().unwrap_or_else(|| panic!("no {k} in {r}"));
         // Stored once: the unique triangles are the file's meshes' less the degenerate ones.
-        assert_eq!(n(&rk, "unique_triangles"), glb_mesh_triangles(&dir.join(model)) - n(&rk, "degenerate_triangles_dropped"), "{model}");
+        assert_eq!(n(&rk, "unique_triangles"), glb_mesh_triangles(&file) - n(&rk, "degenerate_triangles_dropped"), "{model}");
         assert!(n(&rk, "instances") >= 52 && n(&rk, "prototypes") >= 14, "{model}: {rk}");
         assert!(n(&rk, "stored_triangles") < n(&re, "stored_triangles"), "{model}: {rk} vs {re}");
         assert!(n(&rk, "output_bytes") + n(&rk, "bytes_saved") / 2 < n(&re, "output_bytes"), "{model}: {rk} vs {re}");
@@ -519,6 +518,7 @@ fn the_engines_meshes_stored_once_draw_as_their_copies() {
                 osw_ok(&[&["compare"], &args[..]].concat());
                 let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cmp.join("compare.json")).unwrap()).unwrap();
                 assert_eq!(c["culling_a"]["lod_false_culled_total"], 0, "{model}: a visible node culled at tau 1: {c}");
+                assert_eq!(c["culling_a"]["lod_not_drawn_total"], 0, "{model}: a visible LOD not drawn at tau 1: {c}");
             }
             psnr.push(mean_psnr(&out, &full));
         }

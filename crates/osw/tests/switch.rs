@@ -274,9 +274,16 @@ fn a_killed_node_is_survived_then_reported_by_name() {
     let rows = csv(&out.join("stats.csv"));
     assert_eq!(rows.len(), 600, "the display did not get every frame");
     assert!(rows.iter().any(|r| num(r, "degraded") == 1.0), "no degraded frame recorded");
-    std::thread::sleep(Duration::from_millis(300));
-    let left = std::process::Command::new("pgrep").args(["-f", s(&config)]).output().unwrap();
-    assert!(left.stdout.is_empty(), "processes left behind: {}", String::from_utf8_lossy(&left.stdout));
+    // The processes' exits, polled.
+    let t = Instant::now();
+    loop {
+        let left = std::process::Command::new("pgrep").args(["-f", s(&config)]).output().unwrap();
+        if left.stdout.is_empty() {
+            break;
+        }
+        assert!(t.elapsed() < Duration::from_secs(10), "processes left behind: {}", String::from_utf8_lossy(&left.stdout));
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
 
 #[test]

@@ -8,6 +8,9 @@
 //! batch = 1024
 //! token_file = "cluster.key"  # optional: every connection must prove it holds this secret
 //!                             # (or token = "..."; a file keeps it out of `ps` and of the config)
+//! tls_cert = "certs/node-a.pem"  # optional, all three or none: mutual TLS on every link
+//! tls_key = "certs/node-a.key"   # (`osw certs` makes a cluster's; a config per process)
+//! tls_ca = "certs/ca.pem"
 //! adaptive = 0.0              # the settings every process must agree on (`osw run` writes
 //! always_cull = false         # them; each process's flags override them)
 //! cluster_tests = "frustum,cone,backface,small,occlusion"
@@ -51,6 +54,16 @@ pub struct ClusterArgs {
     /// File holding the cluster token (its first line) [default: the config's, if any].
     #[arg(long, value_name = "PATH")]
     pub token_file: Option<PathBuf>,
+    /// This process's certificate (PEM, signed by the cluster's CA; `osw certs` makes them):
+    /// every link in mutual TLS [default: the config's, if any; with --tls-key and --tls-ca].
+    #[arg(long, value_name = "PEM", requires_all = ["tls_key", "tls_ca"])]
+    pub tls_cert: Option<PathBuf>,
+    /// This process's private key (PEM).
+    #[arg(long, value_name = "PEM", requires_all = ["tls_cert", "tls_ca"])]
+    pub tls_key: Option<PathBuf>,
+    /// The cluster's CA certificate (PEM): only peers it signed are admitted.
+    #[arg(long, value_name = "PEM", requires_all = ["tls_cert", "tls_key"])]
+    pub tls_ca: Option<PathBuf>,
     /// Adapter: the first whose name contains this text [default: a GPU, else lavapipe].
     #[arg(long)]
     pub adapter: Option<String>,
@@ -65,6 +78,15 @@ pub struct Settings {
     pub size: (u32, u32),
     pub batch: usize,
     pub token: Option<Token>,
+    pub tls: Option<TlsFiles>,
+}
+
+/// Where a process's certificate, its key and the cluster's CA certificate are (PEM).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TlsFiles {
+    pub cert: PathBuf,
+    pub key: PathBuf,
+    pub ca: PathBuf,
 }
 
 impl ClusterArgs {
@@ -96,7 +118,15 @@ impl ClusterArgs {
                 (None, None) => None,
             },
         };
-        Ok(Settings { config, scene, tau, size, batch, token: token.map(checked_token).transpose()? })
+        let tls = match (&self.tls_cert, &self.tls_key, &self.tls_ca) {
+            (Some(cert), Some(key), Some(ca)) => Some(TlsFiles { cert: cert.clone(), key: key.clone(), ca: ca.clone() }),
+            _ => match (&config.tls_cert, &config.tls_key, &config.tls_ca) {
+                (Some(cert), Some(key), Some(ca)) => Some(TlsFiles { cert: cert.clone(), key: key.clone(), ca: ca.clone() }),
+                (None, None, None) => None,
+                _ => return Err(ConfigError::Invalid("tls_cert, tls_key and tls_ca go together".into())),
+            },
+        };
+        Ok(Settings { config, scene, tau, size, batch, token: token.map(checked_token).transpose()?, tls })
     }
 }
 
@@ -162,6 +192,10 @@ pub struct Config {
     pub batch: Option<usize>,
     pub token: Option<String>,
     pub token_file: Option<PathBuf>,
+    /// Mutual TLS: this process's certificate and key, the cluster's CA (all three or none).
+    pub tls_cert: Option<PathBuf>,
+    pub tls_key: Option<PathBuf>,
+    pub tls_ca: Option<PathBuf>,
     /// The settings every process must agree on (`osw_render::settings`): adaptive culling's
     /// threshold, occlusion culling on every frame, the cluster tests.
     pub adaptive: Option<f64>,

@@ -10,7 +10,8 @@
 //!   4 bytes an id).
 //! - [`frame`]: `[u32 LE length][payload]` frames with a maximum size checked before any
 //!   allocation; incomplete input is not an error, invalid input is ([`error`]).
-//! - [`auth`]: proofs of the cluster token that never send it.
+//! - [`auth`]: proofs of the cluster token that never send it; with `net`, `tls`: mutual TLS
+//!   for links across networks a user does not trust.
 //! - [`clock`]: wall-clock stamps and the NTP-style offset estimate for one-way latency.
 //! - [`limits`]: the protocol version and the limits, each with its reason.
 
@@ -27,6 +28,8 @@ pub mod limits;
 pub mod messages;
 #[cfg(feature = "net")]
 pub mod net;
+#[cfg(feature = "net")]
+pub mod tls;
 
 pub use error::WireError;
 pub use frame::{Frame, decode_frame, encode_frame};

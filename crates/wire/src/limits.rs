@@ -25,6 +25,10 @@ pub const MAX_SETTINGS: usize = 32;
 /// detail of a huge scene may need more.
 pub const FRAME_WAIT: std::time::Duration = std::time::Duration::from_secs(30);
 
+/// Longest wait for each step of a handshake (TLS, then osw's): a peer that says nothing is
+/// dropped after it.
+pub const HANDSHAKE: std::time::Duration = std::time::Duration::from_secs(10);
+
 /// A connection's writer sends a heartbeat after this long with nothing else to send.
 pub const HEARTBEAT: std::time::Duration = std::time::Duration::from_millis(250);
 

@@ -7,12 +7,65 @@ use crate::frame::Frame;
 use crate::auth::{self, Purpose, TAG_BYTES, Token, nonce};
 use crate::limits::PROTOCOL_VERSION;
 use crate::messages::{Challenge, Hello, Message, Proof};
+use crate::tls::Tls;
 use futures_util::{SinkExt, StreamExt};
+use std::pin::Pin;
+use std::sync::Arc;
+use std::task::{Context, Poll};
 use std::time::Duration;
 use tokio::net::TcpStream;
 use tokio_util::codec::Framed;
 
-pub type Conn = Framed<TcpStream, WireCodec>;
+pub type Conn = Framed<Stream, WireCodec>;
+
+/// A connection's byte stream: plain TCP, or TLS over it ([`crate::tls`]).
+pub enum Stream {
+    Plain(TcpStream),
+    Tls(Box<tokio_rustls::TlsStream<TcpStream>>),
+}
+
+impl Stream {
+    /// The peer's address, for messages.
+    pub fn peer(&self) -> String {
+        let tcp = match self {
+            Stream::Plain(s) => s,
+            Stream::Tls(s) => s.get_ref().0,
+        };
+        tcp.peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into())
+    }
+}
+
+impl tokio::io::AsyncRead for Stream {
+    fn poll_read(self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &mut tokio::io::ReadBuf<'_>) -> Poll<std::io::Result<()>> {
+        match self.get_mut() {
+            Stream::Plain(s) => Pin::new(s).poll_read(cx, buf),
+            Stream::Tls(s) => Pin::new(s.as_mut()).poll_read(cx, buf),
+        }
+    }
+}
+
+impl tokio::io::AsyncWrite for Stream {
+    fn poll_write(self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
+        match self.get_mut() {
+            Stream::Plain(s) => Pin::new(s).poll_write(cx, buf),
+            Stream::Tls(s) => Pin::new(s.as_mut()).poll_write(cx, buf),
+        }
+    }
+
+    fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        match self.get_mut() {
+            Stream::Plain(s) => Pin::new(s).poll_flush(cx),
+            Stream::Tls(s) => Pin::new(s.as_mut()).poll_flush(cx),
+        }
+    }
+
+    fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        match self.get_mut() {
+            Stream::Plain(s) => Pin::new(s).poll_shutdown(cx),
+            Stream::Tls(s) => Pin::new(s.as_mut()).poll_shutdown(cx),
+        }
+    }
+}
 
 #[derive(Debug, thiserror::Error)]
 pub enum NetError {
@@ -28,20 +81,41 @@ pub enum NetError {
     Connect { addr: String, source: std::io::Error },
 }
 
-/// Wraps a connected socket.
-pub fn conn(stream: TcpStream) -> Conn {
-    // Small messages (cameras, end of frame) must not wait for Nagle's algorithm.
-    let _ = stream.set_nodelay(true);
-    Framed::new(stream, WireCodec)
+/// Which end of a connection a process is: the one that accepted it or the one that made it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum End {
+    Accepted,
+    Made,
 }
 
-/// Connects to `addr`, retrying with backoff (50 ms doubling to 1 s) until `within` passes.
-pub async fn connect(addr: &str, within: Duration) -> Result<Conn, NetError> {
+/// Wraps a connected socket, in TLS where `tls` is given (its handshake within `within`): a
+/// peer whose certificate the cluster's CA did not sign is refused before any osw byte.
+pub async fn conn(stream: TcpStream, tls: Option<&Tls>, end: End, within: Duration) -> Result<Conn, NetError> {
+    // Small messages (cameras, end of frame) must not wait for Nagle's algorithm.
+    let _ = stream.set_nodelay(true);
+    let Some(tls) = tls else { return Ok(Framed::new(Stream::Plain(stream), WireCodec)) };
+    let peer = stream.peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
+    let secured = async {
+        Ok::<_, std::io::Error>(match end {
+            End::Accepted => tokio_rustls::TlsAcceptor::from(Arc::clone(&tls.server)).accept(stream).await?.into(),
+            End::Made => tokio_rustls::TlsConnector::from(Arc::clone(&tls.client)).connect(Tls::server_name(), stream).await?.into(),
+        })
+    };
+    match tokio::time::timeout(within, secured).await {
+        Ok(Ok(s)) => Ok(Framed::new(Stream::Tls(Box::new(s)), WireCodec)),
+        Ok(Err(e)) => Err(NetError::Refused { peer, why: format!("TLS: {e}") }),
+        Err(_) => Err(NetError::Timeout(format!("no TLS handshake with {peer} within {within:?}"))),
+    }
+}
+
+/// Connects to `addr`, retrying with backoff (50 ms doubling to 1 s) until `within` passes, in
+/// TLS where `tls` is given (its handshake within [`crate::limits::HANDSHAKE`]).
+pub async fn connect(addr: &str, within: Duration, tls: Option<&Tls>) -> Result<Conn, NetError> {
     let deadline = tokio::time::Instant::now() + within;
     let mut wait = Duration::from_millis(50);
     loop {
         match TcpStream::connect(addr).await {
-            Ok(s) => return Ok(conn(s)),
+            Ok(s) => return conn(s, tls, End::Made, crate::limits::HANDSHAKE).await,
             Err(e) if tokio::time::Instant::now() + wait > deadline => return Err(NetError::Connect { addr: addr.to_owned(), source: e }),
             Err(_) => {
                 tokio::time::sleep(wait).await;
@@ -80,7 +154,7 @@ pub fn auth_refusals() -> u64 {
 /// must speak the same protocol version, hold the same scene and run with the same settings.
 /// Each step waits at most `within` for the peer.
 pub async fn handshake(c: &mut Conn, me: &Hello, token: Option<&Token>, within: Duration) -> Result<Hello, NetError> {
-    let peer = c.get_ref().peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
+    let peer = c.get_ref().peer();
     let refuse = |peer: &str, why: String| Err(NetError::Refused { peer: peer.to_owned(), why });
     let mine = nonce();
     send(c, &Message::Challenge(Challenge { version: PROTOCOL_VERSION, nonce: mine })).await?;
@@ -141,7 +215,7 @@ async fn next(c: &mut Conn, peer: &str, within: Duration, what: &str) -> Result<
 pub async fn probe_clock(c: &mut Conn, samples: usize, within: Duration) -> Result<crate::clock::Offset, NetError> {
     use crate::clock::{Sample, estimate, now_us};
     use crate::messages::Ping;
-    let peer = c.get_ref().peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
+    let peer = c.get_ref().peer();
     let mut got = Vec::with_capacity(samples);
     for _ in 0..samples {
         let t0 = now_us();

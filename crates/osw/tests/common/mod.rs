@@ -40,19 +40,46 @@ pub fn switch_summary(run: &Path) -> (osw_render::Summary, osw_render::results::
     (s, sw)
 }
 
-/// The folder of real models made by others: `OSW_MODELS`, else `../shared/models` beside the
-/// repository (our machines and CI have it; a user's clone does not). None where neither is:
-/// the test that needs it says so in one line, naming the folders, and checks nothing more.
-pub fn real_models_dir(test: &str) -> Option<PathBuf> {
-    let dir = std::env::var_os("OSW_MODELS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models"));
-    if dir.is_dir() {
-        return Some(dir);
+/// Where real models made by others are, in order: `OSW_MODELS`, `../shared/models` beside the
+/// repository (our machines and CI), `models/` in it (`scripts/setup.sh` fills it from Debian's
+/// assimp-testmodels). A user's clone may have none.
+fn model_dirs() -> Vec<PathBuf> {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    match std::env::var_os("OSW_MODELS") {
+        Some(d) => vec![PathBuf::from(d)],
+        None => vec![repo.join("../shared/models"), repo.join("models")],
     }
-    // Past the test harness's capture of eprintln!, so that a passing run shows it.
-    let _ = writeln!(std::io::stderr(), "skipped {test}: no real models in {} (set OSW_MODELS to a folder of them)", dir.display());
-    None
+    .into_iter()
+    .filter(|d| d.is_dir())
+    .collect()
+}
+
+/// A test that cannot run here says so in one line, past the harness's capture of eprintln!
+/// so that a passing run shows it; with `OSW_REQUIRE_MODELS` set (CI, where
+/// `../shared/models` is), it fails instead.
+pub fn skip(test: &str, why: &str) {
+    if std::env::var_os("OSW_REQUIRE_MODELS").is_some() {
+        panic!("{test}: {why}, and OSW_REQUIRE_MODELS says every model test must run");
+    }
+    let _ = writeln!(std::io::stderr(), "skipped {test}: {why}");
+}
+
+/// The first folder of [`model_dirs`], or None where there is none (the test says so).
+pub fn real_models_dir(test: &str) -> Option<PathBuf> {
+    let dir = model_dirs().into_iter().next();
+    if dir.is_none() {
+        skip(test, "no real models (set OSW_MODELS, or run scripts/setup.sh to fill models/)");
+    }
+    dir
+}
+
+/// The real model `name` from the first folder that holds it, or None (the test says so).
+pub fn real_model(test: &str, name: &str) -> Option<PathBuf> {
+    let found = model_dirs().into_iter().map(|d| d.join(name)).find(|p| p.is_file());
+    if found.is_none() {
+        skip(test, &format!("no {name} in {:?}", model_dirs()));
+    }
+    found
 }
 
 /// The models of [`real_models_dir`] that `osw build` reads, sorted.
@@ -63,6 +90,29 @@ pub fn real_models(test: &str) -> Option<Vec<PathBuf>> {
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().and_then(|e| e.to_str()).is_some_and(|e| ["glb", "gltf", "obj", "ply"].contains(&e)))
         .collect();
+    found.sort();
+    Some(found)
+}
+
+/// The malformed glTF files of `models/bad` (`scripts/setup.sh`), sorted, or None (the test
+/// says so).
+pub fn bad_models(test: &str) -> Option<Vec<PathBuf>> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/bad");
+    if !dir.is_dir() {
+        skip(test, &format!("no malformed models in {} (run scripts/setup.sh)", dir.display()));
+        return None;
+    }
+    let mut found = Vec::new();
+    let mut todo = vec![dir];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().path()) {
+            match e.extension().and_then(|x| x.to_str()) {
+                _ if e.is_dir() => todo.push(e),
+                Some("gltf" | "glb") => found.push(e),
+                _ => {}
+            }
+        }
+    }
     found.sort();
     Some(found)
 }

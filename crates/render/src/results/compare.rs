@@ -80,4 +80,9 @@ pub struct Culling {
     pub lod_false_culled_total: Option<u64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lod_frames_with_false_culling: Option<u64>,
+    /// Against `--exact-lod`: LOD nodes its item buffers show (visible at the runs' tau, at
+    /// the level the node table gives) that the PVS does not draw at that level, summed over
+    /// frames: 0 for a run that selects LODs as the cut at tau does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lod_not_drawn_total: Option<u64>,
 }
