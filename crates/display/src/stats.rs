@@ -59,6 +59,7 @@ pub fn write_outputs(
             node_losses: cluster.losses,
             node_rejoins: cluster.rejoins,
             auth_refusals: osw_wire::net::auth_refusals(),
+            wire_bytes_per_frame_mean: osw_wire::net::wire_bytes_sent() as f64 / rows.len().max(1) as f64,
             degraded_frames: degraded.len() as u64,
             degraded_first_frame: degraded.first().copied(),
             degraded_last_frame: degraded.last().copied(),

@@ -216,7 +216,7 @@ impl Switch {
         self.visible = pvs;
         [f.bytes_to_peer, f.bytes_to_display] = self.io.sent;
         (f.ms, f.tests, f.retests, f.rss_kb) = (ms(t), hc.tests, hc.retests, rss_kb());
-        f.auth_refusals = osw_wire::net::auth_refusals();
+        (f.auth_refusals, f.wire_bytes_sent) = (osw_wire::net::auth_refusals(), osw_wire::net::wire_bytes_sent());
         Ok(Some(f))
     }
 
@@ -313,6 +313,7 @@ impl Switch {
             nodes_drawn: drawn.nodes,
             rss_kb: rss_kb(),
             auth_refusals: osw_wire::net::auth_refusals(),
+            wire_bytes_sent: osw_wire::net::wire_bytes_sent(),
             ..NodeFrame::default()
         }))
     }

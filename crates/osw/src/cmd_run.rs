@@ -295,6 +295,7 @@ fn wait(procs: &mut [Proc; 3], bar: &indicatif::ProgressBar) -> anyhow::Result<V
 /// killed node wrote none), written back to `out`.
 fn summarize(out: &Path) -> anyhow::Result<Summary> {
     let mut summary = Summary::read(out)?;
+    let displayed = summary.frames.max(1) as f64;
     if let Details::Switch(sw) = &mut summary.of {
         let mut or_gpu = Vec::new();
         for (file, hc, or) in [
@@ -307,6 +308,7 @@ fn summarize(out: &Path) -> anyhow::Result<Summary> {
                 (*hc, *or) = (duty_median_ms(&frames, Duty::Hc), duty_median_ms(&frames, Duty::Or));
                 or_gpu.extend(frames.iter().filter(|f| f.duty == Duty::Or).map(|f| f.or_gpu_ms));
                 sw.auth_refusals += frames.last().map_or(0, |f| f.auth_refusals);
+                sw.wire_bytes_per_frame_mean += frames.last().map_or(0, |f| f.wire_bytes_sent) as f64 / displayed;
             }
         }
         sw.or_gpu_ms_median = osw_render::stats::gpu_median(or_gpu.into_iter());

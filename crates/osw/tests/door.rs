@@ -275,6 +275,8 @@ fn with_tls_only_the_clusters_certificates_get_in() {
         .unwrap();
     assert!(status.success(), "the walk over TLS failed");
     assert_eq!(csv_column(&out.join("stats.csv"), "frame").len(), FRAMES as usize, "the walk lost frames");
+    let (_, sw) = switch_summary(&out);
+    assert!(sw.wire_bytes_per_frame_mean > 0.0, "the display counted no bytes on its sockets");
     let log = std::fs::read_to_string(&a_log).unwrap();
     assert!(log.contains("TLS"), "node a did not say it refused a TLS peer: {log}");
 }

@@ -20,50 +20,85 @@ pub type Conn = Framed<Stream, WireCodec>;
 
 /// A connection's byte stream: plain TCP, or TLS over it ([`crate::tls`]).
 pub enum Stream {
-    Plain(TcpStream),
-    Tls(Box<tokio_rustls::TlsStream<TcpStream>>),
+    Plain(Counted),
+    Tls(Box<tokio_rustls::TlsStream<Counted>>),
 }
 
 impl Stream {
     /// The peer's address, for messages.
     pub fn peer(&self) -> String {
         let tcp = match self {
-            Stream::Plain(s) => s,
-            Stream::Tls(s) => s.get_ref().0,
+            Stream::Plain(s) => &s.0,
+            Stream::Tls(s) => &s.get_ref().0.0,
         };
         tcp.peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into())
     }
+
+    fn io(self: Pin<&mut Self>) -> Pin<&mut (dyn Io + Send)> {
+        match self.get_mut() {
+            Stream::Plain(s) => Pin::new(s),
+            Stream::Tls(s) => Pin::new(s.as_mut()),
+        }
+    }
 }
+
+/// A byte stream both ways.
+trait Io: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin {}
+impl<T: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin> Io for T {}
 
 impl tokio::io::AsyncRead for Stream {
     fn poll_read(self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &mut tokio::io::ReadBuf<'_>) -> Poll<std::io::Result<()>> {
-        match self.get_mut() {
-            Stream::Plain(s) => Pin::new(s).poll_read(cx, buf),
-            Stream::Tls(s) => Pin::new(s.as_mut()).poll_read(cx, buf),
-        }
+        self.io().poll_read(cx, buf)
     }
 }
 
 impl tokio::io::AsyncWrite for Stream {
     fn poll_write(self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
-        match self.get_mut() {
-            Stream::Plain(s) => Pin::new(s).poll_write(cx, buf),
-            Stream::Tls(s) => Pin::new(s.as_mut()).poll_write(cx, buf),
-        }
+        self.io().poll_write(cx, buf)
     }
 
     fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
-        match self.get_mut() {
-            Stream::Plain(s) => Pin::new(s).poll_flush(cx),
-            Stream::Tls(s) => Pin::new(s.as_mut()).poll_flush(cx),
-        }
+        self.io().poll_flush(cx)
     }
 
     fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
-        match self.get_mut() {
-            Stream::Plain(s) => Pin::new(s).poll_shutdown(cx),
-            Stream::Tls(s) => Pin::new(s.as_mut()).poll_shutdown(cx),
+        self.io().poll_shutdown(cx)
+    }
+}
+
+/// Bytes this process has written to its connections' sockets: TLS records as sent, without
+/// TCP's and IP's headers.
+static WIRE_BYTES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Bytes this process has written to its connections' sockets ([`Counted`]).
+pub fn wire_bytes_sent() -> u64 {
+    WIRE_BYTES.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// A socket whose writes are counted in [`wire_bytes_sent`].
+pub struct Counted(TcpStream);
+
+impl tokio::io::AsyncRead for Counted {
+    fn poll_read(self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &mut tokio::io::ReadBuf<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.get_mut().0).poll_read(cx, buf)
+    }
+}
+
+impl tokio::io::AsyncWrite for Counted {
+    fn poll_write(self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
+        let r = Pin::new(&mut self.get_mut().0).poll_write(cx, buf);
+        if let Poll::Ready(Ok(n)) = &r {
+            WIRE_BYTES.fetch_add(*n as u64, std::sync::atomic::Ordering::Relaxed);
         }
+        r
+    }
+
+    fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.get_mut().0).poll_flush(cx)
+    }
+
+    fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.get_mut().0).poll_shutdown(cx)
     }
 }
 
@@ -93,8 +128,9 @@ pub enum End {
 pub async fn conn(stream: TcpStream, tls: Option<&Tls>, end: End, within: Duration) -> Result<Conn, NetError> {
     // Small messages (cameras, end of frame) must not wait for Nagle's algorithm.
     let _ = stream.set_nodelay(true);
-    let Some(tls) = tls else { return Ok(Framed::new(Stream::Plain(stream), WireCodec)) };
     let peer = stream.peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "peer".into());
+    let stream = Counted(stream);
+    let Some(tls) = tls else { return Ok(Framed::new(Stream::Plain(stream), WireCodec)) };
     let secured = async {
         Ok::<_, std::io::Error>(match end {
             End::Accepted => tokio_rustls::TlsAcceptor::from(Arc::clone(&tls.server)).accept(stream).await?.into(),

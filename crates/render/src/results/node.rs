@@ -48,6 +48,9 @@ pub struct NodeFrame {
     /// Peers refused so far for a wrong proof of the cluster token (osw_wire::auth).
     #[serde(default)]
     pub auth_refusals: u64,
+    /// Bytes this node has written to its sockets so far (TLS records as sent).
+    #[serde(default)]
+    pub wire_bytes_sent: u64,
 }
 
 /// The median frame time of `frames` with `duty`, if there are any.

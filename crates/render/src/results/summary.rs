@@ -143,6 +143,11 @@ pub struct SwitchSummary {
     /// merged in by `osw run`.
     #[serde(default)]
     pub auth_refusals: u64,
+    /// Bytes the display and the nodes wrote to their sockets a frame (TLS records as sent, no
+    /// TCP or IP headers; the nodes' merged in by `osw run`): what `bytes_per_frame_mean` costs
+    /// on the wire, with the cameras, heartbeats and handshakes.
+    #[serde(default)]
+    pub wire_bytes_per_frame_mean: f64,
     pub degraded_frames: u64,
     #[serde(deserialize_with = "required")]
     pub degraded_first_frame: Option<u64>,
