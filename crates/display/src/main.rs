@@ -58,6 +58,10 @@ struct Args {
     /// Do not write frame PNGs.
     #[arg(long)]
     no_frames: bool,
+    /// End without the goodbye that stops the nodes: they wait for the next display, which
+    /// they serve from the start of its path (a soak's laps, several paths in turn).
+    #[arg(long)]
+    leave_running: bool,
     /// The settings the nodes run with (the display draws with the cluster tests).
     #[command(flatten)]
     agreed: osw_render::settings::AgreedArgs,
@@ -164,7 +168,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let path = a.path.as_deref().map(osw_scene::path::read).transpose()?.unwrap_or_default();
     let scene = Arc::new(osw_scene::SceneFile::open(&set.scene)?);
     let agreed = a.agreed.resolve(&set.config)?;
-    let me = Hello::new(scene.content_hash(), "display", Role::Display, agreed.said(set.size));
+    // This display's session: its path is the nodes' from its first frame (node peer_queue).
+    let me = Hello { session: now_us(), ..Hello::new(scene.content_hash(), "display", Role::Display, agreed.said(set.size)) };
     let tls = set.tls.as_ref().map(|f| osw_wire::tls::Tls::load(&f.cert, &f.key, &f.ca)).transpose()?;
     let (mut ui, gpu) = open(a, &set, &scene, path.first())?;
     // The next frame's gather overlaps this frame's draw (measured in
@@ -221,7 +226,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
             write_png(&frame_path(&a.out, i as u64), w, h, rgba)?;
         }
         row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
-        row.rss_kb = osw_render::stats::resident_bytes() >> 10;
+        (row.rss_kb, row.anon_kb) = (osw_render::stats::resident_bytes() >> 10, osw_render::stats::anonymous_bytes() >> 10);
         row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
         let now = osw_render::stats::cpu_ms();
         (row.cpu_ms, cpu) = (now - cpu, now);
@@ -245,8 +250,10 @@ fn run(a: &Args) -> anyhow::Result<()> {
     if let Some(u) = ui.as_mut() {
         u.finish();
     }
-    frames.cluster.send_all(osw_wire::Frame::new(&Message::Goodbye(Goodbye { reason: "walk done".into() }))?);
-    let written = write_outputs(a, &set, &scene, &rows, &pvs_txt, &frames.cluster);
+    if !a.leave_running {
+        frames.cluster.send_all(osw_wire::Frame::new(&Message::Goodbye(Goodbye { reason: "walk done".into() }))?);
+    }
+    let written = write_outputs(a, &set, &scene, &rows, &pvs_txt, &frames.cluster, &r.residency_stats());
     // The goodbye goes out before the process does (see osw_wire::net::flush).
     drop(frames);
     osw_wire::net::flush(Duration::from_secs(1));

@@ -157,7 +157,7 @@ impl Frames {
                     }
                     self.prev_eof = Some((hc, e.clock.peer_sent_us));
                     row.hc_node = hc as u32;
-                    row.degraded = self.cluster.nodes.iter().any(Option::is_none) as u32;
+                    row.degraded = (self.cluster.nodes.iter().any(Option::is_none) || e.stats.alone) as u32;
                     break;
                 }
                 m => anyhow::bail!("frame {i}: unexpected message from node {}: {m:?}", links::NAMES[node]),

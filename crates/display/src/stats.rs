@@ -15,6 +15,7 @@ pub fn write_outputs(
     rows: &[DisplayFrame],
     pvs: &str,
     cluster: &Cluster,
+    residency: &osw_gpu::residency::ResidencyStats,
 ) -> anyhow::Result<()> {
     let clocks = &cluster.clocks;
     let degraded: Vec<u64> = rows.iter().filter(|r| r.degraded == 1).map(|r| r.frame).collect();
@@ -59,6 +60,7 @@ pub fn write_outputs(
             node_losses: cluster.losses,
             node_rejoins: cluster.rejoins,
             auth_refusals: osw_wire::net::auth_refusals(),
+            evictions: residency.evictions,
             wire_bytes_per_frame_mean: osw_wire::net::wire_bytes_sent() as f64 / rows.len().max(1) as f64,
             degraded_frames: degraded.len() as u64,
             degraded_first_frame: degraded.first().copied(),

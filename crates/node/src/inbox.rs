@@ -6,7 +6,7 @@ use crate::peer_queue::PeerQueue;
 use crate::roles::{self, Display, Forget, Roles};
 use osw_cull::delta::Assembly;
 use osw_scene::NodeId;
-use osw_wire::messages::{CameraPacket, Message, Role};
+use osw_wire::messages::{CameraPacket, Message, Role, StartOver};
 use osw_wire::{Frame, WireError};
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -33,6 +33,8 @@ pub struct Inbox {
     /// Cameras by frame, with their arrival times.
     cameras: BTreeMap<u64, (CameraPacket, u64)>,
     peer_queue: PeerQueue,
+    /// The session of the display last connected ([`osw_wire::Hello::session`]).
+    display_session: u64,
     /// The parts of a rejoin's keyframe so far, and its frame.
     rejoin: Option<(u64, Assembly)>,
     /// Cameras dropped here (the oldest, when more than MAX_CAMERAS are held); the gate
@@ -52,6 +54,7 @@ impl Inbox {
             display: None,
             cameras: BTreeMap::new(),
             peer_queue: PeerQueue::default(),
+            display_session: 0,
             rejoin: None,
             old_cameras_dropped: 0,
         }
@@ -106,21 +109,29 @@ impl Inbox {
                 tracing::warn!("unexpected message from the display: {m:?}");
                 Forget::default()
             }
-            Event::Connected { role, name, serving, id, out } => {
+            Event::Connected { role, name, serving, session, id, out } => {
                 tracing::info!("{role:?} {name} connected{}", if role == Role::Node && serving { " (serving)" } else { "" });
                 let link = Some(Link { id, out });
                 match role {
                     Role::Node => {
                         self.peer = link;
                         self.peer_queue.connected();
+                        // The peer learns first which display's path this node follows.
+                        if self.peer_queue.session() != 0 {
+                            let _ = self.send_peer(&Message::StartOver(StartOver { session: self.peer_queue.session() }));
+                        }
                         self.roles.on(roles::Event::PeerConnected { serving })
                     }
                     Role::Display => {
                         self.display = link;
+                        self.display_session = session;
                         let f = self.roles.on(roles::Event::DisplayConnected);
                         if self.roles.display == Display::Restarted {
-                            self.peer_queue.display_restarted();
                             tracing::warn!("a new display connected: starting over with its path");
+                        } else {
+                            // The first display: its path is this node's from here.
+                            let told = self.peer_queue.follow(session);
+                            let _ = self.send_peer(&Message::StartOver(told));
                         }
                         f
                     }
@@ -151,7 +162,7 @@ impl Inbox {
     /// node sends of the new path.
     pub fn start_over(&mut self) -> Result<(), WireError> {
         self.roles.started_over();
-        let told = self.peer_queue.start_over();
+        let told = self.peer_queue.follow(self.display_session);
         self.send_peer(&Message::StartOver(told))
     }
 

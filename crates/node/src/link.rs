@@ -20,11 +20,12 @@ use tokio::sync::mpsc::UnboundedSender;
 /// so that the end of an old connection is not taken for the end of its replacement.
 #[derive(Debug)]
 pub enum Event {
-    /// `serving`: the peer's [`Hello::serving`].
+    /// `serving` and `session`: the peer's [`Hello::serving`] and [`Hello::session`].
     Connected {
         role: Role,
         name: String,
         serving: bool,
+        session: u64,
         id: u64,
         out: UnboundedSender<osw_wire::Frame>,
     },
@@ -102,7 +103,7 @@ pub async fn serve(c: osw_wire::net::Conn, me: Me, events: Sender<Event>, gate: 
     };
     let (role, id) = (peer.role, NEXT_ID.fetch_add(1, Ordering::Relaxed));
     let (out, queue) = tokio::sync::mpsc::unbounded_channel();
-    if events.send(Event::Connected { role, name: peer.name.clone(), serving: peer.serving, id, out }).is_err() {
+    if events.send(Event::Connected { role, name: peer.name.clone(), serving: peer.serving, session: peer.session, id, out }).is_err() {
         return;
     }
     let why = run_connection(c, queue, |m, at, _| match role {

@@ -1,35 +1,32 @@
-//! The peer's messages in arrival order, each with the display's path it belongs to.
+//! The peer's messages in arrival order, each with the display session it belongs to.
 //!
 //! A restarted display (RVG) connects to both nodes, and each starts over when its own
 //! connection says so: the peer may still send frames of the old path after this node started
-//! over, or frames of the new path before. Each node counts the display restarts it started
-//! over for (its run) and tells the peer with a `StartOver` ahead of its first message of the
-//! new path; TCP keeps the order, so every message is known to belong to a run, and is used in
-//! that run only. Counts start afresh with each connection to the peer.
+//! over, or frames of the new path before. Each display says its session in its hello (when it
+//! started: a later display has a larger one, a reconnecting display keeps its own), and each
+//! node tells its peer the session it follows with a `StartOver` ahead of its first message of
+//! that path, and first on every new connection; TCP keeps the order, so every message is known
+//! to belong to a session, and is used in that session only.
 
 use osw_wire::messages::{Message, StartOver};
 use std::collections::VecDeque;
 
 #[derive(Default)]
 pub struct PeerQueue {
-    /// (run, message, arrival time).
+    /// (session, message, arrival time).
     messages: VecDeque<(u64, Message, u64)>,
-    /// Display restarts seen (connections after the first).
-    restarts: u64,
-    /// The restarts this node started over for.
-    run: u64,
-    /// The run the peer's messages belong to now, in this node's count.
-    peer_run: u64,
-    /// `run` when the peer was last told.
-    told: u64,
+    /// The display session whose path this node follows (0: none yet).
+    session: u64,
+    /// The session the peer's messages belong to now, as its last `StartOver` said.
+    peer_session: u64,
 }
 
 impl PeerQueue {
-    /// A new connection to the peer: what the old one brought is stale, and both ends count
-    /// from here.
+    /// A new connection to the peer: what the old one brought is stale, and the peer says its
+    /// session first.
     pub fn connected(&mut self) {
         self.messages.clear();
-        (self.peer_run, self.told) = (self.run, self.run);
+        self.peer_session = 0;
     }
 
     /// The peer is lost, or asked for a keyframe: what it sent belongs to frames this node
@@ -38,36 +35,35 @@ impl PeerQueue {
         self.messages.clear();
     }
 
-    pub fn display_restarted(&mut self) {
-        self.restarts += 1;
-    }
-
     pub fn push(&mut self, m: Message, at: u64) {
         match m {
-            Message::StartOver(s) => self.peer_run = self.peer_run.saturating_add(s.restarts),
-            m => self.messages.push_back((self.peer_run, m, at)),
+            Message::StartOver(s) => self.peer_session = s.session,
+            m => self.messages.push_back((self.peer_session, m, at)),
         }
     }
 
-    /// This node starts over with the newest display (the peer's messages of older paths are
-    /// dropped as [`PeerQueue::pop`] meets them); the returned message tells the peer, before
-    /// anything of the new path.
-    pub fn start_over(&mut self) -> StartOver {
-        self.run = self.restarts;
-        let told = StartOver { restarts: self.run - self.told };
-        self.told = self.run;
-        told
+    /// The session this node follows (0: none yet).
+    pub fn session(&self) -> u64 {
+        self.session
+    }
+
+    /// This node follows display `session` from here (the peer's messages of older sessions
+    /// are dropped as [`PeerQueue::pop`] meets them); the returned message tells the peer,
+    /// before anything of the new path.
+    pub fn follow(&mut self, session: u64) -> StartOver {
+        self.session = session;
+        StartOver { session }
     }
 
     /// The peer's next message of this node's path; `None` while none has come, or the next
-    /// belongs to a path this node has not started over for yet.
+    /// belongs to a later display that this node does not follow yet.
     pub fn pop(&mut self) -> Option<(Message, u64)> {
-        while let Some((r, ..)) = self.messages.front() {
-            if *r > self.run {
+        while let Some((s, ..)) = self.messages.front() {
+            if *s > self.session {
                 return None;
             }
-            let (r, m, at) = self.messages.pop_front()?;
-            if r == self.run {
+            let (s, m, at) = self.messages.pop_front()?;
+            if s == self.session {
                 return Some((m, at));
             }
         }
@@ -88,16 +84,20 @@ mod tests {
         std::iter::from_fn(|| q.pop()).map(|(m, _)| if let Message::Delta(d) = m { d.frame } else { u64::MAX }).collect()
     }
 
+    fn start_over(session: u64) -> Message {
+        Message::StartOver(StartOver { session })
+    }
+
     #[test]
     fn the_old_path_after_this_node_started_over_is_dropped() {
         let mut b = PeerQueue::default();
-        b.display_restarted();
-        b.start_over();
+        b.push(start_over(10), 0);
+        b.follow(20);
         // The peer's frames 50 and 51 of the old path were on their way.
         b.push(delta(50), 0);
         b.push(delta(51), 0);
         assert!(frames(&mut b).is_empty());
-        b.push(Message::StartOver(StartOver { restarts: 1 }), 0);
+        b.push(start_over(20), 0);
         b.push(delta(0), 0);
         assert_eq!(frames(&mut b), [0]);
     }
@@ -105,29 +105,42 @@ mod tests {
     #[test]
     fn the_new_path_before_this_node_started_over_waits_for_it() {
         let mut b = PeerQueue::default();
+        b.follow(10);
+        b.push(start_over(10), 0);
         b.push(delta(7), 0);
-        b.push(Message::StartOver(StartOver { restarts: 1 }), 0);
+        b.push(start_over(20), 0);
         b.push(delta(0), 0);
         assert_eq!(frames(&mut b), [7]);
         assert!(frames(&mut b).is_empty(), "frame 0 of a path this node has not started");
-        b.display_restarted();
-        assert_eq!(b.start_over(), StartOver { restarts: 1 });
+        assert_eq!(b.follow(20), StartOver { session: 20 });
         assert_eq!(frames(&mut b), [0]);
     }
 
     #[test]
-    fn two_restarts_seen_at_once_by_one_node_and_in_turn_by_the_other() {
+    fn a_node_restarted_before_a_new_display_follows_it_as_its_peer_does() {
+        // Node b follows the display of session 10 and meets a restarted node a, which follows
+        // none; then the display of session 20 connects to both: a's first, b's second.
         let (mut a, mut b) = (PeerQueue::default(), PeerQueue::default());
-        a.display_restarted();
-        a.display_restarted();
-        let to_b = a.start_over();
-        b.display_restarted();
-        let to_a = [b.start_over(), {
-            b.display_restarted();
-            b.start_over()
-        }];
-        // What each end sends behind its StartOvers: b's frame 1 belongs to the path it
-        // started over for first, which a never follows.
+        b.follow(10);
+        a.connected();
+        b.connected();
+        a.push(start_over(b.session()), 0);
+        a.push(delta(30), 0);
+        let (to_b, to_a) = (a.follow(20), b.follow(20));
+        a.push(Message::StartOver(to_a), 0);
+        a.push(delta(0), 0);
+        b.push(Message::StartOver(to_b), 0);
+        b.push(delta(1), 0);
+        assert_eq!((frames(&mut a), frames(&mut b)), (vec![0], vec![1]));
+    }
+
+    #[test]
+    fn two_displays_seen_in_turn_by_one_node_and_at_once_by_the_other() {
+        let (mut a, mut b) = (PeerQueue::default(), PeerQueue::default());
+        let to_b = a.follow(30);
+        let to_a = [b.follow(20), b.follow(30)];
+        // What each end sends behind its StartOvers: b's frame 1 belongs to the display it
+        // followed first, which a never follows.
         b.push(Message::StartOver(to_b), 0);
         b.push(delta(0), 0);
         a.push(Message::StartOver(to_a[0]), 0);
@@ -138,31 +151,17 @@ mod tests {
     }
 
     #[test]
-    fn a_peer_that_says_too_many_restarts_is_never_followed_and_never_overflows() {
+    fn a_new_connection_waits_for_the_peers_session() {
         let mut a = PeerQueue::default();
-        // Wrapped, u64::MAX + 2 would be this node's first restart.
-        a.push(Message::StartOver(StartOver { restarts: u64::MAX }), 0);
-        a.push(Message::StartOver(StartOver { restarts: 2 }), 0);
-        a.push(delta(0), 0);
-        a.display_restarted();
-        a.start_over();
-        assert!(frames(&mut a).is_empty());
-    }
-
-    #[test]
-    fn a_new_connection_counts_afresh() {
-        let mut a = PeerQueue::default();
-        a.display_restarted();
-        a.start_over();
+        a.follow(10);
+        a.push(start_over(10), 0);
         a.push(delta(3), 0);
-        // A restarted peer counts from 0: its messages belong to this node's run.
+        // A restarted peer follows no display yet: its messages until it says one are dropped.
         a.connected();
         assert!(frames(&mut a).is_empty());
         a.push(delta(4), 0);
-        a.display_restarted();
-        assert_eq!(a.start_over(), StartOver { restarts: 1 });
-        a.push(Message::StartOver(StartOver { restarts: 1 }), 0);
-        a.push(delta(0), 0);
-        assert_eq!(frames(&mut a), [0]);
+        a.push(start_over(10), 0);
+        a.push(delta(5), 0);
+        assert_eq!(frames(&mut a), [5]);
     }
 }

@@ -183,7 +183,8 @@ impl Switch {
         (f.batches, f.ids_sent) = self.send_visible_set(i, duty, &pvs)?;
         let hc_us = t.elapsed().as_micros() as u64;
         let passes_us = [times.traversal_ms, times.second_look_ms, times.retest_ms].map(|ms| (ms * 1e3) as u64);
-        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull };
+        let alone = !self.io.roles.peer_in_step();
+        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull, alone };
         let peer_eof_received_us = self.peer_eof_received_us;
         let peer_sent_us = now_us();
         let eof = |sent_us| {

@@ -20,6 +20,7 @@ mod cmd_info;
 mod cmd_latency;
 mod cmd_link;
 mod cmd_path;
+mod cmd_plot;
 mod cmd_render;
 mod cmd_report;
 mod cmd_run;
@@ -71,6 +72,8 @@ enum Cmd {
     Link(cmd_link::Args),
     /// A cluster's own CA and a certificate for each process, for mutual TLS on every link.
     Certs(cmd_certs::Args),
+    /// Columns of a CSV file against one of them, as PNG and SVG (the scripts' tables).
+    Plot(cmd_plot::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -92,6 +95,7 @@ fn main() -> std::process::ExitCode {
         Cmd::Latency(a) => cmd_latency::run(a),
         Cmd::Link(a) => cmd_link::run(a),
         Cmd::Certs(a) => cmd_certs::run(a),
+        Cmd::Plot(a) => cmd_plot::run(a),
     };
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -132,10 +132,19 @@ impl From<&DisplayFrame> for FrameStats {
 
 /// Resident memory of this process in bytes (Linux /proc; 0 elsewhere).
 pub fn resident_bytes() -> u64 {
-    std::fs::read_to_string("/proc/self/statm")
-        .ok()
-        .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
-        .map_or(0, |pages| pages * 4096)
+    statm().map_or(0, |(resident, _)| resident)
+}
+
+/// Of [`resident_bytes`], the anonymous memory: what is not a file's pages (the mapped scene).
+pub fn anonymous_bytes() -> u64 {
+    statm().map_or(0, |(resident, shared)| resident.saturating_sub(shared))
+}
+
+/// Resident and file-backed resident bytes of this process (0 where unsupported).
+fn statm() -> Option<(u64, u64)> {
+    let s = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let mut pages = s.split_whitespace().skip(1).map(|f| f.parse::<u64>().map(|p| p * 4096));
+    Some((pages.next()?.ok()?, pages.next()?.ok()?))
 }
 
 /// CPU time this process has used so far, all threads, in ms: on lavapipe the GPU's work is

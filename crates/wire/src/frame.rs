@@ -89,6 +89,7 @@ mod tests {
                 role: Role::Node,
                 serving: true,
                 settings: vec![("--size".into(), "8x8".into())],
+                session: 5,
                 tag: [7; 32],
             }),
             Message::Camera(CameraPacket {
@@ -102,7 +103,7 @@ mod tests {
             Message::Delta(Delta { frame: 7, added: IdList::from_ids(&[1, 5, 900]), removed: IdList::from_ids(&[2]) }),
             Message::EndOfFrame(EndOfFrame {
                 frame: 7,
-                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, passes_us: [3, 1, 1], pvs: 3, cull_skipped: false },
+                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, passes_us: [3, 1, 1], pvs: 3, cull_skipped: false, alone: true },
                 clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3, peer_sent_us: 4 },
             }),
             Message::Ping(Ping { sent_us: 9 }),
@@ -111,7 +112,7 @@ mod tests {
             Message::Rejoin(Rejoin { next: 12 }),
             Message::Keyframe(Keyframe { frame: 8, part: 1, parts: 2, ids: IdList::from_ids(&[0, 1, 2]) }),
             Message::Goodbye(Goodbye { reason: "done".into() }),
-            Message::StartOver(StartOver { restarts: 1 }),
+            Message::StartOver(StartOver { session: 1 }),
             Message::Clusters(ClusterMask { frame: 7, bits: vec![5, 0x80] }),
             Message::Challenge(Challenge { version: 12, nonce: [3; 32] }),
             Message::Proof(Proof { tag: [4; 32] }),
@@ -132,11 +133,11 @@ mod tests {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
         assert_eq!(crate::limits::PROTOCOL_VERSION, 12);
         // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), the
-        // serving flag (protocol 6), the settings (protocol 9): one, "--size" "8x8", and its
-        // tag (protocol 12, which no longer sends a token).
+        // serving flag (protocol 6), the settings (protocol 9): one, "--size" "8x8", the
+        // display's session 5 and the hello's tag (protocol 12, which no longer sends a token).
         let mut b = Vec::new();
         encode_frame(&samples()[0], &mut b).unwrap();
-        assert_eq!(b, [&[52, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, 6][..], b"--size", &[3], b"8x8", &[7; 32]].concat());
+        assert_eq!(b, [&[53, 0, 0, 0, 0, 1, 1, 2, 1, b'a', 0, 1, 1, 6][..], b"--size", &[3], b"8x8", &[5], &[7; 32]].concat());
         // A challenge (protocol 12): variant 12, the version, a nonce of 32 bytes; a proof:
         // variant 13, its tag of 32.
         let mut b = Vec::new();
@@ -148,10 +149,11 @@ mod tests {
         // An end of frame: length 14, variant 3, frame 7, tests 10, levels 2, hc_us 5, HC's
         // passes 3, 1, 1 (protocol 9), pvs 3, culling not skipped, then the link stamps 1, 2,
         // 3, 4 (bincode standard: varint integers; protocol 7 dropped an OR time that was
-        // always 0, protocol 8 added the skipped flag, protocol 11 when the peer's copy went).
+        // always 0, protocol 8 added the skipped flag, protocol 11 when the peer's copy went,
+        // protocol 12 whether HC ran alone).
         let mut b = Vec::new();
         encode_frame(&samples()[3], &mut b).unwrap();
-        assert_eq!(b, vec![14, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 1, 3, 0, 1, 2, 3, 4]);
+        assert_eq!(b, vec![15, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 1, 3, 0, 1, 1, 2, 3, 4]);
         // A camera: variant 1, frame 7, eight f64 (position, orientation, fovy) and tau as
         // little-endian IEEE doubles, then sampled_us 123: 2 + 9 * 8 + 1 = 75 bytes, the
         // paper's 72 (sec. 3.5) plus tau, the frame number and the stamp.
@@ -163,9 +165,9 @@ mod tests {
         let mut b = Vec::new();
         encode_frame(&Message::Rejoin(Rejoin { next: 12 }), &mut b).unwrap();
         assert_eq!(b, vec![2, 0, 0, 0, 9, 12]);
-        // A start over (protocol 10): variant 10, one restart.
+        // A start over (protocol 10; a session since protocol 12): variant 10, session 1.
         let mut b = Vec::new();
-        encode_frame(&Message::StartOver(StartOver { restarts: 1 }), &mut b).unwrap();
+        encode_frame(&Message::StartOver(StartOver { session: 1 }), &mut b).unwrap();
         assert_eq!(b, vec![2, 0, 0, 0, 10, 1]);
         // A keyframe: variant 4, frame 8, part 1 of 2 (protocol 9), the ids' 3 bytes.
         let mut b = Vec::new();

@@ -46,6 +46,9 @@ pub struct Hello {
     /// The settings every process of the cluster must share, as (flag, value): the handshake
     /// refuses a peer that says another value or another set of settings.
     pub settings: Vec<(String, String)>,
+    /// A display's session: when it started (its wall clock, µs), so that a display started
+    /// later has a larger one and a display reconnecting keeps its own; 0 for a node.
+    pub session: u64,
     /// The HMAC of this hello (with a zero tag) under the token and both nonces
     /// ([`crate::auth::Purpose::Hello`]).
     pub tag: [u8; TAG_BYTES],
@@ -55,7 +58,7 @@ impl Hello {
     /// This build's greeting for a process holding the scene `scene_hash` with `settings`: not
     /// serving yet.
     pub fn new(scene_hash: [u64; 2], name: impl Into<String>, role: Role, settings: Vec<(String, String)>) -> Hello {
-        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, serving: false, settings, tag: [0; TAG_BYTES] }
+        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, serving: false, settings, session: 0, tag: [0; TAG_BYTES] }
     }
 
     /// Why `peer`'s settings are not these, naming the first that differs.
@@ -126,6 +129,9 @@ pub struct HcWireStats {
     pub pvs: u32,
     /// The frame was frustum culled only: occlusion culling did not pay where it last ran.
     pub cull_skipped: bool,
+    /// The HC node ran both roles for it (its peer gone or not in step): a degraded frame,
+    /// whose V(i) prev's may not match.
+    pub alone: bool,
 }
 
 /// The end of frame `frame` (the paper's sentinel).
@@ -212,13 +218,13 @@ pub struct Rejoin {
     pub next: u64,
 }
 
-/// The sender started over with a restarted display (RVG): what it sends its peer from here on
-/// belongs to that display's path, and anything before it to an older one's.
+/// The sender follows a display's path (RVG) from here: what it sends its peer from here on
+/// belongs to that display's path, and anything before it to another's. Sent when the sender
+/// starts a display's path, and first on a new connection to the peer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct StartOver {
-    /// The display restarts this one accounts for since the sender's last `StartOver` on this
-    /// connection: 1, or more when displays connected faster than the sender's frames.
-    pub restarts: u64,
+    /// The display session whose path the sender follows from here ([`Hello::session`]).
+    pub session: u64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

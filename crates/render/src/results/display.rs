@@ -27,11 +27,15 @@ pub struct DisplayFrame {
     pub camera_link_ms: f64,
     pub eof_link_ms: f64,
     pub peer_link_ms: f64,
-    /// The node the frame came from, and 1 when a node was down (the other ran alone).
+    /// The node the frame came from, and 1 when one node made it alone (the other down, or
+    /// their link cut).
     pub hc_node: u32,
     pub degraded: u32,
-    /// Resident memory once the frame is shown (a soak shows it flat).
+    /// Resident memory once the frame is shown (a soak shows it flat), and of it the
+    /// anonymous memory (not the mapped scene's pages).
     pub rss_kb: u64,
+    #[serde(default)]
+    pub anon_kb: u64,
     /// CPU time of the display's process since the previous frame, all threads.
     pub cpu_ms: f64,
     pub bytes: u64,

@@ -143,6 +143,9 @@ pub struct SwitchSummary {
     /// merged in by `osw run`.
     #[serde(default)]
     pub auth_refusals: u64,
+    /// Geometry the display dropped from the GPU over its residency budget.
+    #[serde(default)]
+    pub evictions: u64,
     /// Bytes the display and the nodes wrote to their sockets a frame (TLS records as sent, no
     /// TCP or IP headers; the nodes' merged in by `osw run`): what `bytes_per_frame_mean` costs
     /// on the wire, with the cameras, heartbeats and handshakes.
