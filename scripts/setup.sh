@@ -22,8 +22,9 @@ fi
 command -v cargo >/dev/null || { echo "setup: cargo not found: install Rust (rustup) first" >&2; exit 1; }
 # Real models made by others for the tests, where ../shared/models/ (our machines and CI) is
 # not beside the clone: Debian's assimp-testmodels holds glTF 2.0 models (a two-cylinder engine
-# of repeated parts, a textured box) and a corpus of malformed glTF that the tests use as bad
-# input. Into models/ (git-ignored), once; skipped where apt-get is not there.
+# of repeated parts; a textured box, kept aside in models/textured/ as it has nothing to cull)
+# and a corpus of malformed glTF that the tests use as bad input. Into models/ (git-ignored),
+# once; skipped where apt-get is not there.
 if [[ ! -e models/.filled ]] && command -v apt-get >/dev/null; then
   tmp=$(mktemp -d)
   trap 'rm -rf "$tmp"' EXIT
@@ -31,8 +32,9 @@ if [[ ! -e models/.filled ]] && command -v apt-get >/dev/null; then
     { $sudo_cmd apt-get update -qq && (cd "$tmp" && apt-get download -qq assimp-testmodels 2>/dev/null); }; then
     dpkg-deb -x "$tmp"/assimp-testmodels_*.deb "$tmp/x"
     src="$tmp/x/usr/share/assimp/models/glTF2"
-    mkdir -p models/bad
-    cp "$src/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" "$src/BoxTextured-glTF-Binary/BoxTextured.glb" models/
+    mkdir -p models/bad models/textured
+    cp "$src/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" models/
+    cp "$src/BoxTextured-glTF-Binary/BoxTextured.glb" models/textured/
     for d in IndexOutOfRange IncorrectVertexArrays MissingBin SchemaFailures TestNoRootNode RecursiveNodes wrongTypes \
       BoxWithInfinites-glTF-Binary; do
       cp -r "$src/$d" models/bad/
