@@ -12,8 +12,9 @@
 # (those marked degraded, made by one node alone, excepted), exactly visible leaves culled
 # (against `osw exact --frustum-cut`); and reports ids a frame, residency evictions and each
 # process's anonymous resident memory at the lap's end (not the mapped scene's pages), with a
-# plot over the laps. Exits non-zero when a frame is lost or differs, or (over 4 laps or more)
-# a node's memory at a lap's end is more than 5% over its value at the end of lap 2.
+# plot over the laps. Exits non-zero when a frame is lost, differs from prev's or culls a
+# visible leaf, when V(i) differs on a lap without a fault, or (over 4 laps or more) when a
+# node's memory at a lap's end is more than 5% over its value at the end of lap 2.
 #
 #   scripts/soak.sh [--scene S --path P] [--laps N] [--size WxH] [--tau PX] [--short] [--out DIR]
 #
@@ -145,7 +146,9 @@ for ((lap = 1; lap <= laps; lap++)); do
   lost=$((frames - shown))
   echo "$lap,$name,$lost,$differing,$vi,$culled,$degraded,$ids,$evictions,$a_kb,$b_kb,$d_kb" >>"$out/soak.csv"
   say "lap $lap ($name): $lost frames lost, $differing differing from prev's, V(i) differing on $vi, $culled visible leaves culled, $degraded degraded; $ids ids a frame, $evictions evictions; anonymous memory: node a $((a_kb / 1024)) MiB, node b $((b_kb / 1024)) MiB, display $((d_kb / 1024)) MiB"
-  ((lost == 0 && differing == 0 && vi == 0 && culled == 0)) || bad=1
+  # V(i) differing next to a fault is reported, not failed on: such a frame's pixels still
+  # equal prev's (a frame made alone that the end of frame did not mark; see docs/switch.md).
+  ((lost == 0 && differing == 0 && culled == 0 && (vi == 0 || f >= 0))) || bad=1
 done
 $osw plot --csv "$out/soak.csv" --x lap --y node_a_anon_kb,node_b_anon_kb,display_anon_kb \
   --title "Anonymous resident memory at each lap's end" --y-label "KiB" --out "$out/soak" >/dev/null
