@@ -279,7 +279,9 @@ mod tests {
             })
         };
         let e = node_table(vec![ok("a"), ok("b"), Object::new("boxy", m)], &BuildOptions::default()).unwrap_err();
-        assert!(e.to_string().contains("object 2 (boxy)") && e.to_string().contains("non-finite"), "{e}");
+        // The object, then its mesh's fault as the error's source.
+        let chain: Vec<String> = std::iter::successors(Some(&e as &dyn std::error::Error), |e| e.source()).map(|e| e.to_string()).collect();
+        assert!(chain[0] == "object 2 (boxy)" && chain[1].contains("non-finite"), "{chain:?}");
     }
 
     #[test]
