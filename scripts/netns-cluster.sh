@@ -13,7 +13,8 @@
 # namespace, link and file it made when it ends, also on failure or Ctrl-C. Needs root.
 #
 # Shaping: rate, delay and loss with tc netem; a kernel without netem (sch_netem) gets the
-# rate from tbf and runs without delay and loss, and says so (in links.txt too).
+# rate from tbf and the delay from `osw link` relays, one per connection in the namespace that
+# dials it (the loss is then left out), and says so (in links.txt too).
 set -euo pipefail
 
 scene="" path="" out="" tau=1 size=1024x1024 rate=100mbit delay=0.2ms loss=0 extra_display=() extra_node=()
@@ -51,10 +52,10 @@ scene=$(realpath "$scene") path=$(realpath "$path")
 mkdir -p "$out"; out=$(realpath "$out")
 id="osw$$"
 ns=("$id-a" "$id-b" "$id-d")
-pids=()
+pids=() relay_pids=()
 cleanup() {
   local rc=$?
-  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  for p in "${pids[@]}" "${relay_pids[@]}"; do kill "$p" 2>/dev/null || true; done
   wait 2>/dev/null || true
   for n in "${ns[@]}"; do ip netns del "$n" 2>/dev/null || true; rm -rf "/etc/netns/$n"; done
   # Links made here but not yet moved into a namespace (deleting a namespace took the rest).
@@ -75,8 +76,12 @@ probe="${id}p"
 ip link add "$probe" type veth peer name "${probe}q"
 if tc qdisc add dev "$probe" root netem delay 1ms 2>/dev/null; then shaper=netem; else shaper=tbf; fi
 ip link del "$probe"
+# The delay in milliseconds (netem's units: us, ms, s).
+delay_ms=$(awk -v d="$delay" 'BEGIN { v = d + 0; if (d ~ /us$/) v /= 1000; else if (d !~ /ms$/ && d ~ /s$/) v *= 1000; print v }')
+relays=0
 if [[ $shaper == tbf ]]; then
-  echo "netns-cluster: this kernel has no tc netem (sch_netem): links get --rate $rate with tbf, no --delay or --loss" >&2
+  awk -v d="$delay_ms" 'BEGIN { exit !(d > 0) }' && relays=1
+  echo "netns-cluster: this kernel has no tc netem (sch_netem): links get --rate $rate with tbf$( ((relays)) && echo " and --delay $delay through osw link relays"), no --loss" >&2
 fi
 shape() { # namespace device
   if [[ $shaper == netem ]]; then
@@ -100,15 +105,27 @@ link() { # k nsX nsY
   ip -n "$y" link set "$dy" up
   shape "$x" "$dx"
   shape "$y" "$dy"
-  echo "$x 198.18.$k.1 <-> $y 198.18.$k.2: $shaper rate $rate$([[ $shaper == netem ]] && echo " delay $delay loss $loss%")" >>"$out/links.txt"
+  echo "$x 198.18.$k.1 <-> $y 198.18.$k.2: $shaper rate $rate$([[ $shaper == netem ]] && echo " delay $delay loss $loss%")$( ((relays)) && echo " delay $delay (osw link relays)")" >>"$out/links.txt"
 }
 link 1 "${ns[0]}" "${ns[1]}"
 link 2 "${ns[0]}" "${ns[2]}"
 link 3 "${ns[1]}" "${ns[2]}"
-# Host names of the three-machine configuration, per namespace: the address on its own link.
+# Host names of the three-machine configuration, per namespace: the address on its own link,
+# or a relay's on loopback that adds the delay on the way there and back.
 mkdir -p "/etc/netns/${ns[1]}" "/etc/netns/${ns[2]}"
-printf '127.0.0.1 localhost\n198.18.1.1 osw-node-a\n' >"/etc/netns/${ns[1]}/hosts"
-printf '127.0.0.1 localhost\n198.18.2.1 osw-node-a\n198.18.3.1 osw-node-b\n' >"/etc/netns/${ns[2]}/hosts"
+relay() { # namespace local-address link-address port
+  ip netns exec "$1" "$bin/osw" link --listen "$2:$4" --to "$3:$4" --delay-ms "$delay_ms" >/dev/null 2>>"$out/relays.log" &
+  relay_pids+=($!)
+}
+a_from_b=198.18.1.1 a_from_d=198.18.2.1 b_from_d=198.18.3.1
+if ((relays)); then
+  relay "${ns[1]}" 127.0.0.2 "$a_from_b" 7101
+  relay "${ns[2]}" 127.0.0.2 "$a_from_d" 7101
+  relay "${ns[2]}" 127.0.0.3 "$b_from_d" 7102
+  a_from_b=127.0.0.2 a_from_d=127.0.0.2 b_from_d=127.0.0.3
+fi
+printf '127.0.0.1 localhost\n%s osw-node-a\n' "$a_from_b" >"/etc/netns/${ns[1]}/hosts"
+printf '127.0.0.1 localhost\n%s osw-node-a\n%s osw-node-b\n' "$a_from_d" "$b_from_d" >"/etc/netns/${ns[2]}/hosts"
 
 token=$(head -c 16 /dev/urandom | od -An -tx1 | tr -d ' \n')
 common=(--config "$config" --scene "$scene" --tau "$tau" --size "$size" --token "$token")

@@ -75,6 +75,11 @@ impl Payoff {
         Payoff { cost, skip: 0, next_skip: FIRST_SKIP }
     }
 
+    /// The same judge for a new path: nothing skipped.
+    pub fn restart(&mut self) {
+        (self.skip, self.next_skip) = (0, FIRST_SKIP);
+    }
+
     /// Whether this frame is occlusion culled.
     pub fn cull(&mut self) -> bool {
         if self.skip == 0 {

@@ -1,6 +1,6 @@
 //! `osw-display`: the display client, RVG (occlusion switch sec. 4.5). Connects to both switch nodes,
 //! sends them cameras (frame k's camera is the path's row k, or in a walk the camera as the
-//! person has moved it; camera k+2 goes out once frame k is in), receives from the HC node of
+//! person has moved it; camera k+2 goes out once frame k is drawn), receives from the HC node of
 //! each frame its camera, the visible-set deltas and the end of frame, rebuilds
 //! V(i) = (V(i-1) - removed) ∪ added, renders it, writes the frame and its statistics, and
 //! with `--window` or `--interactive` shows it in a window.
@@ -16,11 +16,12 @@ mod receive;
 mod stats;
 mod ui;
 mod window;
+mod writer;
 
 use clap::Parser;
 use osw_cull::cluster::VisibleClusters;
 use osw_gpu::RenderOptions;
-use osw_render::output::{frame_path, push_ids, write_png};
+use osw_render::output::push_ids;
 use osw_render::results::DisplayFrame;
 use osw_scene::Camera;
 use osw_scene::camera::DVec3;
@@ -28,6 +29,7 @@ use osw_wire::clock::now_us;
 use osw_wire::config::{ClusterArgs, Settings};
 use osw_wire::messages::{Goodbye, Hello, Message, Role};
 use receive::Frames;
+use writer::FrameWriter;
 use stats::write_outputs;
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -213,39 +215,57 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let mut rows: Vec<DisplayFrame> = Vec::with_capacity(path.len());
     let mut pvs_txt = String::new();
     let (mut last, mut cpu) = (Instant::now(), osw_render::stats::cpu_ms());
+    let mut writer = (!a.no_frames).then(|| FrameWriter::start(&a.out, w, h));
     let mut i = 0;
     while i < requested {
         let (cam, mut row) = frames.frame(i as u64, rows.last_mut(), &mut || {
             ui.as_mut().map(Ui::pump);
         })?;
+        row.display_wait_ms = now_us().saturating_sub(frames.eof_at_us) as f64 / 1e3;
         let camera = osw_render::packet::camera(&cam);
         rvg(&mut r, &scene, &mut frames, i, &camera, cam.tau_px, &mut row)?;
         // Read back once for the PNG and the window both (unless the window draws another view).
-        let rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
-        if let (false, Some(rgba)) = (a.no_frames, &rgba) {
-            write_png(&frame_path(&a.out, i as u64), w, h, rgba)?;
-        }
-        row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
-        (row.rss_kb, row.anon_kb) = (osw_render::stats::resident_bytes() >> 10, osw_render::stats::anonymous_bytes() >> 10);
-        row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
-        let now = osw_render::stats::cpu_ms();
-        (row.cpu_ms, cpu) = (now - cpu, now);
-        last = Instant::now();
-        if let Some(u) = ui.as_mut() {
-            u.show(&mut r, rgba, &frames.visible, &camera, cam.tau_px, &row)?;
-        }
-        push_ids(&mut pvs_txt, &frames.visible);
-        rows.push(row);
-        // One line per displayed frame on stdout: `osw run` shows progress from it.
-        // A closed stdout only means nobody is watching: not an error.
-        let _ = writeln!(std::io::stdout(), "frame {i}");
+        let t = Instant::now();
+        let mut rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
+        row.readback_ms = t.elapsed().as_secs_f64() * 1e3;
+        // Camera i+2 goes out once frame i is drawn, as it is now (a walk's newest input),
+        // before the frame is written or shown. Sent earlier (at frame i's end), the nodes run
+        // ahead of RVG and frames wait for it: a third frame in flight, three frames of latency
+        // instead of two (docs/switch.md, "Latency").
         if i + 2 == requested
             && let Some(m) = next_camera(i + 2, &mut ui)
         {
             frames.cluster.send_camera(&m)?;
             requested += 1;
         }
+        // A window's frame counts once presented (it keeps at most one in its queue).
+        if let Some(u) = ui.as_mut() {
+            // The overlay shows the last frame's latency: this one's ends with the present.
+            let shown = DisplayFrame { latency_ms: rows.last().map_or(0.0, |r| r.latency_ms), ..row };
+            let frame = if writer.is_some() { rgba.clone() } else { rgba.take() };
+            u.show(&mut r, frame, &frames.visible, &camera, cam.tau_px, &shown)?;
+        }
+        row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
+        if let Some(rgba) = rgba
+            && let Some(wr) = writer.take()
+        {
+            let (wr, waited_ms) = wr.write(i as u64, rgba)?;
+            (writer, row.write_ms) = (Some(wr), waited_ms);
+        }
+        (row.rss_kb, row.anon_kb) = (osw_render::stats::resident_bytes() >> 10, osw_render::stats::anonymous_bytes() >> 10);
+        row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
+        let now = osw_render::stats::cpu_ms();
+        (row.cpu_ms, cpu) = (now - cpu, now);
+        last = Instant::now();
+        push_ids(&mut pvs_txt, &frames.visible);
+        rows.push(row);
+        // One line per displayed frame on stdout: `osw run` shows progress from it.
+        // A closed stdout only means nobody is watching: not an error.
+        let _ = writeln!(std::io::stdout(), "frame {i}");
         i += 1;
+    }
+    if let Some(wr) = writer {
+        wr.finish()?;
     }
     if let Some(u) = ui.as_mut() {
         u.finish();

@@ -5,7 +5,7 @@
 use crate::links::{self, Cluster, Note};
 use osw_cull::delta::Assembly;
 use osw_render::results::DisplayFrame;
-use osw_wire::messages::{CameraPacket, Message};
+use osw_wire::messages::{CameraPacket, LinkStamps, Message};
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
@@ -31,6 +31,8 @@ pub struct Frames {
     held: VecDeque<Arrival>,
     /// Longest wait for a frame.
     wait: Duration,
+    /// When the last frame's end arrived, on this display's clock.
+    pub eof_at_us: u64,
 }
 
 impl Frames {
@@ -45,6 +47,7 @@ impl Frames {
             prev_eof: None,
             held: VecDeque::new(),
             wait,
+            eof_at_us: 0,
         };
         let deadline = Instant::now() + wait;
         while f.cluster.nodes.iter().any(Option::is_none) {
@@ -156,8 +159,10 @@ impl Frames {
                         prev.peer_link_ms = ms(clock(hc).to_display(e.clock.peer_eof_received_us), clock(sender).to_display(sent));
                     }
                     self.prev_eof = Some((hc, e.clock.peer_sent_us));
+                    stages(&e.clock, &mut row);
+                    self.eof_at_us = at;
                     row.hc_node = hc as u32;
-                    row.degraded = (self.cluster.nodes.iter().any(Option::is_none) || e.stats.alone) as u32;
+                    row.degraded = (self.cluster.nodes.iter().any(Option::is_none) || e.stats.degraded) as u32;
                     break;
                 }
                 m => anyhow::bail!("frame {i}: unexpected message from node {}: {m:?}", links::NAMES[node]),
@@ -168,6 +173,20 @@ impl Frames {
         row.ids_full = self.visible.len() as u64;
         Ok((cam, row))
     }
+}
+
+/// The HC node's stages of a frame from its end of frame's stamps (all on its clock); those
+/// a frame has no stamp for stay 0.
+fn stages(c: &LinkStamps, row: &mut DisplayFrame) {
+    let ms = |later: u64, earlier: u64| if later > 0 && earlier > 0 { later.saturating_sub(earlier) as f64 / 1e3 } else { 0.0 };
+    // OR's front ends at the peer's end of frame (or as OR began, when it was already in), or
+    // with OR's own pass when the node ran alone.
+    let front_end = if c.peer_eof_received_us > 0 { c.peer_eof_received_us.max(c.or_start_us) } else { c.or_end_us };
+    row.camera_wait_ms = ms(c.or_start_us, c.camera_received_us);
+    row.or_front_ms = ms(front_end, c.or_start_us);
+    row.or_tail_ms = ms(c.hc_start_us, front_end);
+    row.hc_stage_ms = ms(c.peer_sent_us, c.hc_start_us);
+    row.notes_ms = ms(c.sent_us, c.peer_sent_us);
 }
 
 /// The frame a frame message belongs to.

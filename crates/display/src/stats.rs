@@ -24,6 +24,8 @@ pub fn write_outputs(
     let mean = |f: fn(&DisplayFrame) -> f64| osw_render::stats::mean(rows.iter().map(f));
     // The first frame waits for start-up: frame times from the second on.
     let frame_ms: Vec<f64> = rows.iter().skip(1).map(|r| r.frame_ms).collect();
+    let in_frames = |ms: f64| ms / quantile(&frame_ms, 0.5).max(f64::MIN_POSITIVE);
+    let floor_ms = results::latency_floor_ms(rows);
     let ids_sent: f64 = rows.iter().map(|r| r.ids_sent as f64).sum();
     let ids_full: f64 = rows.iter().map(|r| r.ids_full as f64).sum();
     let bytes: f64 = rows.iter().map(|r| r.bytes as f64).sum();
@@ -53,6 +55,11 @@ pub fn write_outputs(
             rvg_gpu_ms_median: osw_render::stats::gpu_median(rows.iter().map(|r| r.rvg_gpu_ms)),
             latency_ms_p95: quantile(&col(|r| r.latency_ms), 0.95),
             latency_ms_max: quantile(&col(|r| r.latency_ms), 1.0),
+            latency_frames_median: in_frames(quantile(&col(|r| r.latency_ms), 0.5)),
+            latency_frames_p95: in_frames(quantile(&col(|r| r.latency_ms), 0.95)),
+            latency_frames_max: in_frames(quantile(&col(|r| r.latency_ms), 1.0)),
+            latency_floor_ms: floor_ms,
+            latency_floor_frames: in_frames(floor_ms),
             camera_link_ms_median: quantile(&col(|r| r.camera_link_ms), 0.5),
             eof_link_ms_median: quantile(&col(|r| r.eof_link_ms), 0.5),
             // The last frame's end of frame reaches no OR: it has no peer latency.

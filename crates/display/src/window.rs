@@ -158,7 +158,8 @@ impl Window {
             color_space: Default::default(),
             width: size.width.max(1),
             height: size.height.max(1),
-            desired_maximum_frame_latency: 2,
+            // One frame queued at most: the latency the overlay shows includes it.
+            desired_maximum_frame_latency: 1,
             // A walkthrough shows frames as they come: no waiting for a vertical blank.
             present_mode: wgpu::PresentMode::AutoNoVsync,
             alpha_mode: wgpu::CompositeAlphaMode::Auto,

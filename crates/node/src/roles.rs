@@ -80,6 +80,13 @@ pub enum Step {
     Stop,
 }
 
+/// Frames after a rejoin that are marked degraded. The nodes' HC state then is not what an
+/// unbroken run holds: the BVH nodes found visible (CHC's interior nodes, `seen`), the
+/// cluster notes and V(i-2) were made alone or not at all. Such state only adds hidden nodes
+/// to V(i), the pixels stay prev's, and each HC's retests replace it within a few frames
+/// (docs/switch.md, "Failover").
+pub const RECOVERY_FRAMES: u64 = 32;
+
 /// While a node runs alone, RVG may hold another node's V(i-1): it gets the whole set.
 pub fn keyframe_to_display(i: u64, duty: Duty) -> bool {
     duty == Duty::Solo && i > 0
@@ -93,6 +100,8 @@ pub struct Roles {
     hc_parity: u64,
     /// The camera the depth buffer holds occluders for (set by OR, or by a HC frame).
     depth_for: Option<u64>,
+    /// The first frame past a rejoin's recovery (see [`RECOVERY_FRAMES`]).
+    steady_from: u64,
     pub peer: Peer,
     pub display: Display,
     /// Peer losses and rejoins seen, for the log.
@@ -102,7 +111,7 @@ pub struct Roles {
 
 impl Roles {
     pub fn new(index: u64) -> Roles {
-        Roles { index, hc_parity: index, depth_for: None, peer: Peer::Gone, display: Display::Waiting, peer_losses: 0, peer_rejoins: 0 }
+        Roles { index, hc_parity: index, depth_for: None, steady_from: 0, peer: Peer::Gone, display: Display::Waiting, peer_losses: 0, peer_rejoins: 0 }
     }
 
     pub fn on(&mut self, e: Event) -> Forget {
@@ -160,6 +169,7 @@ impl Roles {
         self.display = Display::Playing;
         self.hc_parity = self.index;
         self.depth_for = None;
+        self.steady_from = 0;
         if self.peer != Peer::Gone {
             self.peer = Peer::InStep;
         }
@@ -195,6 +205,11 @@ impl Roles {
         self.peer == Peer::InStep
     }
 
+    /// Whether frame i is degraded: HC runs it alone, or the nodes recover from a rejoin.
+    pub fn degraded(&self, i: u64) -> bool {
+        !self.peer_in_step() || i < self.steady_from
+    }
+
     /// This node asked the peer for a keyframe.
     pub fn asked(&mut self) {
         if let Peer::OutOfStep { .. } = self.peer {
@@ -214,6 +229,7 @@ impl Roles {
         self.peer = Peer::InStep;
         self.hc_parity = k % 2;
         self.depth_for = None;
+        self.steady_from = k + 1 + RECOVERY_FRAMES;
         self.peer_rejoins += 1;
         k + 1
     }
@@ -229,6 +245,7 @@ impl Roles {
             Peer::Rejoining { next } if i + 1 >= next => {
                 self.peer = Peer::InStep;
                 self.hc_parity = (i + 1) % 2;
+                self.steady_from = i + 1 + RECOVERY_FRAMES;
                 self.peer_rejoins += 1;
                 true
             }
@@ -357,6 +374,33 @@ mod tests {
         assert!(keyframe_to_display(7, Solo));
         assert_eq!(c.run(7..11), vec![[Solo, Or], [Or, Hc], [Hc, Or], [Or, Hc]]);
         assert_eq!((c.n[0].roles.peer_losses, c.n[0].roles.peer_rejoins, c.n[1].roles.peer_rejoins), (1, 1, 1));
+    }
+
+    #[test]
+    fn frames_alone_and_those_recovering_from_a_rejoin_are_degraded_until_a_new_path() {
+        let mut c = Cluster::started();
+        c.run(0..4);
+        assert!((0..4).all(|i| !c.n[i as usize % 2].roles.degraded(i)), "a first run, frame 0 included");
+        c.n[0].roles.on(Event::PeerLost);
+        assert!(c.n[0].roles.degraded(4), "the peer gone");
+        c.n[0].roles.on(Event::PeerConnected { serving: false });
+        c.n[0].roles.on(Event::PeerRejoins { next: 6 });
+        c.n[1].roles = Roles::new(1);
+        c.n[1].roles.on(Event::DisplayConnected);
+        c.n[1].roles.on(Event::PeerConnected { serving: true });
+        c.n[1].roles.asked();
+        c.run(4..6);
+        let steady = 6 + RECOVERY_FRAMES;
+        c.run(6..steady + 2);
+        for x in &c.n {
+            assert!((6..steady).all(|i| x.roles.degraded(i)) && !x.roles.degraded(steady));
+        }
+        // A restarted display: both nodes start over, frame 0 as in a first run.
+        for x in &mut c.n {
+            x.roles.on(Event::DisplayConnected);
+            x.roles.started_over();
+            assert!(!x.roles.degraded(0));
+        }
     }
 
     #[test]

@@ -59,6 +59,8 @@ pub struct Switch {
     notes: VisibleClusters,
     /// When the peer's end of the previous frame arrived (this node was OR), for the display.
     peer_eof_received_us: u64,
+    /// When this node's last OR began and ended: the next HC's camera's stages.
+    or_us: [u64; 2],
 }
 
 impl Switch {
@@ -79,6 +81,7 @@ impl Switch {
             seen: Vec::new(),
             notes: VisibleClusters::default(),
             peer_eof_received_us: 0,
+            or_us: [0; 2],
         }
     }
 
@@ -140,6 +143,8 @@ impl Switch {
         let newest_wins = !self.io.roles.peer_in_step();
         let Some((cam, camera_received_us)) = self.io.camera(i, newest_wins)? else { return Ok(None) };
         let (i, t, duty) = (cam.frame, Instant::now(), self.io.roles.duty(cam.frame));
+        let mut or_us = std::mem::take(&mut self.or_us);
+        let mut hc_start_us = now_us();
         self.io.sent = [0; 2];
         self.io.send_display(&Message::Camera(cam))?;
         // Decided when OR prepared this frame's depth buffer, or now.
@@ -154,6 +159,7 @@ impl Switch {
         if duty == Duty::Solo && cull {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let t = Instant::now();
+            or_us[0] = hc_start_us;
             let or = pass::or(
                 r,
                 &self.scene,
@@ -162,6 +168,7 @@ impl Switch {
                 &mut self.occluders,
             )?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
+            (or_us[1], hc_start_us) = (now_us(), now_us());
         }
         let mut pvs = Vec::new();
         let hc = if cull {
@@ -183,12 +190,13 @@ impl Switch {
         (f.batches, f.ids_sent) = self.send_visible_set(i, duty, &pvs)?;
         let hc_us = t.elapsed().as_micros() as u64;
         let passes_us = [times.traversal_ms, times.second_look_ms, times.retest_ms].map(|ms| (ms * 1e3) as u64);
-        let alone = !self.io.roles.peer_in_step();
-        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull, alone };
+        let degraded = self.io.roles.degraded(i);
+        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull, degraded };
         let peer_eof_received_us = self.peer_eof_received_us;
         let peer_sent_us = now_us();
         let eof = |sent_us| {
-            let clock = LinkStamps { sent_us, camera_received_us, peer_eof_received_us, peer_sent_us };
+            let [or_start_us, or_end_us] = or_us;
+            let clock = LinkStamps { sent_us, camera_received_us, peer_eof_received_us, peer_sent_us, or_start_us, or_end_us, hc_start_us };
             Message::EndOfFrame(EndOfFrame { frame: i, stats, clock })
         };
         self.io.send(&eof(peer_sent_us), self.io.roles.peer_in_step(), false)?;
@@ -260,7 +268,7 @@ impl Switch {
     /// before its end of frame, this node runs frame i alone instead.
     fn or(&mut self, i: u64) -> anyhow::Result<Option<NodeFrame>> {
         let Some((cam, _)) = self.io.camera(i + 1, false)? else { return Ok(None) };
-        let t = Instant::now();
+        let (t, start_us) = (Instant::now(), now_us());
         let max_id = self.scene.header().node_count;
         self.renderer.begin_frame();
         let view = self.renderer.view(&packet::camera(&cam), cam.tau_px);
@@ -304,6 +312,7 @@ impl Switch {
         self.next = Some(cull);
         self.visible = next.finish(&self.visible).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
         self.io.roles.or_done(i);
+        self.or_us = [start_us, now_us()];
         let or_gpu_ms = drawn.gpu_ms();
         Ok(Some(NodeFrame {
             frame: i,
@@ -352,8 +361,15 @@ impl Switch {
     /// first camera; `None` when it said goodbye first.
     fn start_over(&mut self) -> anyhow::Result<Option<u64>> {
         self.io.start_over()?;
+        // Everything a path carries from frame to frame: the new path's frame 0 is then what
+        // a first run's is (prev's on the same cameras).
         self.visible.clear();
+        self.seen.clear();
         self.notes = VisibleClusters::default();
+        self.next = None;
+        if let Some(p) = &mut self.payoff {
+            p.restart();
+        }
         self.io.first_camera("the new display's first camera")
     }
 

@@ -3,8 +3,12 @@
 //! one-way figures come from wall-clock stamps corrected by the clock offsets the display
 //! estimated at start-up (NTP-style, `osw_wire::clock`), so they hold across machines too.
 //! Given several runs (e.g. one per link delay), a table over them and one curve per run.
+//! Each run's stages (`osw_render::results::STAGES`) are stacked per frame in
+//! stages.png (stages-K.png of the K-th run when there are several), under the latency, and
+//! the floor (the sum of the busy stages' medians) is set beside it, in ms and in frames.
 
 use crate::plot::{Chart, Series};
+use osw_render::results::{STAGES, latency_floor_ms};
 use osw_render::results::{self, DisplayFrame, Summary};
 use osw_render::stats::quantile;
 use serde::Serialize;
@@ -16,7 +20,7 @@ pub struct Args {
     /// Switch run directories (`osw run`, or scripts/netns-cluster.sh): one or more.
     #[arg(long, required = true, num_args = 1..)]
     run: Vec<PathBuf>,
-    /// Output directory: latency.json, latency.md, latency.png/.svg.
+    /// Output directory: latency.json, latency.md, latency.png/.svg, stages.png/.svg.
     #[arg(long)]
     out: PathBuf,
 }
@@ -57,8 +61,16 @@ struct Run {
     clock_rtt_a_us: f64,
     clock_rtt_b_us: f64,
     latency: Vec<Stat>,
+    frame_ms_median: f64,
+    latency_frames_median: f64,
+    latency_frames_p95: f64,
+    floor_ms: f64,
+    floor_frames: f64,
+    stages: Vec<Stat>,
     #[serde(skip)]
     per_frame: Vec<Vec<f64>>,
+    #[serde(skip)]
+    stage_per_frame: Vec<Vec<f64>>,
 }
 
 fn read(dir: &Path) -> anyhow::Result<Run> {
@@ -74,6 +86,14 @@ fn read(dir: &Path) -> anyhow::Result<Run> {
         latency.push(Stat { column, what, median_ms: quantile(&v, 0.5), p95_ms: quantile(&v, 0.95), max_ms: quantile(&v, 1.0) });
         per_frame.push(v);
     }
+    let (mut stages, mut stage_per_frame) = (Vec::new(), Vec::new());
+    for s in &STAGES {
+        let v: Vec<f64> = rows.iter().map(s.of).collect();
+        stages.push(Stat { column: s.column, what: s.what, median_ms: quantile(&v, 0.5), p95_ms: quantile(&v, 0.95), max_ms: quantile(&v, 1.0) });
+        stage_per_frame.push(v);
+    }
+    let frame_ms_median = summary.frame_ms_median.max(f64::MIN_POSITIVE);
+    let floor_ms = latency_floor_ms(&rows);
     let links = std::fs::read_to_string(dir.join("links.txt"))
         .ok()
         .and_then(|l| Some(l.lines().next()?.split_once(": ")?.1.to_owned()))
@@ -86,8 +106,15 @@ fn read(dir: &Path) -> anyhow::Result<Run> {
         clock_offset_b_us: sw.clock_offset_b_us,
         clock_rtt_a_us: sw.clock_rtt_a_us,
         clock_rtt_b_us: sw.clock_rtt_b_us,
+        frame_ms_median,
+        latency_frames_median: latency[0].median_ms / frame_ms_median,
+        latency_frames_p95: latency[0].p95_ms / frame_ms_median,
+        floor_ms,
+        floor_frames: floor_ms / frame_ms_median,
         latency,
+        stages,
         per_frame,
+        stage_per_frame,
     })
 }
 
@@ -96,18 +123,23 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out)?;
     std::fs::write(a.out.join("latency.json"), serde_json::to_string_pretty(&runs)?)?;
     let mut md =
-        String::from("| run | links | frame latency median ms | p95 | max | RVG→HC ms | HC→RVG ms | HC→OR ms | clock offsets a, b µs |\n");
-    md.push_str("| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+        String::from("| run | links | frame ms | latency median ms | p95 | max | median frames | p95 frames | floor ms | floor frames | RVG→HC ms | HC→RVG ms | HC→OR ms | clock offsets a, b µs |\n");
+    md.push_str("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
     for r in &runs {
         let s = &r.latency;
         let _ = writeln!(
             md,
-            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.3} | {:.3} | {:.3} | {:.0} ± {:.0}, {:.0} ± {:.0} |",
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2} | {:.1} | {:.2} | {:.3} | {:.3} | {:.3} | {:.0} ± {:.0}, {:.0} ± {:.0} |",
             r.run,
             r.links,
+            r.frame_ms_median,
             s[0].median_ms,
             s[0].p95_ms,
             s[0].max_ms,
+            r.latency_frames_median,
+            r.latency_frames_p95,
+            r.floor_ms,
+            r.floor_frames,
             s[1].median_ms,
             s[2].median_ms,
             s[3].median_ms,
@@ -117,16 +149,31 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             r.clock_rtt_b_us / 2.0
         );
         out!(
-            "latency: {} ({}): frame {:.1} ms median, links {:.3} / {:.3} / {:.3} ms",
+            "latency: {} ({}): {:.1} ms median ({:.2} frames of {:.1} ms, p95 {:.2}), floor {:.1} ms ({:.2} frames), links {:.3} / {:.3} / {:.3} ms",
             r.run,
             r.links,
             s[0].median_ms,
+            r.latency_frames_median,
+            r.frame_ms_median,
+            r.latency_frames_p95,
+            r.floor_ms,
+            r.floor_frames,
             s[1].median_ms,
             s[2].median_ms,
             s[3].median_ms
         );
     }
+    md.push_str("\n| run | stage | median ms | p95 | max |\n| --- | --- | --- | --- | --- |\n");
+    for r in &runs {
+        for s in &r.stages {
+            let _ = writeln!(md, "| {} | {} | {:.2} | {:.2} | {:.2} |", r.run, s.what, s.median_ms, s.p95_ms, s.max_ms);
+        }
+    }
     std::fs::write(a.out.join("latency.md"), &md)?;
+    for (k, r) in runs.iter().enumerate() {
+        let name = if runs.len() == 1 { "stages".to_string() } else { format!("stages-{}", k + 1) };
+        crate::plot::write(&stacked(r), &a.out.join(name))?;
+    }
     let points = |v: &[f64]| v.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect();
     let series: Vec<Series> = match runs.as_slice() {
         // One run: each link; several: camera-to-display latency of each run.
@@ -148,4 +195,23 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     crate::plot::write(&Chart { title: "Latency per frame", x: "frame", y: "ms", series }, &a.out.join("latency"))?;
     out!("latency: → {}", a.out.display());
     Ok(())
+}
+
+/// A run's stages stacked per frame: each curve is the time from the camera's sample to the
+/// end of that stage; the latency itself in bold above them (the gap: the frame's write and
+/// what no stamp covers).
+fn stacked(r: &Run) -> Chart<'static> {
+    let frames = r.per_frame[0].len();
+    let mut sum = vec![0.0; frames];
+    let mut series = Vec::new();
+    for (s, v) in STAGES.iter().zip(&r.stage_per_frame) {
+        for (acc, x) in sum.iter_mut().zip(v) {
+            *acc += x;
+        }
+        let points = sum.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect();
+        series.push(Series { name: format!("+ {}", s.what), points, point_labels: vec![], bold: false });
+    }
+    let points = r.per_frame[0].iter().enumerate().map(|(i, &y)| (i as f64, y)).collect();
+    series.push(Series { name: "latency".into(), points, point_labels: vec![], bold: true });
+    Chart { title: "Where each frame's latency goes (stages stacked)", x: "frame", y: "ms", series }
 }

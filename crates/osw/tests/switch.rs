@@ -206,8 +206,9 @@ fn check_bandwidth(scene: &Path, run: &Path, full: &Path, exact: &Path, out: &Pa
 }
 
 /// `osw latency`: on one host the true clock offset is 0, so each estimate must lie within its
-/// own bound (half the probe's round trip); one-way link latencies fit inside the frame's
-/// camera-to-display latency.
+/// own bound (half the probe's round trip); one-way link latencies and the stages, which follow
+/// one another, fit inside the frame's camera-to-display latency, and the nodes stamped them;
+/// the floor is the sum of the busy stages' medians.
 fn check_latency(run: &Path, out: &Path) {
     osw_ok(&["latency", "--run", s(run), "--out", s(out)]);
     let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("latency.json")).unwrap()).unwrap();
@@ -217,12 +218,32 @@ fn check_latency(run: &Path, out: &Path) {
         assert!(off.abs() <= rtt / 2.0 + 1.0, "node {n}: offset {off} µs outside ±{} µs", rtt / 2.0);
     }
     let slack = 1.0 + j["clock_rtt_a_us"].as_f64().unwrap().max(j["clock_rtt_b_us"].as_f64().unwrap()) / 1e3;
-    for (i, r) in csv(&run.join("stats.csv")).iter().enumerate() {
+    let rows = csv(&run.join("stats.csv"));
+    let busy = ["camera_link_ms", "or_front_ms", "or_tail_ms", "hc_stage_ms", "notes_ms", "eof_link_ms", "rvg_ms", "readback_ms"];
+    let waits = ["camera_wait_ms", "display_wait_ms"];
+    for (i, r) in rows.iter().enumerate() {
         let (cam, eof, peer, total) = (num(r, "camera_link_ms"), num(r, "eof_link_ms"), num(r, "peer_link_ms"), num(r, "latency_ms"));
         assert!(cam > -slack && eof > -slack && peer > -slack && cam + eof <= total + slack, "frame {i}: {r:?}");
+        let stages: f64 = busy.iter().chain(&waits).map(|c| num(r, c)).sum();
+        assert!(stages <= total + slack, "frame {i}: stages {stages} ms beyond the latency {total} ms: {r:?}");
+        // OR's and HC's stages are stamped on every frame but the first (no occluders yet).
+        if i > 0 {
+            assert!(num(r, "or_front_ms") + num(r, "or_tail_ms") > 0.0 && num(r, "hc_stage_ms") > 0.0, "frame {i}: {r:?}");
+        }
     }
+    let median = |c: &str| {
+        let mut v: Vec<f64> = rows.iter().map(|r| num(r, c)).collect();
+        v.sort_by(f64::total_cmp);
+        // Nearest rank, as osw_render::stats::quantile.
+        v[((v.len() - 1) as f64 * 0.5).round() as usize]
+    };
+    let floor: f64 = busy.iter().map(|c| median(c)).sum();
+    let reported = j["floor_ms"].as_f64().unwrap();
+    assert!((reported - floor).abs() < 1e-6 * floor.max(1.0) + 0.01, "floor {reported} ms, by the medians {floor} ms");
+    assert!(floor > 0.0 && floor <= median("latency_ms") + slack, "floor {floor} ms");
     assert_eq!(j["latency"].as_array().unwrap().len(), 4);
     assert!(std::fs::metadata(out.join("latency.png")).unwrap().len() > 1000);
+    assert!(std::fs::metadata(out.join("stages.png")).unwrap().len() > 1000);
 }
 
 #[test]

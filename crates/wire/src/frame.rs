@@ -103,8 +103,8 @@ mod tests {
             Message::Delta(Delta { frame: 7, added: IdList::from_ids(&[1, 5, 900]), removed: IdList::from_ids(&[2]) }),
             Message::EndOfFrame(EndOfFrame {
                 frame: 7,
-                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, passes_us: [3, 1, 1], pvs: 3, cull_skipped: false, alone: true },
-                clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3, peer_sent_us: 4 },
+                stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, passes_us: [3, 1, 1], pvs: 3, cull_skipped: false, degraded: true },
+                clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3, peer_sent_us: 4, or_start_us: 5, or_end_us: 6, hc_start_us: 7 },
             }),
             Message::Ping(Ping { sent_us: 9 }),
             Message::Pong(Pong { ping_sent_us: 9, received_us: 10, sent_us: 11 }),
@@ -129,9 +129,9 @@ mod tests {
     }
 
     #[test]
-    fn golden_bytes_of_version_12() {
+    fn golden_bytes_of_version_13() {
         // A change here changes the protocol: bump PROTOCOL_VERSION.
-        assert_eq!(crate::limits::PROTOCOL_VERSION, 12);
+        assert_eq!(crate::limits::PROTOCOL_VERSION, 13);
         // A hello: variant 0, version 1, scene hash 1 and 2, name "a", role 0 (node), the
         // serving flag (protocol 6), the settings (protocol 9): one, "--size" "8x8", the
         // display's session 5 and the hello's tag (protocol 12, which no longer sends a token).
@@ -146,14 +146,15 @@ mod tests {
         let mut b = Vec::new();
         encode_frame(&samples()[13], &mut b).unwrap();
         assert_eq!(b, [&[33, 0, 0, 0, 13][..], &[4; 32]].concat());
-        // An end of frame: length 14, variant 3, frame 7, tests 10, levels 2, hc_us 5, HC's
-        // passes 3, 1, 1 (protocol 9), pvs 3, culling not skipped, then the link stamps 1, 2,
-        // 3, 4 (bincode standard: varint integers; protocol 7 dropped an OR time that was
-        // always 0, protocol 8 added the skipped flag, protocol 11 when the peer's copy went,
-        // protocol 12 whether HC ran alone).
+        // An end of frame: length 18, variant 3, frame 7, tests 10, levels 2, hc_us 5, HC's
+        // passes 3, 1, 1 (protocol 9), pvs 3, culling not skipped, degraded, then the link
+        // stamps 1, 2, 3, 4 and the stage stamps 5, 6, 7 (bincode standard: varint integers;
+        // protocol 7 dropped an OR time that was always 0, protocol 8 added the skipped flag,
+        // protocol 11 when the peer's copy went, protocol 12 the degraded flag, protocol 13
+        // when OR took the camera and ended and when HC began).
         let mut b = Vec::new();
         encode_frame(&samples()[3], &mut b).unwrap();
-        assert_eq!(b, vec![15, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 1, 3, 0, 1, 1, 2, 3, 4]);
+        assert_eq!(b, vec![18, 0, 0, 0, 3, 7, 10, 2, 5, 3, 1, 1, 3, 0, 1, 1, 2, 3, 4, 5, 6, 7]);
         // A camera: variant 1, frame 7, eight f64 (position, orientation, fovy) and tau as
         // little-endian IEEE doubles, then sampled_us 123: 2 + 9 * 8 + 1 = 75 bytes, the
         // paper's 72 (sec. 3.5) plus tau, the frame number and the stamp.

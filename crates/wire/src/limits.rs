@@ -1,7 +1,7 @@
 //! Protocol version and limits, each with its reason.
 
 /// Bumped whenever a message's encoding changes; the handshake refuses a different one.
-pub const PROTOCOL_VERSION: u32 = 12;
+pub const PROTOCOL_VERSION: u32 = 13;
 
 /// Largest frame payload, refused before allocating by the decoder and before sending by the
 /// encoder. Every message but a keyframe is small (a delta holds at most b ids of each kind at

@@ -129,9 +129,9 @@ pub struct HcWireStats {
     pub pvs: u32,
     /// The frame was frustum culled only: occlusion culling did not pay where it last ran.
     pub cull_skipped: bool,
-    /// The HC node ran both roles for it (its peer gone or not in step): a degraded frame,
-    /// whose V(i) prev's may not match.
-    pub alone: bool,
+    /// A degraded frame, whose V(i) prev's may not match: the HC node ran both roles for it
+    /// (its peer gone or not in step), or the nodes were still recovering from a rejoin.
+    pub degraded: bool,
 }
 
 /// The end of frame `frame` (the paper's sentinel).
@@ -155,6 +155,12 @@ pub struct LinkStamps {
     /// When this frame's end went to the peer (HC → OR; protocol 11): before HC's cluster
     /// notes, which RVG's end of frame waits for.
     pub peer_sent_us: u64,
+    /// The stages the frame's camera went through on this node (protocol 13): when OR took
+    /// it and began drawing V(i-1) (a frame run alone: its own OR pass), when OR ended (the
+    /// peer's V(i) drawn), and when HC began.
+    pub or_start_us: u64,
+    pub or_end_us: u64,
+    pub hc_start_us: u64,
 }
 
 /// HC's notes of which clusters of V(`frame`) are visible (osw_cull::cluster::VisibleClusters):

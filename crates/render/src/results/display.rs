@@ -27,6 +27,29 @@ pub struct DisplayFrame {
     pub camera_link_ms: f64,
     pub eof_link_ms: f64,
     pub peer_link_ms: f64,
+    /// Where the rest of the latency went, on the HC node's clock (`osw latency` stacks them
+    /// with the links): the camera's wait before OR took it; OR drawing V(i-1) and the peer's
+    /// deltas of V(i-1)... until the peer's end of frame (the whole OR pass when the node ran
+    /// alone); OR's work after it; HC (traversal and sends); HC's cluster notes. Then on the
+    /// display: the frame's wait before RVG began, the read-back, and how long the display
+    /// waited to hand the frame to its writer thread (0 while the writer keeps up; the write
+    /// itself is off the latency's path).
+    #[serde(default)]
+    pub camera_wait_ms: f64,
+    #[serde(default)]
+    pub or_front_ms: f64,
+    #[serde(default)]
+    pub or_tail_ms: f64,
+    #[serde(default)]
+    pub hc_stage_ms: f64,
+    #[serde(default)]
+    pub notes_ms: f64,
+    #[serde(default)]
+    pub display_wait_ms: f64,
+    #[serde(default)]
+    pub readback_ms: f64,
+    #[serde(default)]
+    pub write_ms: f64,
     /// The node the frame came from, and 1 when one node made it alone (the other down, or
     /// their link cut).
     pub hc_node: u32,
@@ -58,4 +81,59 @@ pub struct DisplayFrame {
     pub clusters_occlusion_culled: u64,
     pub triangles_backface_culled: u64,
     pub triangles_small_culled: u64,
+}
+
+/// A stage of a camera's way from its sample to its frame shown, in the order it passes them.
+pub struct Stage {
+    pub column: &'static str,
+    pub what: &'static str,
+    pub of: fn(&DisplayFrame) -> f64,
+    /// A stage of work (or of a link) rather than a wait: in the floor.
+    pub busy: bool,
+}
+
+pub const STAGES: [Stage; 10] = [
+    Stage { column: "camera_link_ms", what: "RVG → HC node (camera)", of: |f| f.camera_link_ms, busy: true },
+    Stage { column: "camera_wait_ms", what: "camera waits for OR", of: |f| f.camera_wait_ms, busy: false },
+    Stage { column: "or_front_ms", what: "OR until the peer's end of frame", of: |f| f.or_front_ms, busy: true },
+    Stage { column: "or_tail_ms", what: "OR after it", of: |f| f.or_tail_ms, busy: true },
+    Stage { column: "hc_stage_ms", what: "HC", of: |f| f.hc_stage_ms, busy: true },
+    Stage { column: "notes_ms", what: "HC's cluster notes", of: |f| f.notes_ms, busy: true },
+    Stage { column: "eof_link_ms", what: "HC → RVG (end of frame)", of: |f| f.eof_link_ms, busy: true },
+    Stage { column: "display_wait_ms", what: "frame waits for RVG", of: |f| f.display_wait_ms, busy: false },
+    Stage { column: "rvg_ms", what: "RVG gather and draw", of: |f| f.rvg_ms, busy: true },
+    Stage { column: "readback_ms", what: "read-back", of: |f| f.readback_ms, busy: true },
+];
+
+/// The latency a camera cannot go below with these stages' times: the sum of the median busy
+/// stage times (without the camera's and the frame's waits, and without the frame's write).
+pub fn latency_floor_ms(rows: &[DisplayFrame]) -> f64 {
+    let median = |f: fn(&DisplayFrame) -> f64| crate::stats::quantile(&rows.iter().map(f).collect::<Vec<_>>(), 0.5);
+    STAGES.iter().filter(|s| s.busy).map(|s| median(s.of)).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_floor_sums_the_median_of_each_busy_stage_and_leaves_out_waits() {
+        let row = |k: f64| DisplayFrame {
+            camera_link_ms: k,
+            camera_wait_ms: 100.0 * k,
+            or_front_ms: 2.0 * k,
+            or_tail_ms: 1.0,
+            hc_stage_ms: 3.0,
+            notes_ms: 0.5,
+            eof_link_ms: 0.25,
+            display_wait_ms: 50.0,
+            rvg_ms: 4.0,
+            readback_ms: 2.0,
+            write_ms: 30.0,
+            ..DisplayFrame::default()
+        };
+        // Medians: camera link 2, OR's front 4; the rest as set.
+        let rows = [row(1.0), row(2.0), row(9.0)];
+        assert_eq!(latency_floor_ms(&rows), 2.0 + 4.0 + 1.0 + 3.0 + 0.5 + 0.25 + 4.0 + 2.0);
+    }
 }

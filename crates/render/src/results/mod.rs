@@ -20,7 +20,7 @@ mod report;
 mod summary;
 
 pub use compare::{Compare, Culling, Popping};
-pub use display::DisplayFrame;
+pub use display::{DisplayFrame, STAGES, Stage, latency_floor_ms};
 pub use exact::ExactFrame;
 pub use input::Input;
 pub use node::{Duty, NodeFrame, duty_median_ms};

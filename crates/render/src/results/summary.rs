@@ -132,6 +132,18 @@ pub struct SwitchSummary {
     pub latency_ms_median: f64,
     pub latency_ms_p95: f64,
     pub latency_ms_max: f64,
+    /// The same in frames (of the median frame time), and the floor
+    /// ([`crate::results::latency_floor_ms`]) in both.
+    #[serde(default)]
+    pub latency_frames_median: f64,
+    #[serde(default)]
+    pub latency_frames_p95: f64,
+    #[serde(default)]
+    pub latency_frames_max: f64,
+    #[serde(default)]
+    pub latency_floor_ms: f64,
+    #[serde(default)]
+    pub latency_floor_frames: f64,
     pub camera_link_ms_median: f64,
     pub eof_link_ms_median: f64,
     pub peer_link_ms_median: f64,
