@@ -224,9 +224,15 @@ fn run(a: &Args) -> anyhow::Result<()> {
         row.display_wait_ms = now_us().saturating_sub(frames.eof_at_us) as f64 / 1e3;
         let camera = osw_render::packet::camera(&cam);
         rvg(&mut r, &scene, &mut frames, i, &camera, cam.tau_px, &mut row)?;
-        // Read back once for the PNG and the window both (unless the window draws another view).
+        // Read back once for the PNG and the window both (unless the window draws another view);
+        // without either, wait for the draw: a frame counts as shown once drawn.
         let t = Instant::now();
-        let mut rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) { Some(r.read_color()?) } else { None };
+        let mut rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) {
+            Some(r.read_color()?)
+        } else {
+            r.gpu().wait()?;
+            None
+        };
         row.readback_ms = t.elapsed().as_secs_f64() * 1e3;
         // Camera i+2 goes out once frame i is drawn, as it is now (a walk's newest input),
         // before the frame is written or shown. Sent earlier (at frame i's end), the nodes run

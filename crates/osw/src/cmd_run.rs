@@ -157,13 +157,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     out!(
-        "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median → {}",
+        "run: switch over {} frames: frame {:.1} ms median, {:.0} bytes and {:.1} ids a frame ({:.1}% saved against full), latency {:.1} ms median ({:.2} frames, p95 {:.2}; floor {:.2}) → {}",
         summary.frames,
         summary.frame_ms_median,
         sw.bytes_per_frame_mean,
         sw.ids_sent_mean,
         sw.incremental_saved_fraction * 100.0,
         sw.latency_ms_median,
+        sw.latency_frames_median,
+        sw.latency_frames_p95,
+        sw.latency_floor_frames,
         a.out.display()
     );
     Ok(())

@@ -31,7 +31,8 @@ pub struct DisplayFrame {
     /// with the links): the camera's wait before OR took it; OR drawing V(i-1) and the peer's
     /// deltas of V(i-1)... until the peer's end of frame (the whole OR pass when the node ran
     /// alone); OR's work after it; HC (traversal and sends); HC's cluster notes. Then on the
-    /// display: the frame's wait before RVG began, the read-back, and how long the display
+    /// display: the frame's wait before RVG began, the read-back (without frames to write or
+    /// show, the wait for the draw to end), and how long the display
     /// waited to hand the frame to its writer thread (0 while the writer keeps up; the write
     /// itself is off the latency's path).
     #[serde(default)]
