@@ -3,8 +3,8 @@
 //! runs. What happens on them reaches the frame loop as [`Note`]s on one channel, so that it
 //! reads whichever node has the frame (failover: a node lost, a node rejoining).
 
-use osw_wire::clock::Offset;
 use osw_wire::auth::Token;
+use osw_wire::clock::Offset;
 use osw_wire::messages::{Hello, Message};
 use osw_wire::net::{NetError, connect, handshake, probe_clock, run_connection};
 use osw_wire::{Frame, WireError};

@@ -29,13 +29,13 @@ use osw_wire::clock::now_us;
 use osw_wire::config::{ClusterArgs, Settings};
 use osw_wire::messages::{Goodbye, Hello, Message, Role};
 use receive::Frames;
-use writer::FrameWriter;
 use stats::write_outputs;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use ui::Ui;
+use writer::FrameWriter;
 
 #[derive(Parser)]
 #[command(name = "osw-display", version, about = "the occlusion switch's display client (RVG)")]
@@ -163,6 +163,101 @@ fn rvg(
     Ok(())
 }
 
+/// What a walk plays: the run's arguments and settings, the path (empty in an interactive
+/// walk) and the scene.
+struct Plan<'a> {
+    a: &'a Args,
+    set: &'a Settings,
+    path: &'a [Camera],
+    scene: &'a osw_scene::SceneFile,
+}
+
+/// Plays the walk: receives each frame, draws it, sends the next camera, writes or shows the
+/// frame; returns the frames' rows and pvs.txt.
+fn walk(p: &Plan, r: &mut osw_gpu::Renderer, ui: &mut Option<Ui>, frames: &mut Frames) -> anyhow::Result<(Vec<DisplayFrame>, String)> {
+    let Plan { a, set, path, scene } = *p;
+    // Frame k's camera and tau: the path's row k, or the walk's camera as it is now.
+    let next_camera = |k: usize, ui: &mut Option<Ui>| -> Option<(Camera, f64)> {
+        match ui.as_mut() {
+            Some(u) if u.controls.is_some() => u.next_camera(),
+            Some(u) if u.quit() => None,
+            _ => Some((*path.get(k)?, set.tau)),
+        }
+    };
+    let send = |frames: &mut Frames, k: usize, (c, tau): (Camera, f64)| {
+        frames.cluster.send_camera(&Message::Camera(osw_render::packet::packet(k as u64, &c, tau, now_us())))
+    };
+    // Cameras sent so far: frames 0..requested are on their way.
+    let mut requested = 0;
+    while requested < 2
+        && let Some(c) = next_camera(requested, ui)
+    {
+        send(frames, requested, c)?;
+        requested += 1;
+    }
+    let (mut rows, mut pvs_txt) = (Vec::<DisplayFrame>::with_capacity(path.len()), String::new());
+    let (mut last, mut cpu) = (Instant::now(), osw_render::stats::cpu_ms());
+    let mut writer = (!a.no_frames).then(|| FrameWriter::start(&a.out, set.size.0, set.size.1));
+    let mut i = 0;
+    while i < requested {
+        let (cam, mut row) = frames.frame(i as u64, rows.last_mut(), &mut || {
+            ui.as_mut().map(Ui::pump);
+        })?;
+        row.display_wait_ms = now_us().saturating_sub(frames.eof_at_us) as f64 / 1e3;
+        let camera = osw_render::packet::camera(&cam);
+        rvg(r, scene, frames, i, &camera, cam.tau_px, &mut row)?;
+        // Read back once for the PNG and the window both (unless the window draws another view);
+        // without either, wait for the draw: a frame counts as shown once drawn.
+        let t = Instant::now();
+        let mut rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) {
+            Some(r.read_color()?)
+        } else {
+            r.gpu().wait()?;
+            None
+        };
+        row.readback_ms = t.elapsed().as_secs_f64() * 1e3;
+        // Camera i+2 goes out once frame i is drawn, as it is now (a walk's newest input),
+        // before the frame is written or shown. Sent earlier (at frame i's end), the nodes run
+        // ahead of RVG and frames wait for it: a third frame in flight, three frames of latency
+        // instead of two (docs/switch.md, "Latency").
+        if i + 2 == requested
+            && let Some(c) = next_camera(i + 2, ui)
+        {
+            send(frames, i + 2, c)?;
+            requested += 1;
+        }
+        // A window's frame counts once presented (it keeps at most one in its queue).
+        if let Some(u) = ui.as_mut() {
+            // The overlay shows the last frame's latency: this one's ends with the present.
+            let shown = DisplayFrame { latency_ms: rows.last().map_or(0.0, |r| r.latency_ms), ..row };
+            let frame = if writer.is_some() { rgba.clone() } else { rgba.take() };
+            u.show(r, frame, &frames.visible, &camera, cam.tau_px, &shown)?;
+        }
+        row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
+        if let Some(rgba) = rgba
+            && let Some(wr) = writer.take()
+        {
+            let (wr, waited_ms) = wr.write(i as u64, rgba)?;
+            (writer, row.write_ms) = (Some(wr), waited_ms);
+        }
+        (row.rss_kb, row.anon_kb) = (osw_render::stats::resident_bytes() >> 10, osw_render::stats::anonymous_bytes() >> 10);
+        row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
+        let now = osw_render::stats::cpu_ms();
+        (row.cpu_ms, cpu) = (now - cpu, now);
+        last = Instant::now();
+        push_ids(&mut pvs_txt, &frames.visible);
+        rows.push(row);
+        // One line per displayed frame on stdout: `osw run` shows progress from it.
+        // A closed stdout only means nobody is watching: not an error.
+        let _ = writeln!(std::io::stdout(), "frame {i}");
+        i += 1;
+    }
+    if let Some(wr) = writer {
+        wr.finish()?;
+    }
+    Ok((rows, pvs_txt))
+}
+
 fn run(a: &Args) -> anyhow::Result<()> {
     let set = a.cluster.resolve()?;
     let (w, h) = set.size;
@@ -194,85 +289,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
         ui.as_mut().map(Ui::pump);
     })?;
     std::fs::create_dir_all(a.out.join("frames"))?;
-    // Frame k's camera and tau: the path's row k, or the walk's camera as it is now.
-    let next_camera = |k: usize, ui: &mut Option<Ui>| -> Option<Message> {
-        let (c, tau) = match ui.as_mut() {
-            Some(u) if u.controls.is_some() => u.next_camera()?,
-            Some(u) if u.quit() => return None,
-            _ => (*path.get(k)?, set.tau),
-        };
-        Some(Message::Camera(osw_render::packet::packet(k as u64, &c, tau, now_us())))
-    };
-    // Cameras sent so far: frames 0..requested are on their way.
-    let mut requested = 0;
-    for k in 0..2 {
-        match next_camera(k, &mut ui) {
-            Some(m) => frames.cluster.send_camera(&m)?,
-            None => break,
-        }
-        requested = k + 1;
-    }
-    let mut rows: Vec<DisplayFrame> = Vec::with_capacity(path.len());
-    let mut pvs_txt = String::new();
-    let (mut last, mut cpu) = (Instant::now(), osw_render::stats::cpu_ms());
-    let mut writer = (!a.no_frames).then(|| FrameWriter::start(&a.out, w, h));
-    let mut i = 0;
-    while i < requested {
-        let (cam, mut row) = frames.frame(i as u64, rows.last_mut(), &mut || {
-            ui.as_mut().map(Ui::pump);
-        })?;
-        row.display_wait_ms = now_us().saturating_sub(frames.eof_at_us) as f64 / 1e3;
-        let camera = osw_render::packet::camera(&cam);
-        rvg(&mut r, &scene, &mut frames, i, &camera, cam.tau_px, &mut row)?;
-        // Read back once for the PNG and the window both (unless the window draws another view);
-        // without either, wait for the draw: a frame counts as shown once drawn.
-        let t = Instant::now();
-        let mut rgba = if !a.no_frames || ui.as_ref().is_some_and(|u| !u.redraws(&camera)) {
-            Some(r.read_color()?)
-        } else {
-            r.gpu().wait()?;
-            None
-        };
-        row.readback_ms = t.elapsed().as_secs_f64() * 1e3;
-        // Camera i+2 goes out once frame i is drawn, as it is now (a walk's newest input),
-        // before the frame is written or shown. Sent earlier (at frame i's end), the nodes run
-        // ahead of RVG and frames wait for it: a third frame in flight, three frames of latency
-        // instead of two (docs/switch.md, "Latency").
-        if i + 2 == requested
-            && let Some(m) = next_camera(i + 2, &mut ui)
-        {
-            frames.cluster.send_camera(&m)?;
-            requested += 1;
-        }
-        // A window's frame counts once presented (it keeps at most one in its queue).
-        if let Some(u) = ui.as_mut() {
-            // The overlay shows the last frame's latency: this one's ends with the present.
-            let shown = DisplayFrame { latency_ms: rows.last().map_or(0.0, |r| r.latency_ms), ..row };
-            let frame = if writer.is_some() { rgba.clone() } else { rgba.take() };
-            u.show(&mut r, frame, &frames.visible, &camera, cam.tau_px, &shown)?;
-        }
-        row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
-        if let Some(rgba) = rgba
-            && let Some(wr) = writer.take()
-        {
-            let (wr, waited_ms) = wr.write(i as u64, rgba)?;
-            (writer, row.write_ms) = (Some(wr), waited_ms);
-        }
-        (row.rss_kb, row.anon_kb) = (osw_render::stats::resident_bytes() >> 10, osw_render::stats::anonymous_bytes() >> 10);
-        row.frame_ms = last.elapsed().as_secs_f64() * 1e3;
-        let now = osw_render::stats::cpu_ms();
-        (row.cpu_ms, cpu) = (now - cpu, now);
-        last = Instant::now();
-        push_ids(&mut pvs_txt, &frames.visible);
-        rows.push(row);
-        // One line per displayed frame on stdout: `osw run` shows progress from it.
-        // A closed stdout only means nobody is watching: not an error.
-        let _ = writeln!(std::io::stdout(), "frame {i}");
-        i += 1;
-    }
-    if let Some(wr) = writer {
-        wr.finish()?;
-    }
+    let plan = Plan { a, set: &set, path: &path, scene: &scene };
+    let (rows, pvs_txt) = walk(&plan, &mut r, &mut ui, &mut frames)?;
     if let Some(u) = ui.as_mut() {
         u.finish();
     }

@@ -5,7 +5,7 @@
 use crate::links::{self, Cluster, Note};
 use osw_cull::delta::Assembly;
 use osw_render::results::DisplayFrame;
-use osw_wire::messages::{CameraPacket, LinkStamps, Message};
+use osw_wire::messages::{CameraPacket, EndOfFrame, LinkStamps, Message};
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
@@ -141,28 +141,8 @@ impl Frames {
                 }
                 Message::EndOfFrame(e) if e.frame == i => {
                     row.bytes += bytes;
-                    row.hc_ms = e.stats.hc_us as f64 / 1e3;
-                    [row.hc_traversal_ms, row.hc_second_look_ms, row.hc_retest_ms] = e.stats.passes_us.map(|us| us as f64 / 1e3);
-                    (row.tests, row.cull_skipped) = (e.stats.tests, u32::from(e.stats.cull_skipped));
                     let (hc, cam) = source.expect("from the source");
-                    // Every stamp on the display's clock. The end of frame is stamped when HC
-                    // queues it, behind the frame's deltas: its link time includes sending them.
-                    let clock = |n: usize| self.cluster.clocks[n];
-                    let ms = |later: f64, earlier: f64| (later - earlier) / 1e3;
-                    row.camera_link_ms = ms(clock(hc).to_display(e.clock.camera_received_us), cam.sampled_us as f64);
-                    row.eof_link_ms = ms(at as f64, clock(hc).to_display(e.clock.sent_us));
-                    if let (Some(prev), Some((sender, sent))) =
-                        (prev, self.prev_eof.filter(|p| p.0 != hc && e.clock.peer_eof_received_us > 0))
-                    {
-                        // This node was OR in frame i-1: the peer (HC then) sent its end of
-                        // frame then, on its clock, and it arrived here.
-                        prev.peer_link_ms = ms(clock(hc).to_display(e.clock.peer_eof_received_us), clock(sender).to_display(sent));
-                    }
-                    self.prev_eof = Some((hc, e.clock.peer_sent_us));
-                    stages(&e.clock, &mut row);
-                    self.eof_at_us = at;
-                    row.hc_node = hc as u32;
-                    row.degraded = (self.cluster.nodes.iter().any(Option::is_none) || e.stats.degraded) as u32;
+                    self.end_of_frame(&e, hc, &cam, at, prev, &mut row);
                     break;
                 }
                 m => anyhow::bail!("frame {i}: unexpected message from node {}: {m:?}", links::NAMES[node]),
@@ -172,6 +152,40 @@ impl Frames {
         self.visible = next.finish(&self.visible).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
         row.ids_full = self.visible.len() as u64;
         Ok((cam, row))
+    }
+}
+
+impl Frames {
+    /// Frame i's end of frame from node `hc`, arrived at `at`: HC's statistics, the links'
+    /// latencies and the stages into `row`, and the peer link of frame i-1 into `prev`.
+    fn end_of_frame(
+        &mut self,
+        e: &EndOfFrame,
+        hc: usize,
+        cam: &CameraPacket,
+        at: u64,
+        prev: Option<&mut DisplayFrame>,
+        row: &mut DisplayFrame,
+    ) {
+        row.hc_ms = e.stats.hc_us as f64 / 1e3;
+        [row.hc_traversal_ms, row.hc_second_look_ms, row.hc_retest_ms] = e.stats.passes_us.map(|us| us as f64 / 1e3);
+        (row.tests, row.cull_skipped) = (e.stats.tests, u32::from(e.stats.cull_skipped));
+        // Every stamp on the display's clock. The end of frame is stamped when HC queues it,
+        // behind the frame's deltas: its link time includes sending them.
+        let clock = |n: usize| self.cluster.clocks[n];
+        let ms = |later: f64, earlier: f64| (later - earlier) / 1e3;
+        row.camera_link_ms = ms(clock(hc).to_display(e.clock.camera_received_us), cam.sampled_us as f64);
+        row.eof_link_ms = ms(at as f64, clock(hc).to_display(e.clock.sent_us));
+        if let (Some(prev), Some((sender, sent))) = (prev, self.prev_eof.filter(|p| p.0 != hc && e.clock.peer_eof_received_us > 0)) {
+            // This node was OR in frame i-1: the peer (HC then) sent its end of frame then, on
+            // its clock, and it arrived here.
+            prev.peer_link_ms = ms(clock(hc).to_display(e.clock.peer_eof_received_us), clock(sender).to_display(sent));
+        }
+        self.prev_eof = Some((hc, e.clock.peer_sent_us));
+        stages(&e.clock, row);
+        self.eof_at_us = at;
+        row.hc_node = hc as u32;
+        row.degraded = (self.cluster.nodes.iter().any(Option::is_none) || e.stats.degraded) as u32;
     }
 }
 

@@ -228,7 +228,13 @@ impl Ui {
     fn lines(&self, row: &DisplayFrame, tau: f64) -> Vec<String> {
         let node = crate::links::NAMES.get(row.hc_node as usize).unwrap_or(&"?");
         let mut l = vec![
-            format!("frame {}  {:.1} fps  latency {:.0} ms, {:.2} frames", row.frame, self.fps, row.latency_ms, row.latency_ms * self.fps / 1e3),
+            format!(
+                "frame {}  {:.1} fps  latency {:.0} ms, {:.2} frames",
+                row.frame,
+                self.fps,
+                row.latency_ms,
+                row.latency_ms * self.fps / 1e3
+            ),
             format!("HC node {node}{}", if row.degraded == 1 { "  DEGRADED: one node runs both roles" } else { "" }),
             format!("PVS {} nodes  {} triangles  {} B/frame  tau {tau} px", row.pvs_nodes, row.triangles_drawn, row.bytes),
             format!(

@@ -82,7 +82,13 @@ fn independent_cut(scene: &SceneFile, eye: glam::DVec3, focal_px: f64, tau: f64)
     // focal length; unbounded with the eye in the box.
     let px = |error: f32, b: &osw_scene::Aabb| {
         let d = (b.min.as_dvec3() - eye).max(eye - b.max.as_dvec3()).max(glam::DVec3::ZERO).length();
-        if error <= 0.0 { 0.0 } else if d <= 0.0 { f64::INFINITY } else { error as f64 * focal_px / d }
+        if error <= 0.0 {
+            0.0
+        } else if d <= 0.0 {
+            f64::INFINITY
+        } else {
+            error as f64 * focal_px / d
+        }
     };
     let lod = osw_scene::error_metric::LodView { eye, focal_px, tau };
     let mut reached = vec![false; scene.bvh_count() as usize];

@@ -5,8 +5,8 @@
 //! queue goes with it.
 
 use osw_wire::auth::Token;
-use osw_wire::messages::{Hello, Message, Role};
 use osw_wire::limits::HANDSHAKE;
+use osw_wire::messages::{Hello, Message, Role};
 use osw_wire::net::{End, conn, handshake, run_connection};
 use osw_wire::tls::Tls;
 use std::sync::Arc;
@@ -37,7 +37,6 @@ pub enum Event {
         why: String,
     },
 }
-
 
 /// Most cameras from the display waiting for the frame loop. Playback needs three (k-1 in
 /// case of a takeover, k, k+1); more is a display sending faster than frames are made.

@@ -100,7 +100,9 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let listener = rt.block_on(tokio::net::TcpListener::bind(&listen)).map_err(|e| anyhow::anyhow!("cannot listen on {listen}: {e}"))?;
     let bound = listener.local_addr()?;
     if set.token.is_none() && !bound.ip().is_loopback() {
-        tracing::warn!("listening on {bound} without a cluster token: anyone who can reach this port can join the cluster (set --token-file)");
+        tracing::warn!(
+            "listening on {bound} without a cluster token: anyone who can reach this port can join the cluster (set --token-file)"
+        );
     }
     writeln!(std::io::stdout(), "listening on {bound}")?;
     std::io::stdout().flush()?;
@@ -118,15 +120,18 @@ fn run(a: &Args) -> anyhow::Result<()> {
     sw.adaptive = agreed.adaptive;
     sw.keyframe_part_bytes = a.keyframe_part_bytes.clamp(5, osw_wire::limits::KEYFRAME_PART_BYTES);
     sw.payoff = (!agreed.always_cull).then(|| osw_cull::payoff::Payoff::new(osw_cull::payoff::CullCost::at(w as u64 * h as u64)));
-    let log = match sw.start() {
+    // Each frame's row goes to --stats as it is made: a node may run for hours.
+    let mut rows = a.stats.as_deref().map(osw_render::results::csv::Rows::create).transpose()?;
+    let mut log = |f: &osw_render::results::NodeFrame| -> anyhow::Result<()> { Ok(rows.as_mut().map_or(Ok(()), |w| w.push(f))?) };
+    let ran = match sw.start() {
         Ok(Some(first)) => {
             me.serving.store(true, std::sync::atomic::Ordering::Release);
-            sw.run(first)
+            sw.run(first, &mut log)
         }
-        Ok(None) => Ok(Vec::new()),
+        Ok(None) => Ok(()),
         Err(e) => Err(e),
     };
-    sw.goodbye(if log.is_ok() { "done" } else { "error" });
+    sw.goodbye(if ran.is_ok() { "done" } else { "error" });
     let (roles, dropped) = (&sw.io.roles, sw.io.cameras_dropped());
     if roles.peer_losses + roles.peer_rejoins > 0 || dropped > 0 {
         tracing::warn!("{} peer losses, {} rejoins, {dropped} cameras dropped", roles.peer_losses, roles.peer_rejoins);
@@ -136,9 +141,6 @@ fn run(a: &Args) -> anyhow::Result<()> {
     drop(sw);
     osw_wire::net::flush(std::time::Duration::from_secs(1));
     rt.shutdown_timeout(std::time::Duration::from_millis(200));
-    let log = log?;
-    if let Some(p) = &a.stats {
-        osw_render::results::csv::write(p, &log)?;
-    }
-    Ok(())
+    ran?;
+    Ok(rows.map_or(Ok(()), |w| w.finish())?)
 }

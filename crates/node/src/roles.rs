@@ -111,7 +111,16 @@ pub struct Roles {
 
 impl Roles {
     pub fn new(index: u64) -> Roles {
-        Roles { index, hc_parity: index, depth_for: None, steady_from: 0, peer: Peer::Gone, display: Display::Waiting, peer_losses: 0, peer_rejoins: 0 }
+        Roles {
+            index,
+            hc_parity: index,
+            depth_for: None,
+            steady_from: 0,
+            peer: Peer::Gone,
+            display: Display::Waiting,
+            peer_losses: 0,
+            peer_rejoins: 0,
+        }
     }
 
     pub fn on(&mut self, e: Event) -> Forget {

@@ -105,19 +105,20 @@ impl Switch {
         }
     }
 
-    /// Runs frames from `first` until the display says goodbye.
-    pub fn run(&mut self, first: u64) -> anyhow::Result<Vec<NodeFrame>> {
-        let (mut log, mut i, mut cpu) = (Vec::new(), first, osw_render::stats::cpu_ms());
+    /// Runs frames from `first` until the display says goodbye, handing each frame's row to
+    /// `log`.
+    pub fn run(&mut self, first: u64, log: &mut dyn FnMut(&NodeFrame) -> anyhow::Result<()>) -> anyhow::Result<()> {
+        let (mut i, mut cpu) = (first, osw_render::stats::cpu_ms());
         loop {
             self.io.drain();
             let f = match self.io.roles.step(i) {
-                Step::Stop => return Ok(log),
+                Step::Stop => return Ok(()),
                 Step::StartOver => match self.start_over()? {
                     Some(first) => {
                         i = first;
                         continue;
                     }
-                    None => return Ok(log),
+                    None => return Ok(()),
                 },
                 Step::Rejoin => {
                     tracing::warn!("the link to the peer is back: rejoining it");
@@ -133,7 +134,7 @@ impl Switch {
                 let now = osw_render::stats::cpu_ms();
                 (f.cpu_ms, cpu) = (now - cpu, now);
                 i = f.frame + 1;
-                log.push(f);
+                log(&f)?;
             }
         }
     }
@@ -191,7 +192,8 @@ impl Switch {
         let hc_us = t.elapsed().as_micros() as u64;
         let passes_us = [times.traversal_ms, times.second_look_ms, times.retest_ms].map(|ms| (ms * 1e3) as u64);
         let degraded = self.io.roles.degraded(i);
-        let stats = HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull, degraded };
+        let stats =
+            HcWireStats { tests: hc.tests, levels: hc.levels, hc_us, passes_us, pvs: pvs.len() as u32, cull_skipped: !cull, degraded };
         let peer_eof_received_us = self.peer_eof_received_us;
         let peer_sent_us = now_us();
         let eof = |sent_us| {

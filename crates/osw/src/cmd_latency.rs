@@ -8,8 +8,8 @@
 //! the floor (the sum of the busy stages' medians) is set beside it, in ms and in frames.
 
 use crate::plot::{Chart, Series};
-use osw_render::results::{STAGES, latency_floor_ms};
 use osw_render::results::{self, DisplayFrame, Summary};
+use osw_render::results::{STAGES, latency_floor_ms};
 use osw_render::stats::quantile;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -64,8 +64,9 @@ struct Run {
     frame_ms_median: f64,
     latency_frames_median: f64,
     latency_frames_p95: f64,
-    floor_ms: f64,
-    floor_frames: f64,
+    /// None for a run whose nodes stamped no stages (protocol 12 and before).
+    floor_ms: Option<f64>,
+    floor_frames: Option<f64>,
     stages: Vec<Stat>,
     #[serde(skip)]
     per_frame: Vec<Vec<f64>>,
@@ -87,13 +88,20 @@ fn read(dir: &Path) -> anyhow::Result<Run> {
         per_frame.push(v);
     }
     let (mut stages, mut stage_per_frame) = (Vec::new(), Vec::new());
-    for s in &STAGES {
+    let staged = rows.iter().any(|r| r.hc_stage_ms > 0.0);
+    for s in STAGES.iter().filter(|_| staged) {
         let v: Vec<f64> = rows.iter().map(s.of).collect();
-        stages.push(Stat { column: s.column, what: s.what, median_ms: quantile(&v, 0.5), p95_ms: quantile(&v, 0.95), max_ms: quantile(&v, 1.0) });
+        stages.push(Stat {
+            column: s.column,
+            what: s.what,
+            median_ms: quantile(&v, 0.5),
+            p95_ms: quantile(&v, 0.95),
+            max_ms: quantile(&v, 1.0),
+        });
         stage_per_frame.push(v);
     }
     let frame_ms_median = summary.frame_ms_median.max(f64::MIN_POSITIVE);
-    let floor_ms = latency_floor_ms(&rows);
+    let floor_ms = staged.then(|| latency_floor_ms(&rows));
     let links = std::fs::read_to_string(dir.join("links.txt"))
         .ok()
         .and_then(|l| Some(l.lines().next()?.split_once(": ")?.1.to_owned()))
@@ -110,7 +118,7 @@ fn read(dir: &Path) -> anyhow::Result<Run> {
         latency_frames_median: latency[0].median_ms / frame_ms_median,
         latency_frames_p95: latency[0].p95_ms / frame_ms_median,
         floor_ms,
-        floor_frames: floor_ms / frame_ms_median,
+        floor_frames: floor_ms.map(|f| f / frame_ms_median),
         latency,
         stages,
         per_frame,
@@ -122,14 +130,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let runs = a.run.iter().map(|d| read(d)).collect::<anyhow::Result<Vec<Run>>>()?;
     std::fs::create_dir_all(&a.out)?;
     std::fs::write(a.out.join("latency.json"), serde_json::to_string_pretty(&runs)?)?;
-    let mut md =
-        String::from("| run | links | frame ms | latency median ms | p95 | max | median frames | p95 frames | floor ms | floor frames | RVG→HC ms | HC→RVG ms | HC→OR ms | clock offsets a, b µs |\n");
+    let mut md = String::from(
+        "| run | links | frame ms | latency median ms | p95 | max | median frames | p95 frames | floor ms | floor frames | RVG→HC ms | HC→RVG ms | HC→OR ms | clock offsets a, b µs |\n",
+    );
     md.push_str("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
     for r in &runs {
         let s = &r.latency;
         let _ = writeln!(
             md,
-            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2} | {:.1} | {:.2} | {:.3} | {:.3} | {:.3} | {:.0} ± {:.0}, {:.0} ± {:.0} |",
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2} | {} | {} | {:.3} | {:.3} | {:.3} | {:.0} ± {:.0}, {:.0} ± {:.0} |",
             r.run,
             r.links,
             r.frame_ms_median,
@@ -138,8 +147,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             s[0].max_ms,
             r.latency_frames_median,
             r.latency_frames_p95,
-            r.floor_ms,
-            r.floor_frames,
+            shown(r.floor_ms, 1),
+            shown(r.floor_frames, 2),
             s[1].median_ms,
             s[2].median_ms,
             s[3].median_ms,
@@ -149,15 +158,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             r.clock_rtt_b_us / 2.0
         );
         out!(
-            "latency: {} ({}): {:.1} ms median ({:.2} frames of {:.1} ms, p95 {:.2}), floor {:.1} ms ({:.2} frames), links {:.3} / {:.3} / {:.3} ms",
+            "latency: {} ({}): {:.1} ms median ({:.2} frames of {:.1} ms, p95 {:.2}), floor {} ms ({} frames), links {:.3} / {:.3} / {:.3} ms",
             r.run,
             r.links,
             s[0].median_ms,
             r.latency_frames_median,
             r.frame_ms_median,
             r.latency_frames_p95,
-            r.floor_ms,
-            r.floor_frames,
+            shown(r.floor_ms, 1),
+            shown(r.floor_frames, 2),
             s[1].median_ms,
             s[2].median_ms,
             s[3].median_ms
@@ -171,6 +180,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     std::fs::write(a.out.join("latency.md"), &md)?;
     for (k, r) in runs.iter().enumerate() {
+        if r.stages.is_empty() {
+            out!("latency: {}: no stage stamps (its nodes speak protocol 12 or older): no stages plot", r.run);
+            continue;
+        }
         let name = if runs.len() == 1 { "stages".to_string() } else { format!("stages-{}", k + 1) };
         crate::plot::write(&stacked(r), &a.out.join(name))?;
     }
@@ -198,8 +211,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 }
 
 /// A run's stages stacked per frame: each curve is the time from the camera's sample to the
-/// end of that stage; the latency itself in bold above them (the gap: the frame's write and
-/// what no stamp covers).
+/// end of that stage; the latency itself in bold above them (the gap: what no stamp covers).
+/// From the second frame: the first waits for start-up.
 fn stacked(r: &Run) -> Chart<'static> {
     let frames = r.per_frame[0].len();
     let mut sum = vec![0.0; frames];
@@ -208,10 +221,15 @@ fn stacked(r: &Run) -> Chart<'static> {
         for (acc, x) in sum.iter_mut().zip(v) {
             *acc += x;
         }
-        let points = sum.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect();
+        let points = sum.iter().enumerate().skip(1).map(|(i, &y)| (i as f64, y)).collect();
         series.push(Series { name: format!("+ {}", s.what), points, point_labels: vec![], bold: false });
     }
-    let points = r.per_frame[0].iter().enumerate().map(|(i, &y)| (i as f64, y)).collect();
+    let points = r.per_frame[0].iter().enumerate().skip(1).map(|(i, &y)| (i as f64, y)).collect();
     series.push(Series { name: "latency".into(), points, point_labels: vec![], bold: true });
     Chart { title: "Where each frame's latency goes (stages stacked)", x: "frame", y: "ms", series }
+}
+
+/// A figure of a table, or "-" where the run has none.
+fn shown(v: Option<f64>, decimals: usize) -> String {
+    v.map_or("-".into(), |v| format!("{v:.decimals$}"))
 }

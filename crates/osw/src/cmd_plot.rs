@@ -31,7 +31,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().with_context(|| format!("{}: empty", a.csv.display()))?.split(',').collect();
     let column = |name: &str| {
-        header.iter().position(|h| *h == name).with_context(|| format!("{}: no column {name:?} (it has {})", a.csv.display(), header.join(", ")))
+        header
+            .iter()
+            .position(|h| *h == name)
+            .with_context(|| format!("{}: no column {name:?} (it has {})", a.csv.display(), header.join(", ")))
     };
     let x = column(&a.x)?;
     let ys: Vec<usize> = a.y.iter().map(|y| column(y)).collect::<anyhow::Result<_>>()?;

@@ -195,7 +195,14 @@ fn start(a: &Args, config: &Path) -> anyhow::Result<[Proc; 3]> {
     let tls = |who: &str| -> Vec<String> {
         a.tls.as_ref().map_or(Vec::new(), |d| {
             let f = |n: String| s(&d.join(n));
-            vec!["--tls-cert".into(), f(format!("{who}.pem")), "--tls-key".into(), f(format!("{who}.key")), "--tls-ca".into(), f("ca.pem".into())]
+            vec![
+                "--tls-cert".into(),
+                f(format!("{who}.pem")),
+                "--tls-key".into(),
+                f(format!("{who}.key")),
+                "--tls-ca".into(),
+                f("ca.pem".into()),
+            ]
         })
     };
     let common = |name: &str| {
@@ -247,7 +254,7 @@ fn tick(display_out: std::process::ChildStdout, bar: indicatif::ProgressBar) -> 
             match line.starts_with("frame ") {
                 true => {
                     bar.inc(1);
-                    if tenth.is_some_and(|step| bar.position() % step == 0) {
+                    if tenth.is_some_and(|step| bar.position().is_multiple_of(step)) {
                         out!("run: {}/{} frames displayed", bar.position(), bar.length().unwrap_or(0));
                     }
                 }

@@ -224,7 +224,14 @@ fn with_tls_only_the_clusters_certificates_get_in() {
     osw_ok(&["certs", "--names", "stranger", "--out", s(&other)]);
     let tls_args = |who: &str| {
         let f = |n: String| certs.join(n).display().to_string();
-        vec!["--tls-cert".to_string(), f(format!("{who}.pem")), "--tls-key".into(), f(format!("{who}.key")), "--tls-ca".into(), f("ca.pem".into())]
+        vec![
+            "--tls-cert".to_string(),
+            f(format!("{who}.pem")),
+            "--tls-key".into(),
+            f(format!("{who}.key")),
+            "--tls-ca".into(),
+            f("ca.pem".into()),
+        ]
     };
     let start = |name: &str, peer: Option<&str>| {
         let mut c = Command::new(bin("osw-node"));

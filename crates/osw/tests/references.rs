@@ -96,7 +96,19 @@ fn a_broken_lod_cut_is_caught_by_the_independent_reference_at_tau_1() {
     let not_drawn = |run: &Path, label: &str| {
         let out = d.path().join(format!("cmp-{label}"));
         let c = {
-            osw_ok(&["compare", "--a", s(run), "--b", s(&d.path().join("vfc")), "--exact", s(&exact), "--exact-lod", s(&exact1), "--out", s(&out)]);
+            osw_ok(&[
+                "compare",
+                "--a",
+                s(run),
+                "--b",
+                s(&d.path().join("vfc")),
+                "--exact",
+                s(&exact),
+                "--exact-lod",
+                s(&exact1),
+                "--out",
+                s(&out),
+            ]);
             serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap()
         };
         c["culling_a"]["lod_not_drawn_total"].as_u64().unwrap_or_else(|| panic!("{label}: no lod_not_drawn_total: {c}"))
@@ -108,7 +120,24 @@ fn a_broken_lod_cut_is_caught_by_the_independent_reference_at_tau_1() {
         let broken = d.path().join(format!("broken-{mode}-1"));
         osw_broken(
             "lod-cut",
-            &["render", "--scene", s(&scene), "--path", s(&path), "--mode", mode, "--hc", hc, "--tau", "1", "--size", SIZE, "--always-cull", "--out", s(&broken)],
+            &[
+                "render",
+                "--scene",
+                s(&scene),
+                "--path",
+                s(&path),
+                "--mode",
+                mode,
+                "--hc",
+                hc,
+                "--tau",
+                "1",
+                "--size",
+                SIZE,
+                "--always-cull",
+                "--out",
+                s(&broken),
+            ],
         );
         assert!(not_drawn(&broken, &format!("broken-{mode}")) > 0, "broken {mode}: its coarse LODs went unseen");
     }
@@ -126,23 +155,26 @@ fn a_broken_frustum_is_caught_by_the_independent_reference() {
     render(&scene, &path, ("vfc", "exact"), "0", &d.path().join("vfc"));
     for (mode, hc) in [("vfc", "exact"), ("prev", "hybrid")] {
         let run = d.path().join(format!("broken-{mode}"));
-        osw_broken("frustum", &[
-            "render",
-            "--scene",
-            s(&scene),
-            "--path",
-            s(&path),
-            "--mode",
-            mode,
-            "--hc",
-            hc,
-            "--tau",
-            "0",
-            "--size",
-            SIZE,
-            "--out",
-            s(&run),
-        ]);
+        osw_broken(
+            "frustum",
+            &[
+                "render",
+                "--scene",
+                s(&scene),
+                "--path",
+                s(&path),
+                "--mode",
+                mode,
+                "--hc",
+                hc,
+                "--tau",
+                "0",
+                "--size",
+                SIZE,
+                "--out",
+                s(&run),
+            ],
+        );
         let c = compare(&run, &d.path().join("vfc"), &exact, &d.path().join(format!("cmp-{mode}")));
         assert!(c["culling_a"]["false_culled_leaves_total"].as_u64().unwrap() > 0, "broken {mode}: no false culling seen: {c}");
         assert!(c["identical_frames"].as_u64().unwrap() < 16, "broken {mode}: frames equal the intact vfc's: {c}");

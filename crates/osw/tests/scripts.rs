@@ -103,7 +103,12 @@ fn soak_survives_every_fault_with_prevs_frames() {
     assert_eq!(faults.len(), 5, "not every fault ran: {table}");
     for r in &rows {
         let (lost, differing, vi, culled, beyond) = (r[2], r[3], r[4], r[5], r[6]);
-        assert_eq!([lost, differing, vi, beyond], ["0"; 4], "lap {}: frames lost, differing, V(i) differing, culled beyond prev's: {table}", r[0]);
+        assert_eq!(
+            [lost, differing, vi, beyond],
+            ["0"; 4],
+            "lap {}: frames lost, differing, V(i) differing, culled beyond prev's: {table}",
+            r[0]
+        );
         assert_eq!(culled, "0", "lap {}: leaves culled: {table}", r[0]);
         assert!(r[10..13].iter().all(|kb| kb.parse::<u64>().unwrap() > 1024), "lap {}: memory not read: {table}", r[0]);
     }

@@ -7,8 +7,8 @@
 
 use crate::block::{Geometry, geometry_of, ranges_ok};
 use crate::format::{
-    BLOCK_BYTES, BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord,
-    VERSION, content_hash, header_hash,
+    BLOCK_BYTES, BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord, VERSION,
+    content_hash, header_hash,
 };
 use crate::instance::Placement;
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};

@@ -10,8 +10,8 @@
 //! and for `--instances expand` at the build, so the two draw the same triangles.
 
 use crate::aabb::Aabb;
-use crate::cluster::NO_CONE;
 use crate::block::{Encoded, Geometry, Indices, encode_with, geometry_of};
+use crate::cluster::NO_CONE;
 use crate::format::ClusterRecord;
 use crate::mesh::Mesh;
 use glam::{DAffine3, DVec3, Vec3};

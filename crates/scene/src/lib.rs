@@ -22,8 +22,8 @@
 
 pub mod aabb;
 mod append;
-pub mod build;
 pub mod block;
+pub mod build;
 pub mod bvh;
 pub mod camera;
 pub mod chunk;

@@ -15,9 +15,9 @@
 //! (a stair's riser), and keeps a clearance from blocked floors, measured in cells over the
 //! floors it could walk.
 
-use crate::progress::Progress;
 use crate::file::SceneFile;
 use crate::format::NodeKind;
+use crate::progress::Progress;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::collections::VecDeque;

@@ -170,7 +170,11 @@ fn walk(scene: &SceneFile, o: &PathOptions, progress: &dyn crate::progress::Prog
     let free: Vec<bool> = clearance.iter().map(|&d| d > cells(CLEARANCE)).collect();
     let (region, inside) = walk_region(&floors, &free);
     if region.len() < 2 {
-        return Err(PathGenError::NowhereToWalk { floors: floors.len(), cells: floors.grid.nx * floors.grid.nz, cell_size: floors.grid.cell_size });
+        return Err(PathGenError::NowhereToWalk {
+            floors: floors.len(),
+            cells: floors.grid.nx * floors.grid.nz,
+            cell_size: floors.grid.cell_size,
+        });
     }
     let mut rng = crate::generators::rng(o.seed, 0x9a7);
     // Inside (a region mostly under a roof), a walk starts under the roof, where a person comes

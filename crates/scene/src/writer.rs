@@ -4,7 +4,9 @@
 
 use crate::append::Appender;
 use crate::block::{Encoded, encode};
-use crate::format::{BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NONE, NodeKind, NodeRecord, VERSION, hash_tables, header_hash};
+use crate::format::{
+    BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NONE, NodeKind, NodeRecord, VERSION, hash_tables, header_hash,
+};
 use crate::limits::BLOCK_ALIGN;
 use crate::mesh::Mesh;
 use rayon::prelude::*;

@@ -48,7 +48,13 @@ pub enum Purpose {
 }
 
 /// The tag under `token` of `purpose`, the sender's nonce, the receiver's nonce and `bytes`.
-pub fn tag(token: Option<&Token>, purpose: Purpose, sender: &[u8; NONCE_BYTES], receiver: &[u8; NONCE_BYTES], bytes: &[u8]) -> [u8; TAG_BYTES] {
+pub fn tag(
+    token: Option<&Token>,
+    purpose: Purpose,
+    sender: &[u8; NONCE_BYTES],
+    receiver: &[u8; NONCE_BYTES],
+    bytes: &[u8],
+) -> [u8; TAG_BYTES] {
     mac(token, purpose, sender, receiver, bytes).finalize().into_bytes().into()
 }
 

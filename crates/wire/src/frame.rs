@@ -2,8 +2,8 @@
 //! MAX_FRAME_BYTES before anything is allocated; a frame whose payload does not decode to
 //! exactly one valid message, with no bytes left over, is refused.
 
-use crate::limits::MAX_FRAME_BYTES;
 use crate::error::WireError;
+use crate::limits::MAX_FRAME_BYTES;
 use crate::messages::Message;
 
 /// bincode's bound on what a payload's lengths may make it allocate, so that a forged length
@@ -104,7 +104,15 @@ mod tests {
             Message::EndOfFrame(EndOfFrame {
                 frame: 7,
                 stats: HcWireStats { tests: 10, levels: 2, hc_us: 5, passes_us: [3, 1, 1], pvs: 3, cull_skipped: false, degraded: true },
-                clock: LinkStamps { sent_us: 1, camera_received_us: 2, peer_eof_received_us: 3, peer_sent_us: 4, or_start_us: 5, or_end_us: 6, hc_start_us: 7 },
+                clock: LinkStamps {
+                    sent_us: 1,
+                    camera_received_us: 2,
+                    peer_eof_received_us: 3,
+                    peer_sent_us: 4,
+                    or_start_us: 5,
+                    or_end_us: 6,
+                    hc_start_us: 7,
+                },
             }),
             Message::Ping(Ping { sent_us: 9 }),
             Message::Pong(Pong { ping_sent_us: 9, received_us: 10, sent_us: 11 }),

@@ -2,8 +2,8 @@
 //! camera of frame i to RVG first, then deltas as it finds them, then end of frame; RVG sends
 //! every camera to both nodes.
 
-use crate::error::WireError;
 use crate::auth::{NONCE_BYTES, TAG_BYTES};
+use crate::error::WireError;
 use crate::limits::{MAX_NAME_BYTES, MAX_SETTINGS};
 use serde::{Deserialize, Serialize};
 
@@ -58,7 +58,16 @@ impl Hello {
     /// This build's greeting for a process holding the scene `scene_hash` with `settings`: not
     /// serving yet.
     pub fn new(scene_hash: [u64; 2], name: impl Into<String>, role: Role, settings: Vec<(String, String)>) -> Hello {
-        Hello { version: crate::limits::PROTOCOL_VERSION, scene_hash, name: name.into(), role, serving: false, settings, session: 0, tag: [0; TAG_BYTES] }
+        Hello {
+            version: crate::limits::PROTOCOL_VERSION,
+            scene_hash,
+            name: name.into(),
+            role,
+            serving: false,
+            settings,
+            session: 0,
+            tag: [0; TAG_BYTES],
+        }
     }
 
     /// Why `peer`'s settings are not these, naming the first that differs.

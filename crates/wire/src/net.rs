@@ -2,9 +2,9 @@
 //! refuses a peer without the cluster token ([`crate::auth`]), with another protocol version,
 //! another scene or other settings.
 
+use crate::auth::{self, Purpose, TAG_BYTES, Token, nonce};
 use crate::codec::{CodecError, WireCodec};
 use crate::frame::Frame;
-use crate::auth::{self, Purpose, TAG_BYTES, Token, nonce};
 use crate::limits::PROTOCOL_VERSION;
 use crate::messages::{Challenge, Hello, Message, Proof};
 use crate::tls::Tls;
@@ -207,7 +207,10 @@ pub async fn handshake(c: &mut Conn, me: &Hello, token: Option<&Token>, within: 
     if !proved {
         AUTH_REFUSALS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         tokio::time::sleep(REFUSAL_DELAY).await;
-        return refuse(&peer, if token.is_some() { "a wrong or missing cluster token" } else { "a cluster token this process was not given" }.into());
+        return refuse(
+            &peer,
+            if token.is_some() { "a wrong or missing cluster token" } else { "a cluster token this process was not given" }.into(),
+        );
     }
     let tag = auth::tag(token, Purpose::Hello, &mine, &theirs, untagged(me).bytes());
     send(c, &Message::Hello(Hello { tag, ..me.clone() })).await?;

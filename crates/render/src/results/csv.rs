@@ -26,6 +26,34 @@ pub fn write<T: Serialize + Default>(path: &Path, rows: &[T]) -> Result<(), Resu
     std::fs::write(path, to_string(rows)).map_err(|e| ResultsError::new(path, e))
 }
 
+/// Rows written to a file as they come, for a process that runs for hours: nothing is kept in
+/// memory. The header comes with the first row, or with [`Rows::finish`] when there was none.
+pub struct Rows<T> {
+    path: std::path::PathBuf,
+    w: csv::Writer<std::fs::File>,
+    any: bool,
+    row: std::marker::PhantomData<T>,
+}
+
+impl<T: Serialize + Default> Rows<T> {
+    pub fn create(path: &Path) -> Result<Rows<T>, ResultsError> {
+        let file = std::fs::File::create(path).map_err(|e| ResultsError::new(path, e))?;
+        Ok(Rows { path: path.to_path_buf(), w: csv::Writer::from_writer(file), any: false, row: std::marker::PhantomData })
+    }
+
+    pub fn push(&mut self, row: &T) -> Result<(), ResultsError> {
+        self.any = true;
+        self.w.serialize(row).and_then(|()| Ok(self.w.flush()?)).map_err(|e| ResultsError::new(&self.path, e))
+    }
+
+    pub fn finish(mut self) -> Result<(), ResultsError> {
+        if !self.any {
+            return write::<T>(&self.path, &[]);
+        }
+        self.w.flush().map_err(|e| ResultsError::new(&self.path, e))
+    }
+}
+
 pub fn read<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>, ResultsError> {
     let text = std::fs::read_to_string(path).map_err(|e| ResultsError::new(path, e))?;
     parse(&text).map_err(|e| ResultsError::new(path, e))
@@ -66,6 +94,22 @@ fn row_error(e: &csv::Error) -> CsvError {
 mod tests {
     use super::*;
     use crate::results::{Duty, NodeFrame};
+
+    #[test]
+    fn rows_written_as_they_come_read_back_as_a_whole_file_would() {
+        let d = tempfile::tempdir().unwrap();
+        let rows = [NodeFrame { frame: 0, ms: 1.5, ..Default::default() }, NodeFrame { frame: 1, duty: Duty::Or, ..Default::default() }];
+        let path = d.path().join("rows.csv");
+        let mut w = Rows::create(&path).unwrap();
+        for r in &rows {
+            w.push(r).unwrap();
+        }
+        w.finish().unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), to_string(&rows));
+        let empty = d.path().join("empty.csv");
+        Rows::<NodeFrame>::create(&empty).unwrap().finish().unwrap();
+        assert_eq!(std::fs::read_to_string(&empty).unwrap(), to_string::<NodeFrame>(&[]));
+    }
 
     #[test]
     fn rows_read_back_as_written() {

@@ -31,9 +31,9 @@ use crate::mesh::Object;
 use crate::progress::Progress;
 use crate::source::{InMemory, Source};
 use crate::writer::{SceneFields, SceneWriter};
+use owner::Owners;
 use std::path::Path;
 use std::time::Instant;
-use owner::Owners;
 use stream::{Chunked, Streamed};
 use subtree::Built;
 
@@ -109,7 +109,13 @@ struct Plan {
 }
 
 impl Plan {
-    fn of(c: &Chunked, opts: &BuildOptions, report: &mut BuildReport, times: &mut Times, progress: &dyn Progress) -> Result<Plan, BuildError> {
+    fn of(
+        c: &Chunked,
+        opts: &BuildOptions,
+        report: &mut BuildReport,
+        times: &mut Times,
+        progress: &dyn Progress,
+    ) -> Result<Plan, BuildError> {
         progress.stage("bvh", 1);
         let boxes: Vec<Aabb> = c.chunks.iter().map(|c| c.bounds).collect();
         let tree = times.run("bvh", || crate::bvh::build(&boxes));
@@ -151,7 +157,9 @@ fn build_subtrees(
     progress: &dyn Progress,
 ) -> Result<(), BuildError> {
     let read = |k: usize| {
-        subtree::read(&plan.tree, &s.chunked, &plan.owners.owned, &s.spill, &plan.buckets[k], |part| plan.first_bucket[part as usize] == k as u32)
+        subtree::read(&plan.tree, &s.chunked, &plan.owners.owned, &s.spill, &plan.buckets[k], |part| {
+            plan.first_bucket[part as usize] == k as u32
+        })
     };
     std::thread::scope(|scope| -> Result<(), BuildError> {
         let mut next = Some(scope.spawn(move || read(0)));
@@ -178,8 +186,8 @@ fn build_groups(plan: &Plan, s: &Streamed, built: &mut Built, writer: &mut Scene
         return Ok(());
     }
     for layer in subtree::layers(&plan.tree, &[0], |id| roots.contains(&id)).iter().rev() {
-        let owned = subtree::read_owned(layer, &s.chunked.coarse, &plan.owners.owned, &s.spill)
-            .map_err(|e| BuildError::temp(s.spill.path(), e))?;
+        let owned =
+            subtree::read_owned(layer, &s.chunked.coarse, &plan.owners.owned, &s.spill).map_err(|e| BuildError::temp(s.spill.path(), e))?;
         built.groups(layer, owned, writer, times)?;
     }
     Ok(())

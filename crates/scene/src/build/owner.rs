@@ -13,8 +13,8 @@
 //! HLOD could both be drawn over the same surface, or a cluster owned below, which the HLOD
 //! does not hold, not at all.
 
-use crate::bvh::BvhNode;
 use super::stream::Chunked;
+use crate::bvh::BvhNode;
 
 pub struct Owners {
     /// Per BVH node, the simplified clusters it owns (indices into the stream's `coarse`; empty

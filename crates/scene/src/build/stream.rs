@@ -6,16 +6,16 @@
 //! use it is cleaned and cut into chunks in its own frame, once; each use then adds an
 //! [`InstanceRecord`] and a chunk per part with the part's placed box (see [`crate::instance`]).
 
-use crate::aabb::Aabb;
 use super::error::BuildError;
 use super::options::{BuildOptions, Instances, Lod};
 use super::report::{BuildReport, Times};
-use crate::progress::Progress;
+use crate::aabb::Aabb;
 use crate::chunk::SplitOptions;
 use crate::clod::Piece;
 use crate::format::{InstanceRecord, NONE};
 use crate::instance::Placement;
 use crate::mesh::{CleanStats, Mesh, MeshError, Object};
+use crate::progress::Progress;
 use crate::source::Source;
 use crate::spill::{Sealed, Spill, SpillRef};
 use rayon::prelude::*;
@@ -200,7 +200,24 @@ impl Stream<'_> {
 
     /// The report's counts and what the stream left out; the spill sealed for reading.
     fn finish(self, out: &Path) -> Result<Streamed, BuildError> {
-        let Stream { opts, origin, instancing, spill, report, chunks, coarse, coarse_chunk, closed_objects, prototypes, instances, repeats, clean_stats, empty, colors_dropped, .. } = self;
+        let Stream {
+            opts,
+            origin,
+            instancing,
+            spill,
+            report,
+            chunks,
+            coarse,
+            coarse_chunk,
+            closed_objects,
+            prototypes,
+            instances,
+            repeats,
+            clean_stats,
+            empty,
+            colors_dropped,
+            ..
+        } = self;
         report.objects = closed_objects.len() as u64;
         report.chunks = chunks.len() as u64;
         report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
@@ -209,9 +226,10 @@ impl Stream<'_> {
             report.left_out.push(format!("the model's colours and translucency of {colors_dropped} objects (--colors hashed)"));
         }
         if clean_stats.degenerate_triangles > 0 {
-            report
-                .left_out
-                .push(format!("{} degenerate triangles (repeated index or zero area): they cover no pixel", clean_stats.degenerate_triangles));
+            report.left_out.push(format!(
+                "{} degenerate triangles (repeated index or zero area): they cover no pixel",
+                clean_stats.degenerate_triangles
+            ));
         }
         if report.fin_triangles_dropped > 0 {
             report.left_out.push(format!(

@@ -16,8 +16,10 @@
 
 use super::error::BuildError;
 use super::options::{BuildOptions, Instances, Lod};
+use super::owner::Owners;
 use super::report::{BuildReport, GroupsNotBuilt, Times};
-use crate::progress::Progress;
+use super::stream::{Chunk, Chunked, Prototypes};
+use crate::block::{Encoded, encode, encode_cut};
 use crate::bvh::BvhNode;
 use crate::clod::Piece;
 use crate::format::{BlockRecord, ErrorBound, FLAG_BOUNDED, FLAG_CUT, InstanceRecord, NONE, NodeKind, NodeRecord};
@@ -25,10 +27,8 @@ use crate::hlod::NoHlod;
 use crate::instance::Placement;
 use crate::lod::{Level, LodStats};
 use crate::mesh::Mesh;
-use super::owner::Owners;
+use crate::progress::Progress;
 use crate::spill::Sealed;
-use super::stream::{Chunk, Chunked, Prototypes};
-use crate::block::{Encoded, encode, encode_cut};
 use crate::writer::SceneWriter;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -525,7 +525,11 @@ impl<'a> Built<'a> {
         report.stored_triangles = own + self.part_triangles;
         report.bytes_saved = self.shared_bytes.saturating_sub(self.part_bytes);
         report.nodes = (nodes.len() + levels.len()) as u64;
-        super::report::report_left_out(report, &self.lod_stats, GroupsNotBuilt { not_coarser: self.not_coarser, vanished: self.vanished, open: self.open });
+        super::report::report_left_out(
+            report,
+            &self.lod_stats,
+            GroupsNotBuilt { not_coarser: self.not_coarser, vanished: self.vanished, open: self.open },
+        );
         (nodes, self.levels)
     }
 }

@@ -174,7 +174,10 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
     // Checked per primitive: once merged, an index past this primitive's vertices would name a
     // vertex of the next.
     if let Some((at, &index)) = order.iter().enumerate().find(|&(_, &i)| i as usize >= positions.len()) {
-        return Err(ParseError::new(format!("index {index} at position {at} is out of range (the primitive has {} vertices)", positions.len())));
+        return Err(ParseError::new(format!(
+            "index {index} at position {at} is out of range (the primitive has {} vertices)",
+            positions.len()
+        )));
     }
     let mut indices = triangle_list(prim.mode(), &order);
     let Some(rgba) = colors(prim, buffers, positions.len())? else {
