@@ -234,11 +234,8 @@ fn walk(p: &Plan, r: &mut osw_gpu::Renderer, ui: &mut Option<Ui>, frames: &mut F
             u.show(r, frame, &frames.visible, &camera, cam.tau_px, &shown)?;
         }
         row.latency_ms = now_us().saturating_sub(cam.sampled_us) as f64 / 1e3;
-        if let Some(rgba) = rgba
-            && let Some(wr) = writer.take()
-        {
-            let (wr, waited_ms) = wr.write(i as u64, rgba)?;
-            (writer, row.write_ms) = (Some(wr), waited_ms);
+        if let (Some(wr), Some(rgba)) = (writer.as_mut(), rgba) {
+            row.write_ms = wr.write(i as u64, rgba)?;
         }
         (row.rss_kb, row.anon_kb) = (osw_render::stats::resident_bytes() >> 10, osw_render::stats::anonymous_bytes() >> 10);
         row.frame_ms = last.elapsed().as_secs_f64() * 1e3;

@@ -12,7 +12,8 @@ const QUEUE: usize = 2;
 
 pub struct FrameWriter {
     frames: SyncSender<(u64, Vec<u8>)>,
-    thread: JoinHandle<anyhow::Result<()>>,
+    /// None once joined (it stopped on an error, which `write` returned).
+    thread: Option<JoinHandle<anyhow::Result<()>>>,
 }
 
 impl FrameWriter {
@@ -20,24 +21,30 @@ impl FrameWriter {
         let (frames, queue) = sync_channel(QUEUE);
         let out = out.to_path_buf();
         let thread = std::thread::spawn(move || write_all(&out, width, height, queue));
-        FrameWriter { frames, thread }
+        FrameWriter { frames, thread: Some(thread) }
     }
 
     /// Queues frame i; returns how long the queue was full, in ms. When the writer has
     /// stopped on an error (a full disk, say), returns that error.
-    pub fn write(self, i: u64, rgba: Vec<u8>) -> Result<(FrameWriter, f64), anyhow::Error> {
+    pub fn write(&mut self, i: u64, rgba: Vec<u8>) -> anyhow::Result<f64> {
         let t = Instant::now();
-        match self.frames.send((i, rgba)) {
-            Ok(()) => Ok((self, t.elapsed().as_secs_f64() * 1e3)),
-            Err(_) => Err(self.finish().err().unwrap_or_else(|| anyhow::anyhow!("frame {i}: the frame writer stopped"))),
+        if self.frames.send((i, rgba)).is_err() {
+            join(self.thread.take())?;
+            anyhow::bail!("frame {i}: the frame writer stopped");
         }
+        Ok(t.elapsed().as_secs_f64() * 1e3)
     }
 
     /// Waits for the queued frames to be written.
     pub fn finish(self) -> anyhow::Result<()> {
-        drop(self.frames);
-        self.thread.join().map_err(|_| anyhow::anyhow!("the frame writer panicked"))?
+        let FrameWriter { frames, thread } = self;
+        drop(frames);
+        join(thread)
     }
+}
+
+fn join(thread: Option<JoinHandle<anyhow::Result<()>>>) -> anyhow::Result<()> {
+    thread.map_or(Ok(()), |t| t.join().map_err(|_| anyhow::anyhow!("the frame writer panicked"))?)
 }
 
 fn write_all(out: &Path, width: u32, height: u32, queue: Receiver<(u64, Vec<u8>)>) -> anyhow::Result<()> {

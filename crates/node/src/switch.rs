@@ -169,7 +169,8 @@ impl Switch {
                 &mut self.occluders,
             )?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
-            (or_us[1], hc_start_us) = (now_us(), now_us());
+            hc_start_us = now_us();
+            or_us[1] = hc_start_us;
         }
         let mut pvs = Vec::new();
         let hc = if cull {
