@@ -4,7 +4,8 @@
 # display as processes of their own behind `osw link` relays (1 ms each way), while a schedule
 # of faults runs: node a killed and restarted, node b killed and restarted, the link between
 # the nodes cut and restored, the display killed and started again (it plays its path from the
-# start), and the nodes' link cut and made lossy (1%, 5 ms) for a lap. Laps 1 and 2 have no
+# start), the nodes' link cut and made lossy (1%, 5 ms) for a lap, and the display's link to
+# node a cut and restored (node a sends its last frames again). Laps 1 and 2 have no
 # fault; from lap 3 on, each lap has the next fault of the schedule.
 #
 # Each lap is checked against prev's run of the same path: frames lost (cameras of the path
@@ -21,7 +22,7 @@
 #   scripts/soak.sh [--scene S --path P] [--laps N] [--size WxH] [--tau PX] [--short] [--out DIR]
 #
 # Defaults: the 20M plant's 1,000-frame walk (TRIANGLES, FRAMES), 20 laps at 512x512, tau 1,
-# out/soak. --short: every fault once on a 200K plant's 60-frame walk at 128x128 (7 laps; what
+# out/soak. --short: every fault once on a 200K plant's 60-frame walk at 128x128 (8 laps; what
 # CI runs). Results in DIR: soak.csv (a line a lap), soak.png/.svg, soak.txt, lap-N/ (each lap's
 # run, compare.json against prev), prev/, exact/.
 set -euo pipefail
@@ -40,7 +41,7 @@ while (($#)); do
   esac
 done
 if ((short)); then
-  laps=7 size=128x128
+  laps=8 size=128x128
   export TRIANGLES=${TRIANGLES:-200000} FRAMES=${FRAMES:-60}
 else
   export TRIANGLES=${TRIANGLES:-20000000} FRAMES=${FRAMES:-1000}
@@ -104,7 +105,7 @@ start_display() { # lap dir, [last lap: the nodes stop after it]
   pid[display]=$!
 }
 faults=("node a killed and restarted" "node b killed and restarted" "the nodes' link cut and restored"
-  "the display killed and started again" "the nodes' link lossy for the lap")
+  "the display killed and started again" "the nodes' link lossy for the lap" "the display's link to node a cut and restored")
 # Until the restarted node $1 holds its peer's connection (a poll with a deadline): the display
 # reaches it only then, as the failover test orders it (a restarted node that the display
 # reaches first stalls the cluster: docs/switch.md).
@@ -126,6 +127,7 @@ fault() {
     2) kill_one ab; sleep 1; start_link ab "${port[ab]}" "${port[a]}" ;;
     3) kill_one display; start_display "$1" "$3" ;;
     4) kill_one ab; start_link ab "${port[ab]}" "${port[a]}" 5 0.01 ;;
+    5) kill_one da; sleep 1; start_link da "${port[da]}" "${port[a]}" ;;
   esac
 }
 anon_kb() { awk '/^RssAnon:/ { print $2 }' "/proc/$1/status" 2>/dev/null || echo 0; }

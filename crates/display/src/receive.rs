@@ -100,8 +100,8 @@ impl Frames {
                         None => {
                             if let Some((lost, _)) = source.filter(|(n, _)| self.cluster.nodes[*n].is_none()) {
                                 tracing::warn!("frame {i}: node {} lost mid-frame; reading the frame from the other", links::NAMES[lost]);
-                                (source, next, row.bytes, row.id_bytes, row.ids_sent) = (None, Assembly::default(), 0, 0, 0);
-                                (self.mask, row.mask_bytes) = (None, 0);
+                                source = None;
+                                self.forget_partial(&mut next, &mut row);
                                 replay = std::mem::take(&mut self.held);
                             }
                             continue;
@@ -115,10 +115,17 @@ impl Frames {
                     source = Some((node, c));
                     row.bytes += bytes;
                 }
+                // The source sends frame i again from its start: its link to this display was
+                // cut and is back, and it resends its last frames (osw-node's inbox).
+                Message::Camera(c) if c.frame == i && from_source => {
+                    self.forget_partial(&mut next, &mut row);
+                    source = Some((node, c));
+                    row.bytes += bytes;
+                }
                 // Another node's, or another frame's: kept while it may still be needed (an
                 // earlier frame's is a node taking over a frame this display already has).
-                m if !from_source || frame_of(&m) != Some(i) => {
-                    if frame_of(&m).is_some_and(|f| f >= i) {
+                m if !from_source || m.frame() != Some(i) => {
+                    if m.frame().is_some_and(|f| f >= i) {
                         self.held.push_back((node, m, bytes, at));
                     }
                 }
@@ -148,6 +155,8 @@ impl Frames {
                 m => anyhow::bail!("frame {i}: unexpected message from node {}: {m:?}", links::NAMES[node]),
             }
         }
+        // What the frame's end came before: later frames', or a resent copy of this one.
+        self.held.extend(replay);
         let cam = source.expect("a complete frame has a camera").1;
         self.visible = next.finish(&self.visible).map_err(|e| anyhow::anyhow!("frame {i}: {e}"))?;
         row.ids_full = self.visible.len() as u64;
@@ -156,6 +165,13 @@ impl Frames {
 }
 
 impl Frames {
+    /// Forgets what arrived of a frame that will come again whole.
+    fn forget_partial(&mut self, next: &mut Assembly, row: &mut DisplayFrame) {
+        *next = Assembly::default();
+        (row.bytes, row.id_bytes, row.ids_sent, row.mask_bytes) = (0, 0, 0, 0);
+        self.mask = None;
+    }
+
     /// Frame i's end of frame from node `hc`, arrived at `at`: HC's statistics, the links'
     /// latencies and the stages into `row`, and the peer link of frame i-1 into `prev`.
     fn end_of_frame(
@@ -201,16 +217,4 @@ fn stages(c: &LinkStamps, row: &mut DisplayFrame) {
     row.or_tail_ms = ms(c.hc_start_us, front_end);
     row.hc_stage_ms = ms(c.peer_sent_us, c.hc_start_us);
     row.notes_ms = ms(c.sent_us, c.peer_sent_us);
-}
-
-/// The frame a frame message belongs to.
-fn frame_of(m: &Message) -> Option<u64> {
-    match m {
-        Message::Camera(c) => Some(c.frame),
-        Message::Delta(d) => Some(d.frame),
-        Message::Keyframe(k) => Some(k.frame),
-        Message::EndOfFrame(e) => Some(e.frame),
-        Message::Clusters(c) => Some(c.frame),
-        _ => None,
-    }
 }

@@ -8,7 +8,7 @@ use osw_cull::delta::Assembly;
 use osw_scene::NodeId;
 use osw_wire::messages::{CameraPacket, Message, Role, StartOver};
 use osw_wire::{Frame, WireError};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -40,7 +40,17 @@ pub struct Inbox {
     /// Cameras dropped here (the oldest, when more than MAX_CAMERAS are held); the gate
     /// counts those dropped on arrival.
     old_cameras_dropped: u64,
+    /// What this node sent the display of its last [`RESENT_FRAMES`] frames, by frame: sent
+    /// again when the display's link is cut and back (the display drops what it has).
+    to_display: VecDeque<(u64, Frame)>,
+    /// The display reconnected: [`Inbox::to_display`] goes out with its first camera (the
+    /// display probes the clock first, and takes nothing else until then).
+    resend: bool,
 }
+
+/// Frames resent to a display that reconnects: RVG sends camera k+2 once it has frame k, so a
+/// node holds at most frames k..k+1 that RVG lacks; one more for a frame under way.
+const RESENT_FRAMES: u64 = 3;
 
 impl Inbox {
     pub fn new(index: u64, events: Receiver<Event>, gate: Arc<CameraGate>) -> Inbox {
@@ -57,6 +67,8 @@ impl Inbox {
             display_session: 0,
             rejoin: None,
             old_cameras_dropped: 0,
+            to_display: VecDeque::new(),
+            resend: false,
         }
     }
 
@@ -77,6 +89,9 @@ impl Inbox {
         let forget = match e {
             Event::FromDisplay(Message::Camera(c), at) => {
                 self.gate.taken();
+                if std::mem::take(&mut self.resend) {
+                    self.resend_to_display();
+                }
                 self.cameras.insert(c.frame, (c, at));
                 // The newest cameras are kept (sec. 4.8.1: the newest camera wins). Many pile
                 // up only while this node is not taking part: a restarted node waiting for its
@@ -111,10 +126,10 @@ impl Inbox {
             }
             Event::Connected { role, name, serving, session, id, out } => {
                 tracing::info!("{role:?} {name} connected{}", if role == Role::Node && serving { " (serving)" } else { "" });
-                let link = Some(Link { id, out });
+                let link = Link { id, out };
                 match role {
                     Role::Node => {
-                        self.peer = link;
+                        self.peer = Some(link);
                         self.peer_queue.connected();
                         // The peer learns first which display's path this node follows.
                         if self.peer_queue.session() != 0 {
@@ -122,9 +137,17 @@ impl Inbox {
                         }
                         self.roles.on(roles::Event::PeerConnected { serving })
                     }
+                    // The same display, its link cut and back: it goes on with its path, and
+                    // gets again what it may have missed.
+                    Role::Display if session == self.display_session && self.roles.display == Display::Playing => {
+                        self.display = Some(link);
+                        self.resend = true;
+                        Forget::default()
+                    }
                     Role::Display => {
-                        self.display = link;
+                        self.display = Some(link);
                         self.display_session = session;
+                        self.to_display.clear();
                         let f = self.roles.on(roles::Event::DisplayConnected);
                         if self.roles.display == Display::Restarted {
                             tracing::warn!("a new display connected: starting over with its path");
@@ -156,6 +179,15 @@ impl Inbox {
             }
         };
         self.forget(forget);
+    }
+
+    /// Sends the display again what it may have missed while its link was cut.
+    fn resend_to_display(&self) {
+        let frames = self.to_display.front().zip(self.to_display.back()).map(|(a, b)| a.0..=b.0);
+        tracing::warn!("the display reconnected: sending it frames {frames:?} again");
+        if let Some(l) = &self.display {
+            self.to_display.iter().for_each(|(_, f)| drop(l.out.send(f.clone())));
+        }
     }
 
     /// A restarted display: both roles start over, and the peer is told before anything this
@@ -271,6 +303,12 @@ impl Inbox {
     /// counts its bytes on each link. A message too large for a frame is an error.
     pub fn send(&mut self, m: &Message, to_peer: bool, to_display: bool) -> Result<(), WireError> {
         let f = Frame::new(m)?;
+        if let (true, Some(frame)) = (to_display, m.frame()) {
+            self.to_display.push_back((frame, f.clone()));
+            while self.to_display.front().is_some_and(|(k, _)| k + RESENT_FRAMES <= frame) {
+                self.to_display.pop_front();
+            }
+        }
         for (k, (on, link)) in [(to_peer, &self.peer), (to_display, &self.display)].into_iter().enumerate() {
             if let (true, Some(l)) = (on, link) {
                 self.sent[k] += f.len() as u64;

@@ -262,6 +262,52 @@ fn a_cut_link_between_the_nodes_heals_and_the_switch_resumes() {
     check_against_references(d.path(), &scene, &path, &out);
 }
 
+/// The display's link to node a alone is cut at frame 50 (its relay stopped) and back 1 s later
+/// on the same address: the display waits for node a's frames meanwhile, node a sends it its
+/// last frames again on the new connection, and the walk goes on to the end with every frame
+/// right; neither node starts over.
+#[test]
+fn a_cut_link_to_the_display_heals_and_the_walk_goes_on() {
+    let d = tempfile::tempdir().unwrap();
+    let (scene, path) = walk(d.path());
+    let (addr_a, addr_b) = (free_addr(), free_addr());
+    let (_links, (relay, to_a), _) = links(&addr_a, &addr_b, None);
+    let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
+    let mut b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
+    let out = d.path().join("run");
+    let mut disp = display(&scene, &path, &format!("{to_a},{addr_b}"), &out);
+    let mut relay = Some(relay);
+    let mut back = None;
+    let status = follow(&mut disp, |n| {
+        if n >= 50 && back.is_none() {
+            drop(relay.take());
+            // On a thread: the display reads no frame of node a's while the link is down.
+            let (to_a, addr_a) = (to_a.clone(), addr_a.clone());
+            back = Some(std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_secs(1));
+                link(&to_a, &addr_a, "0", "0", "5").0
+            }));
+        }
+    });
+    let _relay = back.expect("the link was cut").join().unwrap();
+    let logs = || ["a", "b"].map(|n| std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap()).join("\n");
+    assert!(status.success(), "display: {}\nnodes: {}", std::fs::read_to_string(out.with_extension("log")).unwrap(), logs());
+    let (sum, sw) = switch_summary(&out);
+    assert_eq!(sum.frames, FRAMES);
+    assert!(sw.node_losses >= 1 && sw.node_rejoins >= 1, "the display never lost node a: {sw:?}");
+    for p in [&mut a, &mut b] {
+        assert!(p.0.wait().unwrap().success(), "a node failed: {}", logs());
+    }
+    let a_log = std::fs::read_to_string(d.path().join("a.log")).unwrap();
+    assert!(a_log.contains("the display reconnected"), "node a never saw the display come back: {a_log}");
+    assert!(!logs().contains("starting over"), "a node started over for a reconnecting display: {}", logs());
+    // The switch ran on: both nodes sent frames in turn after the cut.
+    let rows: Vec<DisplayFrame> = results::csv::read(&out.join("stats.csv")).unwrap();
+    let tail: Vec<u32> = rows.iter().filter(|r| r.frame > 100).map(|r| r.hc_node).collect();
+    assert!(tail.windows(2).filter(|w| w[0] != w[1]).count() > 100, "the switch did not run on: {tail:?}");
+    check_against_references(d.path(), &scene, &path, &out);
+}
+
 #[test]
 fn a_restarted_display_is_served_from_the_start_of_its_path() {
     display_restart(None);

@@ -270,6 +270,18 @@ pub enum Message {
 }
 
 impl Message {
+    /// The frame a frame's message belongs to (camera, visible set, cluster mask, end of frame).
+    pub fn frame(&self) -> Option<u64> {
+        match self {
+            Message::Camera(c) => Some(c.frame),
+            Message::Delta(d) => Some(d.frame),
+            Message::Keyframe(k) => Some(k.frame),
+            Message::EndOfFrame(e) => Some(e.frame),
+            Message::Clusters(c) => Some(c.frame),
+            _ => None,
+        }
+    }
+
     /// Checks what bincode cannot: finite cameras with a usable field of view, bounded names.
     pub fn validate(&self) -> Result<(), WireError> {
         match self {
