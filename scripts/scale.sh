@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # A frame's cost against the model's size (osw scale): builds the generated plant at each size
-# (seed 1), a 100-frame walk through each, runs every mode at every tau at 1024x1024 without
-# frames, and writes DIR/scale.json, DIR/scale.md and DIR/scale.png/.svg (frame time and HC
-# tests against scene triangles, log-log, one curve per mode). Scenes and runs already in DIR
-# are used again: an interrupted sweep resumes. Every mode culls every frame, as CHC's paper
-# runs it; --cost-adaptive lets prev and the switch frustum cull only where culling did not pay.
+# (seed 1), WALKS 100-frame walks through each (seeds 1..WALKS), runs every mode at every tau
+# on every walk at 1024x1024 without frames, and writes DIR/scale.json, DIR/scale.md and
+# DIR/scale.png/.svg (frame time and HC tests against scene triangles, log-log, one curve per
+# mode; each figure per walk, its median over the walks and the worst walk's). Scenes and runs
+# already in DIR are used again: an interrupted sweep resumes. Every mode culls every frame, as
+# CHC's paper runs it; --cost-adaptive lets prev and the switch frustum cull only where culling
+# did not pay.
 #
-#   scripts/scale.sh [--sizes 2M,20M,100M] [--huge] [--instanced] [--taus 1,5]
+#   scripts/scale.sh [--sizes 2M,20M,100M] [--huge] [--instanced] [--taus 1,5] [--walks N]
 #                    [--modes vfc,chc,hzb,prev,switch] [--frames N] [--size WxH] [--cost-adaptive] --out DIR
 #
 # --huge adds the billion-triangle plant: 27 GB of disk (13 GB more while it builds, 3 GB of
@@ -17,7 +19,7 @@ args=() out=""
 while (($#)); do
   case "$1" in
     --huge|--cost-adaptive|--instanced) args+=("$1"); shift ;;
-    --sizes|--taus|--modes|--frames|--size) args+=("$1" "$2"); shift 2 ;;
+    --sizes|--taus|--modes|--frames|--size|--walks) args+=("$1" "$2"); shift 2 ;;
     --out) out=$(realpath -m "$2"); shift 2 ;;
     -h|--help) sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
     *) echo "scale: unknown argument $1" >&2; exit 2 ;;

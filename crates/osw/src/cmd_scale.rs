@@ -1,13 +1,14 @@
 //! `osw scale`: a frame's cost against the model's size. Builds the generated plant at each
-//! size, makes the same kind of walk through each, runs every mode at every tau (child `osw
-//! render`, the switch a child `osw run`) and writes scale.json, scale.md and scale.png (frame
-//! time and HC tests against scene triangles, log-log, one curve per mode).
+//! size, makes walks of the same kind through each (seeds 1..N), runs every mode at every tau
+//! on every walk (child `osw render`, the switch a child `osw run`) and writes scale.json,
+//! scale.md and scale.png (`crate::scale_report`): a frame's cost depends on what the walk sees,
+//! so each figure is also given as its median over the walks and its worst walk.
 //!
 //! Scenes, walks and runs already in DIR for the same input are used again, so an interrupted
 //! sweep resumes where it stopped.
 
 use crate::cmd_report::osw;
-use crate::plot::{Chart, Series};
+use crate::scale_report::{self, OverWalks};
 use anyhow::{Context, bail};
 use osw_render::results::{self, DisplayFrame, Duty, Input, NodeFrame, Summary};
 use osw_render::stats::{mean, quantile};
@@ -15,7 +16,6 @@ use osw_render::{FrameStats, Mode};
 use osw_scene::build::BuildReport;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -41,6 +41,10 @@ pub struct Args {
     /// Frames of each walk.
     #[arg(long, default_value_t = 100)]
     frames: u32,
+    /// Walks per size (seeds 1..N): scale.md gives each figure per walk, its median over the
+    /// walks and the worst walk.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    walks: u32,
     /// Cost-adaptive culling (osw_cull::payoff) in prev and the switch: frames where
     /// occlusion culling last cost more than it saved are frustum culled only. Off by default,
     /// so that every mode culls every frame, as CHC's paper runs it; runs go to
@@ -50,8 +54,8 @@ pub struct Args {
     /// Image size of every run.
     #[arg(long, default_value = "1024x1024")]
     size: String,
-    /// Output directory: scale.json, scale.md, scale.png/.svg; plant-SIZE.osw and its walk;
-    /// runs/SIZE/MODE-tauT/ (each run's summary and statistics).
+    /// Output directory: scale.json, scale.md, scale.png/.svg; plant-SIZE.osw and its walks;
+    /// runs/SIZE/walk-SEED/MODE-tauT/ (each run's summary and statistics).
     #[arg(long)]
     out: PathBuf,
 }
@@ -76,7 +80,7 @@ fn parse_size(s: &str) -> Result<u64, String> {
 }
 
 /// The size as the sweep names it: 2M, 100M, 1B, 500K.
-fn label(n: u64) -> String {
+pub(crate) fn label(n: u64) -> String {
     match n {
         n if n >= 1_000_000_000 && n % 1_000_000_000 == 0 => format!("{}B", n / 1_000_000_000),
         n if n >= 1_000_000 && n % 1_000_000 == 0 => format!("{}M", n / 1_000_000),
@@ -87,56 +91,61 @@ fn label(n: u64) -> String {
 
 /// One scene of the sweep: what its build cost.
 #[derive(Serialize, Clone)]
-struct Scene {
-    triangles: u64,
-    label: String,
-    build_seconds: f64,
-    build_peak_rss_kb: u64,
-    file_bytes: u64,
+pub(crate) struct Scene {
+    pub(crate) triangles: u64,
+    pub(crate) label: String,
+    pub(crate) build_seconds: f64,
+    pub(crate) build_peak_rss_kb: u64,
+    pub(crate) file_bytes: u64,
 }
 
-/// One run: a mode at a tau on one scene.
+/// One run: a mode at a tau on one walk through one scene.
 #[derive(Serialize, Clone, Default)]
-struct Row {
-    triangles: u64,
-    mode: Mode,
-    tau: f64,
-    frame_ms_median: f64,
-    frame_ms_p95: f64,
-    hc_tests_mean: f64,
+pub(crate) struct Row {
+    pub(crate) triangles: u64,
+    /// The walk's seed.
+    pub(crate) walk: u32,
+    pub(crate) mode: Mode,
+    pub(crate) tau: f64,
+    pub(crate) frame_ms_median: f64,
+    pub(crate) frame_ms_p95: f64,
+    pub(crate) hc_tests_mean: f64,
     /// Of those, the retests after the traversal (the switch's from its nodes' statistics),
     /// the first pass's (the rest), and the traversal's tests of V(i-1)'s nodes, their
     /// siblings and what came into view (one GPU's runs: prev; none for the switch).
-    hc_retests_mean: f64,
-    hc_first_pass_tests_mean: f64,
-    hc_tests_where: Option<[f64; 3]>,
-    hc_ms_median: f64,
-    or_ms_median: f64,
-    rvg_ms_median: f64,
-    triangles_drawn_mean: f64,
-    pvs_nodes_mean: f64,
+    pub(crate) hc_retests_mean: f64,
+    pub(crate) hc_first_pass_tests_mean: f64,
+    pub(crate) hc_tests_where: Option<[f64; 3]>,
+    pub(crate) hc_ms_median: f64,
+    pub(crate) or_ms_median: f64,
+    pub(crate) rvg_ms_median: f64,
+    pub(crate) triangles_drawn_mean: f64,
+    pub(crate) pvs_nodes_mean: f64,
     /// CPU time a frame, all threads of every process of the run (on lavapipe the GPU's work
     /// is CPU work), the median frame's: the switch's three processes share this host's cores.
-    cpu_ms_median: f64,
+    pub(crate) cpu_ms_median: f64,
     /// Peak resident memory per process: `render`, or `display`, `node_a`, `node_b`.
-    peak_rss_kb: BTreeMap<String, u64>,
-    error: Option<String>,
+    pub(crate) peak_rss_kb: BTreeMap<String, u64>,
+    pub(crate) error: Option<String>,
 }
 
 #[derive(Serialize)]
-struct Sweep {
-    frames: u32,
-    size: String,
-    scenes: Vec<Scene>,
-    runs: Vec<Row>,
+pub(crate) struct Sweep {
+    pub(crate) frames: u32,
+    pub(crate) walks: u32,
+    pub(crate) size: String,
+    pub(crate) scenes: Vec<Scene>,
+    pub(crate) runs: Vec<Row>,
+    /// Each size, tau and mode over the walks (`crate::scale_report::over_walks`).
+    pub(crate) over_walks: Vec<OverWalks>,
 }
 
 fn strings(v: &[&str]) -> Vec<String> {
     v.iter().map(|s| s.to_string()).collect()
 }
 
-/// The plant of `triangles` and its walk in `out`, built unless there from an earlier sweep.
-fn scene(out: &Path, triangles: u64, frames: u32, instanced: bool) -> anyhow::Result<(Scene, PathBuf, PathBuf)> {
+/// The plant of `triangles` in `out`, built unless there from an earlier sweep.
+fn scene(out: &Path, triangles: u64, instanced: bool) -> anyhow::Result<(Scene, PathBuf)> {
     let name = label(triangles);
     let file = out.join(format!("plant-{}{name}.osw", if instanced { "instanced-" } else { "" }));
     let report = file.with_extension("build.json");
@@ -153,15 +162,21 @@ fn scene(out: &Path, triangles: u64, frames: u32, instanced: bool) -> anyhow::Re
     }
     let r: BuildReport = results::read_json(&report)?;
     let build_seconds = std::fs::read_to_string(&timing)?.trim().parse().with_context(|| format!("{}: not seconds", timing.display()))?;
-    let walk = file.with_file_name(format!("{}-walk-{frames}.csv", file.file_stem().and_then(|s| s.to_str()).unwrap_or("plant")));
+    let s = Scene { triangles, label: name, build_seconds, build_peak_rss_kb: r.peak_rss_kb, file_bytes: std::fs::metadata(&file)?.len() };
+    Ok((s, file))
+}
+
+/// Walk `seed` of `frames` frames through the scene in `file`, made unless there.
+fn walk(file: &Path, frames: u32, seed: u32) -> anyhow::Result<PathBuf> {
+    let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("plant");
+    let walk = file.with_file_name(format!("{stem}-walk-{frames}-seed{seed}.csv"));
     if !walk.exists() {
-        let args = ["path", "--scene", &file.display().to_string(), "--kind", "walk", "--frames", &frames.to_string(), "--seed", "1"];
+        let args = ["path", "--scene", &file.display().to_string(), "--kind", "walk", "--frames", &frames.to_string()];
         let mut args = strings(&args);
-        args.extend(["-o".into(), walk.display().to_string()]);
+        args.extend(["--seed".into(), seed.to_string(), "-o".into(), walk.display().to_string()]);
         osw(&args, &walk.with_extension("log"))?;
     }
-    let s = Scene { triangles, label: name, build_seconds, build_peak_rss_kb: r.peak_rss_kb, file_bytes: std::fs::metadata(&file)?.len() };
-    Ok((s, file, walk))
+    Ok(walk)
 }
 
 /// One mode at one tau into `dir`, unless a run of the same scene, walk, tau and size is there.
@@ -192,7 +207,7 @@ fn run_one(scene: &Path, walk: &Path, size: &str, mode: Mode, tau: f64, adaptive
     Ok(Summary::read(dir)?)
 }
 
-fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row> {
+fn row(triangles: u64, walk: u32, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row> {
     let mut peak = BTreeMap::new();
     let (retests, cpu_ms) = match s.render() {
         Some(r) => {
@@ -222,6 +237,7 @@ fn row(triangles: u64, tau: f64, dir: &Path, s: &Summary) -> anyhow::Result<Row>
     };
     Ok(Row {
         triangles,
+        walk,
         mode: s.mode,
         tau,
         frame_ms_median: s.frame_ms_median,
@@ -253,147 +269,55 @@ pub fn run(mut a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out)?;
     // Runs are matched by their walk's path: one spelling of DIR, however it was given.
     a.out = std::fs::canonicalize(&a.out).with_context(|| format!("--out {}", a.out.display()))?;
-    let steps = a.sizes.len() * (1 + a.modes.len() * a.taus.len());
+    let steps = a.sizes.len() * (1 + a.walks as usize * (1 + a.modes.len() * a.taus.len()));
     let bar = crate::progress::steps(steps as u64, "scale");
     let (mut scenes, mut rows) = (Vec::new(), Vec::new());
     for &n in &a.sizes {
         bar.set_message(format!("plant {}", label(n)));
-        let (s, file, walk) = scene(&a.out, n, a.frames, a.instanced).with_context(|| format!("the {}-triangle plant", label(n)))?;
+        let (s, file) = scene(&a.out, n, a.instanced).with_context(|| format!("the {}-triangle plant", label(n)))?;
         bar.inc(1);
-        for &tau in &a.taus {
-            for &mode in &a.modes {
-                bar.set_message(format!("{} {mode} tau {tau}", s.label));
-                let name = format!("{mode}-tau{tau}{}", if a.cost_adaptive { "-adaptive" } else { "" });
-                let dir = a.out.join("runs").join(&s.label).join(name);
-                let r = run_one(&file, &walk, &a.size, mode, tau, a.cost_adaptive, &dir)
-                    .and_then(|v| row(n, tau, &dir, &v))
-                    .unwrap_or_else(|e| {
-                        bar.println(format!("osw: {} {mode} at tau {tau} failed: {e:#}", s.label));
-                        Row { triangles: n, mode, tau, error: Some(format!("{e:#}")), ..Default::default() }
-                    });
-                rows.push(r);
-                bar.inc(1);
+        for seed in 1..=a.walks {
+            bar.set_message(format!("{} walk {seed}", s.label));
+            let walk = walk(&file, a.frames, seed).with_context(|| format!("walk {seed} through the {} plant", s.label))?;
+            bar.inc(1);
+            for &tau in &a.taus {
+                for &mode in &a.modes {
+                    bar.set_message(format!("{} walk {seed} {mode} tau {tau}", s.label));
+                    let name = format!("{mode}-tau{tau}{}", if a.cost_adaptive { "-adaptive" } else { "" });
+                    let dir = a.out.join("runs").join(&s.label).join(format!("walk-{seed}")).join(name);
+                    let r = run_one(&file, &walk, &a.size, mode, tau, a.cost_adaptive, &dir)
+                        .and_then(|v| row(n, seed, tau, &dir, &v))
+                        .unwrap_or_else(|e| {
+                            bar.println(format!("osw: {} walk {seed} {mode} at tau {tau} failed: {e:#}", s.label));
+                            Row { triangles: n, walk: seed, mode, tau, error: Some(format!("{e:#}")), ..Default::default() }
+                        });
+                    rows.push(r);
+                    bar.inc(1);
+                }
             }
         }
         scenes.push(s);
     }
     bar.finish_and_clear();
-    let sweep = Sweep { frames: a.frames, size: a.size.clone(), scenes, runs: rows };
+    let over_walks = scale_report::over_walks(&rows);
+    let sweep = Sweep { frames: a.frames, walks: a.walks, size: a.size.clone(), scenes, runs: rows, over_walks };
     std::fs::write(a.out.join("scale.json"), serde_json::to_string_pretty(&sweep)?)?;
-    std::fs::write(a.out.join("scale.md"), markdown(&sweep, &a))?;
-    crate::plot::write_log_log(&charts(&sweep, &a), &a.out.join("scale"))?;
+    let report = scale_report::Report { sweep: &sweep, taus: &a.taus, modes: &a.modes, cost_adaptive: a.cost_adaptive };
+    std::fs::write(a.out.join("scale.md"), report.markdown())?;
+    crate::plot::write_log_log(&report.charts(), &a.out.join("scale"))?;
     let failed = sweep.runs.iter().filter(|r| r.error.is_some()).count();
     if failed > 0 {
         bail!("{failed} of {} runs failed; scale.md shows the others → {}", sweep.runs.len(), a.out.display());
     }
-    out!("scale: {} sizes × {} modes × {} taus → {}", a.sizes.len(), a.modes.len(), a.taus.len(), a.out.join("scale.md").display());
+    out!(
+        "scale: {} sizes × {} walks × {} modes × {} taus → {}",
+        a.sizes.len(),
+        a.walks,
+        a.modes.len(),
+        a.taus.len(),
+        a.out.join("scale.md").display()
+    );
     Ok(())
-}
-
-/// Frame time and HC tests against scene triangles, at the first tau.
-fn charts<'a>(s: &Sweep, a: &Args) -> Vec<Chart<'a>> {
-    let tau = a.taus[0];
-    let series = |y: fn(&Row) -> f64| -> Vec<Series> {
-        a.modes
-            .iter()
-            .map(|m| {
-                let runs: Vec<&Row> = s.runs.iter().filter(|r| r.mode == *m && r.tau == tau && r.error.is_none() && y(r) > 0.0).collect();
-                Series {
-                    name: m.to_string(),
-                    points: runs.iter().map(|r| (r.triangles as f64, y(r))).collect(),
-                    point_labels: runs.iter().map(|r| label(r.triangles)).collect(),
-                    bold: false,
-                }
-            })
-            .collect()
-    };
-    vec![
-        Chart {
-            title: "Frame time against scene size",
-            x: "scene triangles",
-            y: "frame ms, median",
-            series: series(|r| r.frame_ms_median),
-        },
-        Chart {
-            title: "HC tests a frame against scene size",
-            x: "scene triangles",
-            y: "box tests a frame, mean",
-            series: series(|r| r.hc_tests_mean),
-        },
-    ]
-}
-
-/// A table column: its header and how a run fills it.
-type Column = (&'static str, fn(&Row) -> String);
-
-fn markdown(s: &Sweep, a: &Args) -> String {
-    let mut out = format!("# Scale: the generated plant, {}-frame walks at {}\n\n", s.frames, s.size);
-    out.push_str("| plant | triangles | build s | build peak GB | file GB |\n| --- | --- | --- | --- | --- |\n");
-    for sc in &s.scenes {
-        let _ = writeln!(
-            out,
-            "| {} | {} | {:.1} | {:.2} | {:.2} |",
-            sc.label,
-            sc.triangles,
-            sc.build_seconds,
-            sc.build_peak_rss_kb as f64 * 1.024e-6,
-            sc.file_bytes as f64 / 1e9
-        );
-    }
-    let columns: [Column; 13] = [
-        ("frame ms", |r| format!("{:.1}", r.frame_ms_median)),
-        ("CPU ms", |r| format!("{:.1}", r.cpu_ms_median)),
-        ("p95 ms", |r| format!("{:.1}", r.frame_ms_p95)),
-        ("OR ms", |r| format!("{:.1}", r.or_ms_median)),
-        ("HC ms", |r| format!("{:.1}", r.hc_ms_median)),
-        ("RVG ms", |r| format!("{:.1}", r.rvg_ms_median)),
-        ("HC tests", |r| format!("{:.0}", r.hc_tests_mean)),
-        ("first pass", |r| format!("{:.0}", r.hc_first_pass_tests_mean)),
-        ("retests", |r| format!("{:.0}", r.hc_retests_mean)),
-        ("traversal: V(i-1) / siblings / new", |r| {
-            r.hc_tests_where.map_or("-".into(), |w| format!("{:.0} / {:.0} / {:.0}", w[0], w[1], w[2]))
-        }),
-        ("triangles drawn", |r| format!("{:.0}", r.triangles_drawn_mean)),
-        ("PVS nodes", |r| format!("{:.0}", r.pvs_nodes_mean)),
-        ("peak MB", |r| r.peak_rss_kb.values().map(|kb| format!("{:.0}", *kb as f64 * 1.024e-3)).collect::<Vec<_>>().join(" / ")),
-    ];
-    for &tau in &a.taus {
-        let _ = write!(
-            out,
-            "\n## tau {tau}\n\n| plant | mode | {} | vfc / mode | first pass / CHC's | retests / CHC's tests |\n|",
-            columns.map(|c| c.0).join(" | ")
-        );
-        out.push_str(&" --- |".repeat(columns.len() + 5));
-        out.push('\n');
-        for sc in &s.scenes {
-            let of = |m: Mode| s.runs.iter().find(|r| r.triangles == sc.triangles && r.tau == tau && r.mode == m && r.error.is_none());
-            let (vfc, chc) = (of(Mode::Vfc), of(Mode::Chc));
-            for r in s.runs.iter().filter(|r| r.triangles == sc.triangles && r.tau == tau) {
-                let cells: Vec<String> = match &r.error {
-                    Some(_) => vec!["failed".into(); columns.len()],
-                    None => columns.iter().map(|c| c.1(r)).collect(),
-                };
-                let ratio = match vfc {
-                    Some(v) if r.error.is_none() && r.frame_ms_median > 0.0 => format!("{:.2}", v.frame_ms_median / r.frame_ms_median),
-                    _ => "–".into(),
-                };
-                // CHC tests in one pass: its tests are what HC's first pass is held to.
-                let to_chc = |n: f64| match chc {
-                    Some(c) if r.error.is_none() && r.hc_tests_mean > 0.0 && c.hc_tests_mean > 0.0 => {
-                        format!("{:.2}x", n / c.hc_tests_mean)
-                    }
-                    _ => "–".into(),
-                };
-                let (first, again) = (to_chc(r.hc_first_pass_tests_mean), to_chc(r.hc_retests_mean));
-                let _ = writeln!(out, "| {} | {} | {} | {ratio} | {first} | {again} |", sc.label, r.mode, cells.join(" | "));
-            }
-        }
-    }
-    out.push_str("\nCPU ms: CPU time of the median frame, all threads of every process (lavapipe draws on the CPU); the switch's three processes share this host's cores. first pass: HC's tests before its retests; CHC tests in one pass. peak MB: one figure per process (render; display / node a / node b for the switch).\n");
-    if !a.cost_adaptive {
-        out.push_str("Every mode culled every frame (`--cost-adaptive` lets prev and the switch skip culling where it does not pay).\n");
-    }
-    out
 }
 
 #[cfg(test)]

@@ -27,6 +27,7 @@ mod cmd_run;
 mod cmd_scale;
 mod plot;
 mod progress;
+mod scale_report;
 mod walk_args;
 
 use clap::{Parser, Subcommand};

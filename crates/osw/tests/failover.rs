@@ -2,7 +2,8 @@
 //! three machines: node a killed at frame 50 of a 480-frame walk and restarted at frame 120
 //! rejoins; the display gets every frame, marks the degraded span, and every frame equals
 //! frustum-only rendering with no exactly visible leaf culled. A display killed and started
-//! again is served from the start of its path. Silent and garbage connections are refused
+//! again is served from the start of its path; one whose link to a node is cut and back goes
+//! on with its path. Silent and garbage connections are refused
 //! on their own while the walk goes on.
 
 mod common;

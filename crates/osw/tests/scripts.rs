@@ -119,11 +119,29 @@ fn soak_survives_every_fault_with_prevs_frames() {
 fn scale_sweeps_sizes_and_resumes() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("scale");
-    let args = ["--sizes", "20K,40K", "--taus", "1", "--modes", "vfc,prev,switch", "--frames", "4", "--size", "64x64", "--out", s(&out)];
+    let args = [
+        "--sizes",
+        "20K,40K",
+        "--walks",
+        "2",
+        "--taus",
+        "1",
+        "--modes",
+        "chc,prev,switch",
+        "--frames",
+        "4",
+        "--size",
+        "64x64",
+        "--out",
+        s(&out),
+    ];
     run_script("scale.sh", &args, &[]);
     let v = json(&out.join("scale.json"));
     let runs = v["runs"].as_array().unwrap();
-    assert_eq!(runs.len(), 6, "{v}");
+    assert_eq!(runs.len(), 12, "{v}");
+    // Two walks of each size, not one walk twice.
+    let first = |w: u64| runs.iter().find(|r| r["walk"] == w && r["mode"] == "chc").unwrap()["hc_tests_mean"].as_f64().unwrap();
+    assert_ne!(first(1), first(2), "{v}");
     for r in runs {
         assert!(r["error"].is_null() && r["frame_ms_median"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["peak_rss_kb"].as_object().unwrap().values().all(|kb| kb.as_u64().unwrap() > 0), "{r}");
@@ -133,15 +151,23 @@ fn scale_sweeps_sizes_and_resumes() {
         assert!(r["hc_retests_mean"].as_f64().is_some_and(|n| n >= 0.0), "{r}");
         assert!(r["hc_first_pass_tests_mean"].as_f64().is_some_and(|n| n >= 0.0), "{r}");
     }
-    assert_eq!(runs.iter().filter(|r| r["mode"] == "switch").map(|r| r["peak_rss_kb"].as_object().unwrap().len()).sum::<usize>(), 6);
+    assert_eq!(runs.iter().filter(|r| r["mode"] == "switch").map(|r| r["peak_rss_kb"].as_object().unwrap().len()).sum::<usize>(), 12);
+    // Each size and mode over its walks, its ratios to CHC walk by walk.
+    let over = v["over_walks"].as_array().unwrap();
+    assert_eq!(over.len(), 6, "{v}");
+    for o in over {
+        assert_eq!(o["walks"], 2, "{o}");
+        assert!(o["frame_ms_worst"].as_f64().unwrap() >= o["frame_ms_median"].as_f64().unwrap(), "{o}");
+        assert!(o["first_pass_to_chc_worst"].as_f64().unwrap() >= o["first_pass_to_chc"].as_f64().unwrap(), "{o}");
+    }
     for sc in v["scenes"].as_array().unwrap() {
         assert!(sc["build_peak_rss_kb"].as_u64().unwrap() > 0 && sc["file_bytes"].as_u64().unwrap() > 0, "{sc}");
     }
     assert!(out.join("scale.png").exists() && out.join("scale.md").exists());
     // A second sweep finds every run there and repeats none of them.
-    let stamp = std::fs::metadata(out.join("runs/20K/prev-tau1/summary.json")).unwrap().modified().unwrap();
+    let stamp = std::fs::metadata(out.join("runs/20K/walk-2/prev-tau1/summary.json")).unwrap().modified().unwrap();
     run_script("scale.sh", &args, &[]);
-    assert_eq!(std::fs::metadata(out.join("runs/20K/prev-tau1/summary.json")).unwrap().modified().unwrap(), stamp);
+    assert_eq!(std::fs::metadata(out.join("runs/20K/walk-2/prev-tau1/summary.json")).unwrap().modified().unwrap(), stamp);
 }
 
 #[test]
