@@ -18,7 +18,6 @@
 
 use crate::inbox::Inbox;
 use crate::roles::{Display, Duty, Peer, Step, keyframe_to_display};
-use osw_cull::cluster::VisibleClusters;
 use osw_cull::delta::{Assembly, batches, diff};
 use osw_cull::frustum_cull;
 use osw_cull::payoff::Payoff;
@@ -54,9 +53,6 @@ pub struct Switch {
     occluders: Vec<NodeId>,
     /// The BVH nodes this node's last HC found visible (osw_cull::hardware_cull_seen).
     seen: Vec<NodeId>,
-    /// Which clusters of V(i-1) this node's HC found visible (pass::note_clusters): OR draws
-    /// only those of its nodes.
-    notes: VisibleClusters,
     /// When the peer's end of the previous frame arrived (this node was OR), for the display.
     peer_eof_received_us: u64,
     /// When this node's last OR began and ended: the next HC's camera's stages.
@@ -79,7 +75,6 @@ impl Switch {
             visible: Vec::new(),
             occluders: Vec::new(),
             seen: Vec::new(),
-            notes: VisibleClusters::default(),
             peer_eof_received_us: 0,
             or_us: [0; 2],
         }
@@ -161,13 +156,8 @@ impl Switch {
             // The OR pass of Yoon 2003 fig. 5 on this GPU: the front of V(i-1) for camera i.
             let t = Instant::now();
             or_us[0] = hc_start_us;
-            let or = pass::or(
-                r,
-                &self.scene,
-                &view,
-                Occluders { ids: &self.visible, tau: cam.tau_px, load: Load::Clear, notes: Some(&self.notes) },
-                &mut self.occluders,
-            )?;
+            let or =
+                pass::or(r, &self.scene, &view, Occluders { ids: &self.visible, tau: cam.tau_px, load: Load::Clear }, &mut self.occluders)?;
             (f.nodes_drawn, f.or_ms, f.or_gpu_ms) = (or.nodes, ms(t), or.gpu_ms());
             hc_start_us = now_us();
             or_us[1] = hc_start_us;
@@ -204,12 +194,10 @@ impl Switch {
         };
         self.io.send(&eof(peer_sent_us), self.io.roles.peer_in_step(), false)?;
         // HC's notes of V(i)'s clusters (pass::note_clusters) once the peer has its end of
-        // frame: RVG draws only the visible ones, and so does this node's next OR.
-        self.notes = VisibleClusters::default();
+        // frame: RVG draws only the visible ones.
         if let Some(p) = pyramid {
             if self.renderer.options().cluster_tests.occlusion {
-                self.notes = pass::note_clusters(&self.scene, &view, &pvs, &p)?;
-                let bits = self.notes.mask().to_vec();
+                let bits = pass::note_clusters(&self.scene, &view, &pvs, &p)?.mask().to_vec();
                 // A mask too large for a frame (about 130M clusters in view) is not sent: RVG
                 // then draws the nodes whole.
                 if bits.len() <= osw_wire::limits::KEYFRAME_PART_BYTES {
@@ -279,11 +267,11 @@ impl Switch {
         // frame it culled; when it does not, OR draws nothing, and only follows V(i).
         let cull = self.payoff.as_mut().is_none_or(Payoff::cull);
         let (mut drawn, mut or_ms) = (DrawStats::default(), 0.0);
-        let (scene, notes) = (&self.scene, &self.notes);
+        let scene = &self.scene;
         let mut or = |r: &mut Renderer, ids: &[NodeId], load: Load, scratch: &mut Vec<NodeId>| -> anyhow::Result<()> {
             if cull {
                 let t = Instant::now();
-                drawn = drawn + pass::or(r, scene, &view, Occluders { ids, tau: cam.tau_px, load, notes: Some(notes) }, scratch)?;
+                drawn = drawn + pass::or(r, scene, &view, Occluders { ids, tau: cam.tau_px, load }, scratch)?;
                 or_ms += ms(t);
             }
             Ok(())
@@ -368,7 +356,6 @@ impl Switch {
         // a first run's is (prev's on the same cameras).
         self.visible.clear();
         self.seen.clear();
-        self.notes = VisibleClusters::default();
         self.next = None;
         if let Some(p) = &mut self.payoff {
             p.restart();

@@ -28,7 +28,7 @@ pub struct WalkArgs {
     pub residency_mib: u64,
     /// Cluster tests of the passes that draw: a list of `frustum`, `cone` (per cluster),
     /// `backface`, `small` (per triangle of a cluster drawn) and `occlusion` (prev: the clusters
-    /// HC's pyramid hides, left out by RVG and by OR two frames later), or `none` (exact
+    /// HC's pyramid hides, left out by RVG), or `none` (exact
     /// visibility's item pass always draws every triangle).
     #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,

@@ -121,9 +121,6 @@ pub struct ModeState {
     /// takes the same sets so that its visible sets are the switch's.
     seen: [Vec<NodeId>; 2],
     chc: Option<ChcState>,
-    /// HC's notes of the visible clusters, one per parity of the frame as `seen` (prev): OR
-    /// draws those of two frames back.
-    notes: [VisibleClusters; 2],
     /// Paper 003's knobs (ovc), the last frame's render time (eq. 2's T_render) and the frames
     /// so far (which pixel lines sampled tests read).
     pub ovc: OvcOptions,
@@ -153,7 +150,6 @@ impl ModeState {
             occluders: Vec::new(),
             seen: [Vec::new(), Vec::new()],
             chc: None,
-            notes: Default::default(),
             ovc: OvcOptions::default(),
             payoff: None,
             last_render_ms: None,
@@ -196,14 +192,11 @@ impl ModeState {
             p.of(frame).judge_hc(scene.nodes(), &hc, &pvs);
         }
         let t = Instant::now();
-        let (drawn, notes) = match rvg {
-            Rvg::Plain => (r.draw(scene, view, &pvs, Pass::Color, Load::Clear)?, None),
-            Rvg::Switch { notes, pass } => (pass::rvg(r, scene, view, &pvs, notes.as_ref(), pass)?, notes),
+        let drawn = match rvg {
+            Rvg::Plain => r.draw(scene, view, &pvs, Pass::Color, Load::Clear)?,
+            Rvg::Switch { notes, pass } => pass::rvg(r, scene, view, &pvs, notes.as_ref(), pass)?,
         };
         (s.rvg_ms, s.rvg_gpu_ms) = (ms(t), drawn.gpu_ms());
-        // OR of two frames later draws V(i) with them (the switch's HC node for frame i is OR
-        // for frame i+1 on camera i+2).
-        self.notes[self.frames as usize % 2] = notes.unwrap_or_default();
         s.total_ms = s.or_ms + s.hc_ms + s.rvg_ms;
         s.take_hc(&hc);
         s.take_rvg(&drawn, r.counts_fragments());
@@ -284,13 +277,9 @@ impl ModeState {
     ) -> Result<(HcStats, Rvg), RenderError> {
         let t = Instant::now();
         diff(&self.older, &self.visible, &mut self.added, &mut self.removed);
-        // With the cluster occlusion test, HC notes which clusters of its visible set are
-        // hidden (pass::note_clusters): RVG draws only the others, and OR of two frames later
-        // draws only those, as the switch's nodes do.
-        let or_notes = r.options().cluster_tests.occlusion.then_some(&self.notes[self.frames as usize % 2]);
         let mut or = DrawStats::default();
         for (ids, load) in [(&self.older, Load::Clear), (&self.added, Load::Keep)] {
-            or = or + pass::or(r, scene, view, pass::Occluders { ids, tau: self.tau, load, notes: or_notes }, &mut self.occluders)?;
+            or = or + pass::or(r, scene, view, pass::Occluders { ids, tau: self.tau, load }, &mut self.occluders)?;
         }
         s.take_or(&or, ms(t));
         let t = Instant::now();
@@ -299,7 +288,9 @@ impl ModeState {
         (s.hc_traversal_ms, s.hc_second_look_ms, s.hc_retest_ms) = (hc.times.traversal_ms, hc.times.second_look_ms, hc.times.retest_ms);
         let mut notes = None;
         if let Some(p) = hc.pyramid {
-            if or_notes.is_some() {
+            // With the cluster occlusion test, HC notes which clusters of its visible set are
+            // hidden (pass::note_clusters): RVG draws only the others, as the switch's display.
+            if r.options().cluster_tests.occlusion {
                 notes = Some(pass::note_clusters(scene, view, pvs, &p)?);
             }
             r.give_back(p);

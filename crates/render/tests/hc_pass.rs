@@ -31,8 +31,7 @@ fn new_occluders_keep_every_visible_leaf_and_save_tests() {
     let after = r.view(&Camera::look_at(eye, c + DVec3::new(0.0, 0.0, e.z), 60.0), 0.0);
     let mut run = |min: usize| {
         r.begin_frame();
-        pass::or(&mut r, &scene, &after, pass::Occluders { ids: &previous, tau: 0.0, load: Load::Clear, notes: None }, &mut Vec::new())
-            .unwrap();
+        pass::or(&mut r, &scene, &after, pass::Occluders { ids: &previous, tau: 0.0, load: Load::Clear }, &mut Vec::new()).unwrap();
         let mut pvs = Vec::new();
         let stats = pass::hc(
             &mut r,

@@ -95,9 +95,11 @@ impl HybridTester<'_> {
 
 /// New occluders worth a depth read-back and a pyramid (see [`HybridTester`]): a round (a
 /// draw, a read-back, a pyramid) must save more tests than it costs, and with each pixel read
-/// by the box's own depth few boxes pass but where a region comes into view
-/// (docs/measurements/2026-12-06-same-tau.md, "Fewer rounds").
-pub const NEW_OCCLUDERS_MIN: usize = 32;
+/// by the box's own depth few boxes pass but where a region comes into view. There CHC draws
+/// what it finds before it tests what lies behind; the fewer new occluders HC waits for, the
+/// nearer its tests come to CHC's, at a read-back each round (docs/measurements/2026-12-06-same-tau.md,
+/// "Fewer rounds"; docs/measurements/2026-12-07-hc-walks.md).
+pub const NEW_OCCLUDERS_MIN: usize = 8;
 
 impl VisibilityTester for HybridTester<'_> {
     type Error = RenderError;

@@ -5,7 +5,7 @@ use osw_cull::View;
 use osw_cull::cluster::VisibleClusters;
 use osw_cull::front::update_front;
 use osw_cull::hzb::{Pyramid, Read, visible_box};
-use osw_gpu::draw::{Layer, Load, Pass};
+use osw_gpu::draw::{Load, Pass};
 use osw_gpu::renderer::{DrawStats, RenderError, Renderer};
 use osw_scene::{NodeId, SceneFile};
 
@@ -18,36 +18,27 @@ pub struct Occluders<'a> {
     pub tau: f64,
     /// [`Load::Clear`] starts a new depth buffer, [`Load::Keep`] draws into the one there is.
     pub load: Load,
-    /// HC's notes of the frame that found `ids`: only the clusters they take are drawn (paper
-    /// 004 sec. 5.3.1: the clusters visible in the last frame are the occluders; see
-    /// [`note_clusters`]).
-    pub notes: Option<&'a VisibleClusters>,
 }
 
 /// Draws the opaque clusters of `occ` re-selected for `view` (the front update of sec. 4.6)
-/// into the depth buffer. `front` is scratch space kept across frames.
+/// into the depth buffer, whole: HC's notes of the clusters hidden when `occ` was found
+/// ([`note_clusters`]) are RVG's, not OR's. OR's camera is two frames later than the notes',
+/// and a cluster hidden behind a silhouette then shows a sliver beside it; left out, it leaves
+/// a hole in the depth buffer there, through which HC's tests see every box behind
+/// (Peng 2014's pyramid and the exact test alike), and HC tests deeper into what the hole
+/// shows (docs/measurements/2026-12-07-hc-walks.md). `front` is scratch space kept across
+/// frames.
 pub fn or(r: &mut Renderer, scene: &SceneFile, view: &View, occ: Occluders, front: &mut Vec<NodeId>) -> Result<DrawStats, RenderError> {
     update_front(scene.nodes(), occ.ids, view, occ.tau, front);
-    let Some(notes) = occ.notes else { return r.draw_opaque(scene, view, front, Pass::Depth, occ.load) };
-    let mut drawn = r.gather(scene, view, front, r.options().cluster_tests, Some(&mut |id, k| notes.takes(id, k)))?;
-    r.submit(view, Pass::Depth, Layer::Opaque, occ.load, &mut drawn)?;
-    Ok(drawn)
+    r.draw_opaque(scene, view, front, Pass::Depth, occ.load)
 }
 
 /// The opaque clusters of `pvs` (HC's V(i), sorted, for `view`) that `pyramid` does not hide
 /// on the image. RVG of this frame draws only those: a hidden cluster is behind geometry drawn
 /// for this camera (OR's occluders and HC's, each at tau for it), and the node nearest at each
-/// pixel is in the visible set with its nearest cluster, so the image is the visible set's. OR,
-/// drawing V(i) as occluders for a later camera, draws only those too: a hidden cluster writes
-/// no depth, and one still hidden a frame or two later writes none either (the temporal
-/// coherence that sec. 4.6 draws V(i-1) on). Fewer occluders can only make HC find more
-/// visible: conservative. Clusters at the frustum's edge, hidden on the image, were kept for
-/// OR at first (they may come into view for its later camera): they changed almost no PVS
-/// and cost OR time (docs/measurements/2026-12-07-constants.md, "note_clusters").
-/// A cluster the cut does not take for this camera is noted as one not looked at, drawn: when
-/// the camera nears a surface its cut node keeps its id and takes finer clusters, which OR two
-/// frames later draws as occluders as it draws a static LOD chosen anew (any geometry of the
-/// cut for its camera is a fair occluder); RVG of this frame never draws it.
+/// pixel is in the visible set with its nearest cluster, so the image is the visible set's.
+/// A cluster the cut does not take for this camera is not looked at (marked): RVG's own cut
+/// for this camera leaves it out.
 pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &Pyramid) -> Result<VisibleClusters, RenderError> {
     let vp = view.view_proj().as_dmat4();
     let mut notes = VisibleClusters::default();
