@@ -42,7 +42,7 @@ fn bench(c: &mut Criterion) {
         let view = View::new(&Camera::look_at(eye, centre, 60.0), DVec3::ZERO, 1024, 1024, 0.01);
         let (mut out, mut s) = (Vec::new(), ClusterStats::default());
         for m in meshes {
-            gather(&view, tests, &m.0, &m.1, &m.2, &mut Out { indices: &mut out, base: 0, stats: &mut s });
+            gather(&view, tests, &m.0, &m.1, &m.2, &[], &mut Out { indices: &mut out, base: 0, stats: &mut s });
         }
         println!(
             "gather from {name}: {} clusters, {} triangles kept, {} facing away, {} covering no pixel",
@@ -55,7 +55,7 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 out.clear();
                 for m in meshes {
-                    gather(&view, tests, &m.0, &m.1, &m.2, &mut Out { indices: &mut out, base: 0, stats: &mut s });
+                    gather(&view, tests, &m.0, &m.1, &m.2, &[], &mut Out { indices: &mut out, base: 0, stats: &mut s });
                 }
                 out.len()
             })

@@ -11,7 +11,7 @@ use crate::view::View;
 use glam::DVec3;
 use osw_scene::NodeId;
 use osw_scene::cluster::NO_CONE;
-use osw_scene::format::ClusterRecord;
+use osw_scene::format::{ClusterRecord, Cut};
 
 /// Which cluster and triangle tests a pass runs (each can be turned off alone to show what it
 /// culls and that the frame does not change). The triangle tests pay on lavapipe, which sets
@@ -194,30 +194,31 @@ pub struct Out<'a> {
 }
 
 /// Appends to `out` the clusters of one node (`positions`, `indices` in cluster order,
-/// `clusters`) that the cut of `view.lod` takes and that may cover a pixel, less the
-/// triangles the triangle tests find covering none.
+/// `clusters` and their `cuts`, none outside a cluster hierarchy) that the cut of `view.lod`
+/// takes and that may cover a pixel, less the triangles the triangle tests find covering none.
 pub fn gather<I: Copy + Into<u32>>(
     view: &View,
     tests: ClusterTests,
     positions: &[[f32; 3]],
     indices: &[I],
     clusters: &[ClusterRecord],
+    cuts: &[Cut],
     out: &mut Out,
 ) {
     let triangles = TriangleView::new(view);
-    for c in clusters {
-        if let Some(backface) = test_cluster(view, tests, c, out.stats) {
+    for (k, c) in clusters.iter().enumerate() {
+        if let Some(backface) = test_cluster(view, tests, c, cuts.get(k).unwrap_or(&Cut::ALWAYS), out.stats) {
             push_triangles(&triangles, ClusterTests { backface, ..tests }, positions, cluster_indices(indices, c), out);
         }
     }
 }
 
-/// The cluster tests of [`gather`] on cluster `c`, counted in `stats`: `None` when the cut
-/// does not take it or it covers no pixel, else whether its triangles may face away (the
-/// back-face test then runs on each).
-pub fn test_cluster(view: &View, tests: ClusterTests, c: &ClusterRecord, stats: &mut ClusterStats) -> Option<bool> {
+/// The cluster tests of [`gather`] on cluster `c`, drawn where the cut takes `cut`, counted in
+/// `stats`: `None` when the cut does not take it or it covers no pixel, else whether its
+/// triangles may face away (the back-face test then runs on each).
+pub fn test_cluster(view: &View, tests: ClusterTests, c: &ClusterRecord, cut: &Cut, stats: &mut ClusterStats) -> Option<bool> {
     // A cluster hierarchy's node holds clusters of several levels; the cut takes some.
-    if !view.lod.takes(&c.cut) {
+    if !view.lod.takes(cut) {
         return None;
     }
     stats.clusters += 1;
@@ -424,7 +425,7 @@ mod tests {
     /// The indices a pass would draw of mesh `m`.
     fn draw(view: &View, m: &Mesh, clusters: &[ClusterRecord], tests: ClusterTests, s: &mut ClusterStats) -> Vec<u32> {
         let mut out = Vec::new();
-        gather(view, tests, &m.positions, &m.indices, clusters, &mut Out { indices: &mut out, base: 0, stats: s });
+        gather(view, tests, &m.positions, &m.indices, clusters, &[], &mut Out { indices: &mut out, base: 0, stats: s });
         out
     }
 
@@ -443,14 +444,8 @@ mod tests {
 
     #[test]
     fn spheres_behind_the_eye_are_frustum_culled() {
-        let c = |x: f32| ClusterRecord {
-            center: [x, 0.0, 0.0],
-            radius: 1.0,
-            cone_cutoff: 2.0,
-            index_count: 3,
-            cut: osw_scene::format::Cut::ALWAYS,
-            ..bytemuck::Zeroable::zeroed()
-        };
+        let c =
+            |x: f32| ClusterRecord { center: [x, 0.0, 0.0], radius: 1.0, cone_cutoff: 2.0, index_count: 3, ..bytemuck::Zeroable::zeroed() };
         let clusters = [c(-10.0), c(10.0)];
         let clusters = [ClusterRecord { first_index: 3, ..clusters[1] }, clusters[0]];
         let view = View::new(&Camera::look_at(DVec3::ZERO, DVec3::X, 60.0), DVec3::ZERO, 64, 64, 0.01);

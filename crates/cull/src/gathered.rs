@@ -90,7 +90,7 @@ impl Gathered {
                 let g = g.insert(geometry()?);
                 let (from, mut s) = (self.kept.len(), ClusterStats::default());
                 for (k, c) in g.clusters[..g.opaque].iter().enumerate() {
-                    if let Some(backface) = test_cluster(view, tests, c, &mut s) {
+                    if let Some(backface) = test_cluster(view, tests, c, g.cut(k), &mut s) {
                         self.kept.push(Kept { k: k as u32, backface, triangles: None });
                     }
                 }
@@ -181,7 +181,7 @@ mod tests {
     /// What `gather` appends of `b` under `view`, and its counts.
     fn direct(view: &View, tests: ClusterTests, b: Block, base: u32) -> (Vec<u32>, ClusterStats) {
         let (mut out, mut s) = (Vec::new(), ClusterStats::default());
-        gather(view, tests, b.0, b.1, b.2, &mut Out { indices: &mut out, base, stats: &mut s });
+        gather(view, tests, b.0, b.1, b.2, &[], &mut Out { indices: &mut out, base, stats: &mut s });
         (out, s)
     }
 
@@ -204,6 +204,7 @@ mod tests {
                 colors: &[],
                 indices: Indices::U32(Cow::Borrowed(b.1)),
                 clusters: Cow::Borrowed(b.2),
+                cuts: &[],
                 opaque: b.2.len(),
             })
         };

@@ -114,11 +114,11 @@ impl Renderer {
                 }
             };
             let g = scene.geometry(id)?;
-            let clusters = &g.clusters[g.opaque..];
+            let (clusters, cuts) = (&g.clusters[g.opaque..], g.cuts.get(g.opaque..).unwrap_or(&[]));
             let out = &mut Out { indices: &mut self.indices, base, stats: &mut gathered.clusters };
             match &g.indices {
-                Indices::U16(ix) => gather(view, tests, &g.positions, ix, clusters, out),
-                Indices::U32(ix) => gather(view, tests, &g.positions, ix, clusters, out),
+                Indices::U16(ix) => gather(view, tests, &g.positions, ix, clusters, cuts, out),
+                Indices::U32(ix) => gather(view, tests, &g.positions, ix, clusters, cuts, out),
             }
             gathered.nodes += 1;
         }

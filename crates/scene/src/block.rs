@@ -2,7 +2,7 @@
 //! positions, colours if any, the indices in cluster order (u16 when every index fits, else
 //! u32), padding to 4 bytes and the clusters ([`crate::format`] lays out the file around them).
 
-use crate::format::{BlockRecord, ClusterRecord};
+use crate::format::{BlockRecord, CUT_BYTES, ClusterRecord, Cut};
 use crate::mesh::Mesh;
 use std::borrow::Cow;
 use xxhash_rust::xxh3::xxh3_64;
@@ -24,19 +24,20 @@ pub struct Encoded {
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
     let mesh = mesh.welded();
     let (indices, clusters, opaque) = crate::cluster::clusterize(&mesh, object);
-    encode_with(&mesh, &indices, &clusters, opaque)
+    encode_with(&mesh, &indices, &clusters, &[], opaque)
 }
 
 /// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut.
 pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> Encoded {
     let mesh = piece.mesh.welded();
-    let (indices, clusters, opaque) = crate::cluster::clusterize_cut(&mesh, object, &piece.cuts, &piece.cut_of);
-    encode_with(&mesh, &indices, &clusters, opaque)
+    let c = crate::cluster::clusterize_cut(&mesh, object, &piece.cuts, &piece.cut_of);
+    encode_with(&mesh, &c.indices, &c.clusters, &c.cuts, c.opaque)
 }
 
 /// [`encode`] with the clusters made already: `indices` in cluster order, `opaque_clusters`
-/// of them first.
-pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecord], opaque_clusters: u32) -> Encoded {
+/// of them first; `cuts` one per cluster, or none (every cluster drawn at every tau).
+pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecord], cuts: &[Cut], opaque_clusters: u32) -> Encoded {
+    debug_assert!(cuts.is_empty() || cuts.len() == clusters.len());
     let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters));
     bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
     bytes.extend_from_slice(mesh.colors.as_flattened());
@@ -49,6 +50,7 @@ pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecor
     };
     bytes.resize(bytes.len().next_multiple_of(4), 0);
     bytes.extend_from_slice(bytemuck::cast_slice(clusters));
+    bytes.extend_from_slice(bytemuck::cast_slice(cuts));
     let record = BlockRecord {
         offset: 0,
         hash: xxh3_64(&bytes),
@@ -58,6 +60,8 @@ pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecor
         color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
         cluster_count: clusters.len() as u32,
         opaque_clusters,
+        cut_bytes: if cuts.is_empty() { 0 } else { CUT_BYTES },
+        _pad: 0,
     };
     debug_assert_eq!(record.byte_len(), bytes.len() as u64);
     Encoded { bytes, record }
@@ -73,11 +77,18 @@ pub struct Geometry<'a> {
     /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
     pub indices: Indices<'a>,
     pub clusters: Cow<'a, [ClusterRecord]>,
+    /// Where the cut draws each cluster, in a cluster hierarchy's block; empty elsewhere.
+    pub cuts: &'a [Cut],
     /// `clusters[..opaque]` are opaque, the rest translucent ([`BlockRecord::opaque_clusters`]).
     pub opaque: usize,
 }
 
 impl Geometry<'_> {
+    /// Where the cut draws cluster `k`: [`Cut::ALWAYS`] outside a cluster hierarchy.
+    pub fn cut(&self, k: usize) -> &Cut {
+        self.cuts.get(k).unwrap_or(&Cut::ALWAYS)
+    }
+
     /// Indices of the opaque clusters: they come first, `0..opaque_indices()`.
     pub fn opaque_indices(&self) -> usize {
         self.clusters.get(self.opaque).map_or(self.indices.len(), |c| c.first_index as usize)
@@ -124,6 +135,7 @@ impl Indices<'_> {
 /// A block's bytes read in place ([`ranges_ok`] says whether they can be trusted).
 pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
     let (front, clusters) = bytes.split_at(rec.clusters_at() as usize);
+    let (clusters, cuts) = clusters.split_at(rec.cluster_count as usize * crate::format::CLUSTER_BYTES as usize);
     let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
     let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
     let idx = &idx[..rec.index_count as usize * rec.index_bytes as usize];
@@ -137,6 +149,7 @@ pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
         colors: bytemuck::cast_slice(colors),
         indices,
         clusters: Cow::Borrowed(bytemuck::cast_slice(clusters)),
+        cuts: bytemuck::cast_slice(&cuts[..rec.cluster_count as usize * rec.cut_bytes as usize]),
         opaque: rec.opaque_clusters as usize,
     }
 }

@@ -50,13 +50,25 @@ pub const NO_CONE: f32 = 2.0;
 /// ones follow. Every triangle is kept exactly once, with its winding. `object`: the box of
 /// the mesh's object when that object as a whole is closed and wound outwards.
 pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRecord>, u32) {
-    clusterize_cut(mesh, object, &[Cut::ALWAYS], &[])
+    let c = clusterize_cut(mesh, object, &[Cut::ALWAYS], &[]);
+    (c.indices, c.clusters, c.opaque)
+}
+
+/// A block's triangles in clusters ([`clusterize_cut`]).
+pub struct Clustered {
+    /// The mesh's indices in cluster order.
+    pub indices: Vec<u32>,
+    pub clusters: Vec<ClusterRecord>,
+    /// Where the cut draws each cluster.
+    pub cuts: Vec<Cut>,
+    /// Clusters `0..opaque` hold the opaque triangles.
+    pub opaque: u32,
 }
 
 /// [`clusterize`] for a part of a cluster hierarchy: triangle `t` is drawn where the cut takes
 /// `cuts[cut_of[t]]` (`cut_of` empty: every triangle `cuts[0]`), and a cluster holds
 /// triangles of one cut only.
-pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &[u32]) -> (Vec<u32>, Vec<ClusterRecord>, u32) {
+pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &[u32]) -> Clustered {
     let block = Clustering {
         mesh,
         adapter: meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0).expect("12-byte positions"),
@@ -82,7 +94,7 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
     order.sort_unstable();
     let run = |key: u64| key >> 30;
     let mut indices = Vec::with_capacity(mesh.indices.len());
-    let mut clusters = Vec::new();
+    let (mut clusters, mut cuts) = (Vec::new(), Vec::new());
     // Per vertex, the last cluster that used it: counts a cluster's distinct vertices.
     let mut stamp = vec![u32::MAX; mesh.positions.len()];
     let mut opaque_clusters = 0;
@@ -93,7 +105,9 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
         let new = t.iter().filter(|&&v| stamp[v as usize] != id).count();
         let triangles = (indices.len() - first_index as usize) / 3;
         if triangles == MAX_TRIANGLES || vertices + new > MAX_VERTICES || (n > 0 && run(order[n - 1].0) != run(key)) {
-            clusters.push(block.cluster(&indices, first_index, order[n - 1].0));
+            let (c, cut) = block.cluster(&indices, first_index, order[n - 1].0);
+            clusters.push(c);
+            cuts.push(cut);
             first_index = indices.len() as u32;
             vertices = 0;
         }
@@ -107,11 +121,13 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
         }
         indices.extend_from_slice(t);
         if n + 1 == order.len() {
-            clusters.push(block.cluster(&indices, first_index, key));
+            let (c, cut) = block.cluster(&indices, first_index, key);
+            clusters.push(c);
+            cuts.push(cut);
         }
     }
     debug_assert_eq!(indices.len(), mesh.indices.len());
-    (indices, clusters, opaque_clusters)
+    Clustered { indices, clusters, cuts, opaque: opaque_clusters }
 }
 
 /// What each cluster of one block is made against: the mesh, its closed parts, the box of its
@@ -125,17 +141,17 @@ struct Clustering<'a> {
 }
 
 impl Clustering<'_> {
-    /// The cluster of `indices[first_index..]`, whose triangles' sort key is `key`: its bounds,
-    /// its cut, and its cone (meshopt's) with the box of its closed parts or the object's when
-    /// the triangles are opaque (back faces of a translucent surface show through it).
-    fn cluster(&self, indices: &[u32], first_index: u32, key: u64) -> ClusterRecord {
+    /// The cluster of `indices[first_index..]`, whose triangles' sort key is `key`: its bounds
+    /// and its cone (meshopt's) with the box of its closed parts or the object's when the
+    /// triangles are opaque (back faces of a translucent surface show through it), and its cut.
+    fn cluster(&self, indices: &[u32], first_index: u32, key: u64) -> (ClusterRecord, Cut) {
         let cluster = &indices[first_index as usize..];
         let b = meshopt::compute_cluster_bounds(cluster, &self.adapter);
         let cut = self.cuts[(key >> 33 & 0x3fff_ffff) as usize];
         // A simplified triangle may have lost its object's closure; an original one has not.
         let closed = if key >> 63 == 0 { self.parts.closed_box(cluster).or(self.object.filter(|_| cut.lo.error == 0.0)) } else { None };
         let bbox = Aabb::from_points(cluster.iter().map(|&v| &self.mesh.positions[v as usize]));
-        ClusterRecord {
+        let c = ClusterRecord {
             center: b.center,
             radius: b.radius,
             cone_apex: b.cone_apex,
@@ -147,8 +163,8 @@ impl Clustering<'_> {
             bbox_max: bbox.max.into(),
             closed_min: closed.map_or([0.0; 3], |c| c.min.into()),
             closed_max: closed.map_or([0.0; 3], |c| c.max.into()),
-            cut,
-        }
+        };
+        (c, cut)
     }
 }
 

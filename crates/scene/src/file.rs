@@ -7,8 +7,8 @@
 
 use crate::block::{Geometry, geometry_of, ranges_ok};
 use crate::format::{
-    BLOCK_BYTES, BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord, VERSION,
-    content_hash, header_hash,
+    BLOCK_BYTES, BlockRecord, CUT_BYTES, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord,
+    VERSION, content_hash, header_hash,
 };
 use crate::instance::Placement;
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
@@ -219,6 +219,7 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
         let ok = b.offset.is_multiple_of(BLOCK_ALIGN)
             && (b.index_bytes == 2 || b.index_bytes == 4)
             && (b.color_bytes == 0 || b.color_bytes == 4)
+            && (b.cut_bytes == 0 || b.cut_bytes == CUT_BYTES)
             && b.opaque_clusters <= b.cluster_count
             && b.index_count.is_multiple_of(3)
             && b.vertex_count <= MAX_BLOCK_VERTICES

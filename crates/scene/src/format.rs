@@ -1,4 +1,4 @@
-//! The scene file format, version 6: one file that the three processes of the cluster map into
+//! The scene file format, version 8: one file that the three processes of the cluster map into
 //! memory and read in place (occlusion switch, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
@@ -7,9 +7,10 @@
 //! header.blob_offset    geometry blocks (256), each BLOCK_ALIGN-aligned and padded to it:
 //!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
 //!                       block has colours, [u16 or u32; index_count] in cluster order,
-//!                       padding to 4 bytes, then [ClusterRecord; cluster_count]
+//!                       padding to 4 bytes, [ClusterRecord; cluster_count], then in a
+//!                       cluster hierarchy's block [Cut; cluster_count]
 //! header.nodes_offset   [NodeRecord; node_count]       104 bytes each, right after the blob
-//! header.blocks_offset  [BlockRecord; block_count]     40 bytes each, 8-aligned
+//! header.blocks_offset  [BlockRecord; block_count]     48 bytes each, 8-aligned
 //! header.instances_offset [InstanceRecord; instance_count] 104 bytes each, to the end
 //! ```
 //! The tables follow the blob because the build streams: blocks are written as each part of the
@@ -44,8 +45,10 @@ pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// translucent triangles are its last clusters ([`BlockRecord::opaque_clusters`]). 6: the
 /// cluster hierarchy: nodes and clusters carry [`Cut`] bounds (see [`crate::clod`]). 7: a
 /// mesh used several times is stored once: nodes name an [`InstanceRecord`]; triangle counts
-/// of subtrees and the scene are u64.
-pub const VERSION: u32 = 7;
+/// of subtrees and the scene are u64. 8: a cluster's [`Cut`] is stored only in a cluster
+/// hierarchy's blocks ([`BlockRecord::cut_bytes`]): a static LOD's clusters are drawn at every
+/// tau, and a chains scene stored 40 bytes a cluster to say so.
+pub const VERSION: u32 = 8;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -210,7 +213,7 @@ impl NodeRecord {
     }
 }
 
-/// Where one geometry block lies in the blob: 40 bytes.
+/// Where one geometry block lies in the blob: 48 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct BlockRecord {
@@ -231,6 +234,10 @@ pub struct BlockRecord {
     /// (see [`crate::mesh::is_translucent`]): drawn blended after everything opaque, never into
     /// OR's depth, so that a translucent surface occludes nothing.
     pub opaque_clusters: u32,
+    /// 40 when a [`Cut`] per cluster follows the clusters (a cluster hierarchy's block), else 0:
+    /// every cluster is drawn at every tau ([`Cut::ALWAYS`]).
+    pub cut_bytes: u32,
+    pub _pad: u32,
 }
 
 impl BlockRecord {
@@ -242,7 +249,7 @@ impl BlockRecord {
 
     /// Bytes of the whole block.
     pub fn byte_len(&self) -> u64 {
-        self.clusters_at() + self.cluster_count as u64 * CLUSTER_BYTES
+        self.clusters_at() + self.cluster_count as u64 * (CLUSTER_BYTES + self.cut_bytes as u64)
     }
 
     pub fn has_translucent(&self) -> bool {
@@ -251,7 +258,8 @@ impl BlockRecord {
 }
 
 /// A run of at most [`crate::cluster::MAX_TRIANGLES`] triangles of one block, close together
-/// and facing alike, that a pass culls as a unit: 140 bytes.
+/// and facing alike, that a pass culls as a unit: 100 bytes (where the cut draws it, in a
+/// cluster hierarchy, follows the block's clusters: [`BlockRecord::cut_bytes`]).
 ///
 /// The cone is meshopt's: every triangle of the cluster faces away from an eye at `e` when
 /// `dot(normalize(apex - e), axis) >= cutoff`, or (looser near the cluster, but without the
@@ -277,8 +285,6 @@ pub struct ClusterRecord {
     pub bbox_max: [f32; 3],
     pub closed_min: [f32; 3],
     pub closed_max: [f32; 3],
-    /// Where the cut draws it ([`Cut::ALWAYS`] outside a cluster hierarchy).
-    pub cut: Cut,
 }
 
 impl ClusterRecord {
@@ -316,10 +322,11 @@ pub fn blocks_offset(nodes_offset: u64, node_count: u32) -> Option<u64> {
     Some(nodes_offset.checked_add(node_count as u64 * NODE_BYTES)?.next_multiple_of(8))
 }
 pub const CLUSTER_BYTES: u64 = std::mem::size_of::<ClusterRecord>() as u64;
+pub const CUT_BYTES: u32 = std::mem::size_of::<Cut>() as u32;
 pub const INSTANCE_BYTES: u64 = std::mem::size_of::<InstanceRecord>() as u64;
 
 /// Where the instance table starts after `block_count` blocks at `blocks_offset` (8-aligned
-/// already: blocks are 40 bytes).
+/// already: blocks are 48 bytes).
 pub fn instances_offset(blocks_offset: u64, block_count: u32) -> Option<u64> {
     blocks_offset.checked_add(block_count as u64 * BLOCK_BYTES)
 }
@@ -361,7 +368,8 @@ mod tests {
         assert_eq!(std::mem::size_of::<Header>(), 256);
         assert_eq!(std::mem::size_of::<NodeRecord>(), 104);
         assert_eq!(std::mem::size_of::<InstanceRecord>(), 104);
-        assert_eq!(std::mem::size_of::<BlockRecord>(), 40);
-        assert_eq!(std::mem::size_of::<ClusterRecord>(), 140);
+        assert_eq!(std::mem::size_of::<BlockRecord>(), 48);
+        assert_eq!(std::mem::size_of::<ClusterRecord>(), 100);
+        assert_eq!(CUT_BYTES, 40);
     }
 }

@@ -107,7 +107,14 @@ impl Placement {
             same => same.clone(),
         };
         let clusters = g.clusters.iter().map(|c| self.cluster(c, &positions, &g.indices)).collect();
-        Geometry { positions: Cow::Owned(positions), colors: g.colors, indices, clusters: Cow::Owned(clusters), opaque: g.opaque }
+        Geometry {
+            positions: Cow::Owned(positions),
+            colors: g.colors,
+            indices,
+            clusters: Cow::Owned(clusters),
+            cuts: g.cuts,
+            opaque: g.opaque,
+        }
     }
 
     fn cluster(&self, c: &ClusterRecord, positions: &[[f32; 3]], indices: &Indices) -> ClusterRecord {
@@ -148,7 +155,7 @@ pub fn place_block(e: &Encoded, place: &Placement) -> Encoded {
     let g = place.geometry(&geometry_of(&e.bytes, &e.record));
     let indices: Vec<u32> = g.indices.iter().collect();
     let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec() };
-    encode_with(&mesh, &indices, &g.clusters, e.record.opaque_clusters)
+    encode_with(&mesh, &indices, &g.clusters, g.cuts, e.record.opaque_clusters)
 }
 
 #[cfg(test)]

@@ -352,7 +352,8 @@ fn leaves_in_parallel<T: Default + Send>(
             let placed = scene.placement(lod).map(|p| p.points(&g.positions));
             let positions = placed.as_deref().unwrap_or(&g.positions);
             // A cut node also holds simplified groups: only the original triangles count.
-            for c in g.clusters[..g.opaque].iter().filter(|c| c.cut.lo.error == 0.0) {
+            let original = (0..g.opaque).filter(|&k| g.cut(k).lo.error == 0.0);
+            for c in original.map(|k| &g.clusters[k]) {
                 for t in (c.first_index..c.first_index + c.index_count).step_by(3) {
                     f([0, 1, 2].map(|k| Vec3::from_array(positions[g.indices.get(t as usize + k) as usize])), &mut acc);
                 }

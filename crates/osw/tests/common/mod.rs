@@ -197,9 +197,11 @@ pub fn check_invariants(s: &SceneFile) {
             assert!(!g.indices.is_empty(), "empty LOD {l}");
             assert!(g.positions.iter().all(|p| lod.aabb().contains_point(glam::Vec3::from_array(*p))), "vertex outside LOD {l} box");
             if lod.is_cut() {
-                check_cut(nodes, id, l, &g.clusters);
+                assert_eq!(g.cuts.len(), g.clusters.len(), "cut node {l}: a cut for each cluster");
+                check_cut(nodes, id, l, g.cuts);
                 if node.kind() == NodeKind::Leaf {
-                    let original: u64 = g.clusters.iter().filter(|c| c.cut.lo.error == 0.0).map(|c| c.index_count as u64 / 3).sum();
+                    let original: u64 =
+                        g.clusters.iter().zip(g.cuts).filter(|(_, cut)| cut.lo.error == 0.0).map(|(c, _)| c.index_count as u64 / 3).sum();
                     assert_eq!(original, node.triangles, "leaf {id}: its chunk in its cut node");
                 }
                 continue;
@@ -237,15 +239,15 @@ fn encloses(outer: &ErrorBound, inner: &ErrorBound) -> bool {
     d + inner.radius <= outer.radius * (1.0 + 1e-4) + 1e-6 && inner.error <= outer.error
 }
 
-/// Cut node `l` of BVH node `id` with clusters `clusters`: each cluster's `hi` in the node's,
+/// Cut node `l` of BVH node `id` with its clusters' `cuts`: each cluster's `hi` in the node's,
 /// its `lo` error no smaller than the node's, and the node's `hi` in the bound of what lies
 /// below the BVH node's parent.
-fn check_cut(nodes: &[NodeRecord], id: u32, l: u32, clusters: &[osw_scene::format::ClusterRecord]) {
+fn check_cut(nodes: &[NodeRecord], id: u32, l: u32, cuts: &[osw_scene::format::Cut]) {
     let n = nodes[l as usize];
-    for c in clusters {
-        assert!(encloses(&n.cut_hi, &c.cut.hi), "cut node {l}: a cluster's hi {:?} outside {:?}", c.cut.hi, n.cut_hi);
-        assert!(encloses(&c.cut.hi, &ErrorBound { error: 0.0, ..c.cut.lo }), "cut node {l}: a cluster's lo outside its hi: {:?}", c.cut);
-        assert!(c.cut.lo.error >= n.cut_lo_error && c.cut.lo.error <= c.cut.hi.error, "cut node {l}: {:?}", c.cut);
+    for cut in cuts {
+        assert!(encloses(&n.cut_hi, &cut.hi), "cut node {l}: a cluster's hi {:?} outside {:?}", cut.hi, n.cut_hi);
+        assert!(encloses(&cut.hi, &ErrorBound { error: 0.0, ..cut.lo }), "cut node {l}: a cluster's lo outside its hi: {cut:?}");
+        assert!(cut.lo.error >= n.cut_lo_error && cut.lo.error <= cut.hi.error, "cut node {l}: {cut:?}");
     }
     let parent = nodes[id as usize].parent;
     if parent != NONE && nodes[parent as usize].is_bounded() {

@@ -99,7 +99,7 @@ impl HybridTester<'_> {
 /// what it finds before it tests what lies behind; the fewer new occluders HC waits for, the
 /// nearer its tests come to CHC's, at a read-back each round (docs/measurements/2026-12-06-same-tau.md,
 /// "Fewer rounds"; docs/measurements/2026-12-07-hc-walks.md).
-pub const NEW_OCCLUDERS_MIN: usize = 8;
+pub const NEW_OCCLUDERS_MIN: usize = 4;
 
 impl VisibilityTester for HybridTester<'_> {
     type Error = RenderError;

@@ -48,7 +48,7 @@ pub fn note_clusters(scene: &SceneFile, view: &View, pvs: &[NodeId], pyramid: &P
         let (g, placement) = (scene.stored_geometry(id)?, scene.placement(id));
         notes.look_at(id, g.opaque as u32);
         for (k, c) in g.clusters[..g.opaque].iter().enumerate() {
-            if !view.lod.takes(&c.cut) {
+            if !view.lod.takes(g.cut(k)) {
                 notes.mark(k);
                 continue;
             }
