@@ -11,8 +11,8 @@
 #   scripts/scale.sh [--sizes 2M,20M,100M] [--huge] [--instanced] [--taus 1,5] [--walks N]
 #                    [--modes vfc,chc,hzb,prev,switch] [--frames N] [--size WxH] [--cost-adaptive] --out DIR
 #
-# --huge adds the billion-triangle plant: 27 GB of disk (13 GB more while it builds, 3 GB of
-# memory, about 8 minutes here); keep DIR under out/ (ignored by git). --instanced sweeps the
+# --huge adds the billion-triangle plant: 27.5 GB of disk (13 GB more while it builds, 3 GB of
+# memory, about 9 minutes here); keep DIR under out/ (ignored by git). --instanced sweeps the
 # plant of catalogue parts instead (each part's mesh stored once; sizes as drawn, up to 20B).
 set -euo pipefail
 args=() out=""

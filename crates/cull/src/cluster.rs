@@ -108,9 +108,7 @@ impl std::ops::Add for ClusterStats {
 
 /// Which clusters of a frame's visible set HC found not hidden against its depth pyramid, a
 /// bit each per LOD node it looked at (`osw_render::pass::note_clusters`). RVG draws only
-/// those, and OR of a later frame draws only those as occluders (paper 004 sec. 5.3.1: the
-/// clusters visible in the last frame are the occluders). The switch's HC node sends them to
-/// RVG as a [`VisibleClusters::mask`].
+/// those; the switch's HC node sends them to RVG as a [`VisibleClusters::mask`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct VisibleClusters {
     /// The nodes looked at, in increasing id order, each with where its bits start.
@@ -124,8 +122,7 @@ pub struct VisibleClusters {
 
 impl VisibleClusters {
     /// Whether cluster `cluster` of node `id` is drawn: found visible, or not looked at (of a
-    /// node HC did not find, or a LOD that OR's front update chose anew, drawn whole; or outside
-    /// the cut HC's camera took).
+    /// node HC did not find, drawn whole; or outside the cut HC's camera took).
     pub fn takes(&self, id: NodeId, cluster: usize) -> bool {
         let Ok(i) = self.nodes.binary_search_by_key(&id, |n| n.0) else { return true };
         let end = self.nodes.get(i + 1).map_or(self.len, |n| n.1);

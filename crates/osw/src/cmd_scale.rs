@@ -8,13 +8,12 @@
 //! sweep resumes where it stopped.
 
 use crate::cmd_report::osw;
-use crate::scale_report::{self, OverWalks};
+use crate::scale_report::{self, Row, Scene, Sweep, label};
 use anyhow::{Context, bail};
 use osw_render::results::{self, DisplayFrame, Duty, Input, NodeFrame, Summary};
 use osw_render::stats::{mean, quantile};
 use osw_render::{FrameStats, Mode};
 use osw_scene::build::BuildReport;
-use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -77,67 +76,6 @@ fn parse_size(s: &str) -> Result<u64, String> {
         t if (1.0..=1e10).contains(&t) => Ok(t as u64),
         _ => Err(format!("{s:?}: between 1 and 10B triangles")),
     }
-}
-
-/// The size as the sweep names it: 2M, 100M, 1B, 500K.
-pub(crate) fn label(n: u64) -> String {
-    match n {
-        n if n >= 1_000_000_000 && n % 1_000_000_000 == 0 => format!("{}B", n / 1_000_000_000),
-        n if n >= 1_000_000 && n % 1_000_000 == 0 => format!("{}M", n / 1_000_000),
-        n if n >= 1_000 && n % 1_000 == 0 => format!("{}K", n / 1_000),
-        n => n.to_string(),
-    }
-}
-
-/// One scene of the sweep: what its build cost.
-#[derive(Serialize, Clone)]
-pub(crate) struct Scene {
-    pub(crate) triangles: u64,
-    pub(crate) label: String,
-    pub(crate) build_seconds: f64,
-    pub(crate) build_peak_rss_kb: u64,
-    pub(crate) file_bytes: u64,
-}
-
-/// One run: a mode at a tau on one walk through one scene.
-#[derive(Serialize, Clone, Default)]
-pub(crate) struct Row {
-    pub(crate) triangles: u64,
-    /// The walk's seed.
-    pub(crate) walk: u32,
-    pub(crate) mode: Mode,
-    pub(crate) tau: f64,
-    pub(crate) frame_ms_median: f64,
-    pub(crate) frame_ms_p95: f64,
-    pub(crate) hc_tests_mean: f64,
-    /// Of those, the retests after the traversal (the switch's from its nodes' statistics),
-    /// the first pass's (the rest), and the traversal's tests of V(i-1)'s nodes, their
-    /// siblings and what came into view (one GPU's runs: prev; none for the switch).
-    pub(crate) hc_retests_mean: f64,
-    pub(crate) hc_first_pass_tests_mean: f64,
-    pub(crate) hc_tests_where: Option<[f64; 3]>,
-    pub(crate) hc_ms_median: f64,
-    pub(crate) or_ms_median: f64,
-    pub(crate) rvg_ms_median: f64,
-    pub(crate) triangles_drawn_mean: f64,
-    pub(crate) pvs_nodes_mean: f64,
-    /// CPU time a frame, all threads of every process of the run (on lavapipe the GPU's work
-    /// is CPU work), the median frame's: the switch's three processes share this host's cores.
-    pub(crate) cpu_ms_median: f64,
-    /// Peak resident memory per process: `render`, or `display`, `node_a`, `node_b`.
-    pub(crate) peak_rss_kb: BTreeMap<String, u64>,
-    pub(crate) error: Option<String>,
-}
-
-#[derive(Serialize)]
-pub(crate) struct Sweep {
-    pub(crate) frames: u32,
-    pub(crate) walks: u32,
-    pub(crate) size: String,
-    pub(crate) scenes: Vec<Scene>,
-    pub(crate) runs: Vec<Row>,
-    /// Each size, tau and mode over the walks (`crate::scale_report::over_walks`).
-    pub(crate) over_walks: Vec<OverWalks>,
 }
 
 fn strings(v: &[&str]) -> Vec<String> {

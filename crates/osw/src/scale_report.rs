@@ -1,12 +1,74 @@
-//! What `osw scale` writes of a sweep: each size, tau and mode over its walks (the median of
-//! each figure and the worst walk), scale.md's tables and scale.png's curves.
+//! A sweep of `osw scale` and what it writes of it: its scenes and runs, each size, tau and mode
+//! over its walks (the median of each figure and the worst walk), scale.md's tables and
+//! scale.png's curves.
 
-use crate::cmd_scale::{Row, Sweep, label};
 use crate::plot::{Chart, Series};
 use osw_render::Mode;
 use osw_render::stats::quantile;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
+
+/// The size as the sweep names it: 2M, 100M, 1B, 500K.
+pub fn label(n: u64) -> String {
+    match n {
+        n if n >= 1_000_000_000 && n % 1_000_000_000 == 0 => format!("{}B", n / 1_000_000_000),
+        n if n >= 1_000_000 && n % 1_000_000 == 0 => format!("{}M", n / 1_000_000),
+        n if n >= 1_000 && n % 1_000 == 0 => format!("{}K", n / 1_000),
+        n => n.to_string(),
+    }
+}
+
+/// One scene of the sweep: what its build cost.
+#[derive(Serialize, Clone)]
+pub struct Scene {
+    pub triangles: u64,
+    pub label: String,
+    pub build_seconds: f64,
+    pub build_peak_rss_kb: u64,
+    pub file_bytes: u64,
+}
+
+/// One run: a mode at a tau on one walk through one scene.
+#[derive(Serialize, Clone, Default)]
+pub struct Row {
+    pub triangles: u64,
+    /// The walk's seed.
+    pub walk: u32,
+    pub mode: Mode,
+    pub tau: f64,
+    pub frame_ms_median: f64,
+    pub frame_ms_p95: f64,
+    pub hc_tests_mean: f64,
+    /// Of those, the retests after the traversal (the switch's from its nodes' statistics),
+    /// the first pass's (the rest), and the traversal's tests of V(i-1)'s nodes, their
+    /// siblings and what came into view (one GPU's runs: prev; none for the switch).
+    pub hc_retests_mean: f64,
+    pub hc_first_pass_tests_mean: f64,
+    pub hc_tests_where: Option<[f64; 3]>,
+    pub hc_ms_median: f64,
+    pub or_ms_median: f64,
+    pub rvg_ms_median: f64,
+    pub triangles_drawn_mean: f64,
+    pub pvs_nodes_mean: f64,
+    /// CPU time a frame, all threads of every process of the run (on lavapipe the GPU's work
+    /// is CPU work), the median frame's: the switch's three processes share this host's cores.
+    pub cpu_ms_median: f64,
+    /// Peak resident memory per process: `render`, or `display`, `node_a`, `node_b`.
+    pub peak_rss_kb: BTreeMap<String, u64>,
+    pub error: Option<String>,
+}
+
+#[derive(Serialize)]
+pub struct Sweep {
+    pub frames: u32,
+    pub walks: u32,
+    pub size: String,
+    pub scenes: Vec<Scene>,
+    pub runs: Vec<Row>,
+    /// Each size, tau and mode over the walks (`crate::scale_report::over_walks`).
+    pub over_walks: Vec<OverWalks>,
+}
 
 /// One size, tau and mode over the walks that ran without error. Ratios are taken walk by
 /// walk against CHC's run of the same walk (none without CHC in the sweep).
