@@ -87,7 +87,16 @@ impl Inbox {
 
     fn handle(&mut self, e: Event) {
         let forget = match e {
-            Event::FromDisplay(Message::Camera(c), at) => {
+            // What an earlier display connection still brings after its replacement connected
+            // (a relay or a slow link delivers it late): a killed display's last cameras would
+            // start the new display's path in the middle of the old one.
+            Event::FromDisplay(m, _, link) if self.display.as_ref().is_none_or(|l| l.id != link) => {
+                if matches!(m, Message::Camera(_)) {
+                    self.gate.taken();
+                }
+                Forget::default()
+            }
+            Event::FromDisplay(Message::Camera(c), at, _) => {
                 self.gate.taken();
                 if std::mem::take(&mut self.resend) {
                     self.resend_to_display();
@@ -105,7 +114,7 @@ impl Inbox {
                 }
                 Forget::default()
             }
-            Event::FromDisplay(Message::Goodbye(_), _) => self.roles.on(roles::Event::DisplayGoodbye),
+            Event::FromDisplay(Message::Goodbye(_), ..) => self.roles.on(roles::Event::DisplayGoodbye),
             // The peer's connection ends next: its loss is handled then (the display's goodbye
             // ends this node, not the peer's, which may have failed).
             Event::FromPeer(Message::Goodbye(g), _) => {
@@ -120,7 +129,7 @@ impl Inbox {
                 self.peer_queue.push(m, at);
                 Forget::default()
             }
-            Event::FromDisplay(m, _) => {
+            Event::FromDisplay(m, ..) => {
                 tracing::warn!("unexpected message from the display: {m:?}");
                 Forget::default()
             }

@@ -29,7 +29,9 @@ pub enum Event {
         id: u64,
         out: UnboundedSender<osw_wire::Frame>,
     },
-    FromDisplay(Message, u64),
+    /// A message from the display, its arrival time and the connection it came on (`id` of
+    /// its [`Event::Connected`]).
+    FromDisplay(Message, u64, u64),
     FromPeer(Message, u64),
     Closed {
         role: Role,
@@ -107,7 +109,7 @@ pub async fn serve(c: osw_wire::net::Conn, me: Me, events: Sender<Event>, gate: 
     }
     let why = run_connection(c, queue, |m, at, _| match role {
         Role::Display if matches!(m, Message::Camera(_)) && !gate.admit() => true,
-        Role::Display => events.send(Event::FromDisplay(m, at)).is_ok(),
+        Role::Display => events.send(Event::FromDisplay(m, at, id)).is_ok(),
         Role::Node => events.send(Event::FromPeer(m, at)).is_ok(),
     })
     .await;
