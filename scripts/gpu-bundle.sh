@@ -98,7 +98,7 @@ echo "run: plant sweep $sizes, $frames-frame walks at $size (vfc, chc, prev, swi
   || { echo "run: the sweep failed (see $log)" >&2; exit 1; }
 cp "$work/scale/scale.json" "$work/scale/scale.md" "$work/scale/scale.png" "$results/"
 echo "run: a switch walk on the $big plant"
-"$osw" run --scene "$work/scale/plant-$big.osw" --path "$work/scale/plant-$big-walk-$frames.csv" --tau 1 --size "$size" \
+"$osw" run --scene "$work/scale/plant-$big.osw" --path "$work/scale/plant-$big-walk-$frames-seed1.csv" --tau 1 --size "$size" \
   --no-frames --out "$work/switch" >> "$log" 2>&1 || { echo "run: the switch walk failed (see $log)" >&2; exit 1; }
 cp "$work/switch/summary.json" "$results/switch-summary.json"
 cp "$work/switch/stats.csv" "$results/switch-stats.csv"

@@ -14,8 +14,8 @@ O=$PWD/target/release/osw
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 cd "$dir"
 rm -rf eq && mkdir eq
-head -11 plant-instanced-10B-walk-100.csv > eq/10B.csv
-head -11 plant-instanced-1B-walk-100.csv > eq/1B.csv
+head -11 plant-instanced-10B-walk-100-seed1.csv > eq/10B.csv
+head -11 plant-instanced-1B-walk-100-seed1.csv > eq/1B.csv
 walk() { echo --scene "plant-instanced-$1.osw" --path "eq/$1.csv" --size 1024x1024 --tau "$2" --always-cull --out "eq/$1-$3"; }
 "$O" render --mode prev $(walk 10B 1 prev) > eq/log 2>&1
 "$O" run $(walk 10B 1 switch) >> eq/log 2>&1
