@@ -312,16 +312,16 @@ impl Inbox {
     /// counts its bytes on each link. A message too large for a frame is an error.
     pub fn send(&mut self, m: &Message, to_peer: bool, to_display: bool) -> Result<(), WireError> {
         let f = Frame::new(m)?;
-        if let (true, Some(frame)) = (to_display, m.frame()) {
-            self.to_display.push_back((frame, f.clone()));
-            while self.to_display.front().is_some_and(|(k, _)| k + RESENT_FRAMES <= frame) {
-                self.to_display.pop_front();
-            }
-        }
         for (k, (on, link)) in [(to_peer, &self.peer), (to_display, &self.display)].into_iter().enumerate() {
             if let (true, Some(l)) = (on, link) {
                 self.sent[k] += f.len() as u64;
                 let _ = l.out.send(f.clone());
+            }
+        }
+        if let (true, Some(frame)) = (to_display, m.frame()) {
+            self.to_display.push_back((frame, f));
+            while self.to_display.front().is_some_and(|(k, _)| k + RESENT_FRAMES <= frame) {
+                self.to_display.pop_front();
             }
         }
         Ok(())

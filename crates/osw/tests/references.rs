@@ -118,27 +118,7 @@ fn a_broken_lod_cut_is_caught_by_the_independent_reference_at_tau_1() {
         render(&scene, &path, (mode, hc), "1", &run);
         assert_eq!(not_drawn(&run, mode), 0, "{mode} at tau 1 left visible LODs undrawn");
         let broken = d.path().join(format!("broken-{mode}-1"));
-        osw_broken(
-            "lod-cut",
-            &[
-                "render",
-                "--scene",
-                s(&scene),
-                "--path",
-                s(&path),
-                "--mode",
-                mode,
-                "--hc",
-                hc,
-                "--tau",
-                "1",
-                "--size",
-                SIZE,
-                "--always-cull",
-                "--out",
-                s(&broken),
-            ],
-        );
+        osw_broken("lod-cut", &render_args(&scene, &path, (mode, hc), "1", &broken));
         assert!(not_drawn(&broken, &format!("broken-{mode}")) > 0, "broken {mode}: its coarse LODs went unseen");
     }
 }
@@ -155,26 +135,7 @@ fn a_broken_frustum_is_caught_by_the_independent_reference() {
     render(&scene, &path, ("vfc", "exact"), "0", &d.path().join("vfc"));
     for (mode, hc) in [("vfc", "exact"), ("prev", "hybrid")] {
         let run = d.path().join(format!("broken-{mode}"));
-        osw_broken(
-            "frustum",
-            &[
-                "render",
-                "--scene",
-                s(&scene),
-                "--path",
-                s(&path),
-                "--mode",
-                mode,
-                "--hc",
-                hc,
-                "--tau",
-                "0",
-                "--size",
-                SIZE,
-                "--out",
-                s(&run),
-            ],
-        );
+        osw_broken("frustum", &render_args(&scene, &path, (mode, hc), "0", &run));
         let c = compare(&run, &d.path().join("vfc"), &exact, &d.path().join(format!("cmp-{mode}")));
         assert!(c["culling_a"]["false_culled_leaves_total"].as_u64().unwrap() > 0, "broken {mode}: no false culling seen: {c}");
         assert!(c["identical_frames"].as_u64().unwrap() < 16, "broken {mode}: frames equal the intact vfc's: {c}");

@@ -288,9 +288,14 @@ pub fn s(p: &Path) -> &str {
 }
 
 /// Renders with occlusion culling on every frame (`--always-cull`): the tests judge HC's.
-pub fn render(scene: &Path, path: &Path, (mode, hc): (&str, &str), tau: &str, out: &Path) {
+pub fn render(scene: &Path, path: &Path, mode_hc: (&str, &str), tau: &str, out: &Path) {
+    osw_ok(&render_args(scene, path, mode_hc, tau, out));
+}
+
+/// The arguments of [`render`].
+pub fn render_args<'a>(scene: &'a Path, path: &'a Path, (mode, hc): (&'a str, &'a str), tau: &'a str, out: &'a Path) -> Vec<&'a str> {
     let args = ["render", "--scene", s(scene), "--path", s(path), "--mode", mode, "--hc", hc, "--tau", tau, "--size", SIZE];
-    osw_ok(&[&args[..], &["--always-cull", "--out", s(out)]].concat());
+    [&args[..], &["--always-cull", "--out", s(out)]].concat()
 }
 
 pub fn compare(a: &Path, b: &Path, exact: &Path, out: &Path) -> serde_json::Value {
