@@ -74,6 +74,10 @@ struct Args {
     /// need more than the default).
     #[arg(long, default_value_t = osw_wire::limits::FRAME_WAIT.as_secs_f64(), value_name = "SECS")]
     frame_timeout: f64,
+    /// Play the path at no more than this many frames a second, as a display refreshed at
+    /// that rate shows it [default: each frame as soon as it comes].
+    #[arg(long, value_name = "FPS")]
+    fps: Option<f64>,
     /// Output directory: frames/NNNNN.png, stats.csv, pvs.txt, summary.json; paths/ and
     /// screenshots/ from the window.
     #[arg(long)]
@@ -170,12 +174,22 @@ struct Plan<'a> {
     set: &'a Settings,
     path: &'a [Camera],
     scene: &'a osw_scene::SceneFile,
+    /// The shortest time from one frame's camera to the next (`--fps`).
+    period: Option<Duration>,
+}
+
+/// `--fps`'s period.
+fn fps_period(fps: f64) -> anyhow::Result<Duration> {
+    if !(fps.is_finite() && fps >= 0.01) {
+        anyhow::bail!("--fps {fps}: expected a number of frames a second, 0.01 or more");
+    }
+    Ok(Duration::from_secs_f64(1.0 / fps))
 }
 
 /// Plays the walk: receives each frame, draws it, sends the next camera, writes or shows the
 /// frame; returns the frames' rows and pvs.txt.
 fn walk(p: &Plan, r: &mut osw_gpu::Renderer, ui: &mut Option<Ui>, frames: &mut Frames) -> anyhow::Result<(Vec<DisplayFrame>, String)> {
-    let Plan { a, set, path, scene } = *p;
+    let Plan { a, set, path, scene, period } = *p;
     // Frame k's camera and tau: the path's row k, or the walk's camera as it is now.
     let next_camera = |k: usize, ui: &mut Option<Ui>| -> Option<(Camera, f64)> {
         match ui.as_mut() {
@@ -184,7 +198,11 @@ fn walk(p: &Plan, r: &mut osw_gpu::Renderer, ui: &mut Option<Ui>, frames: &mut F
             _ => Some((*path.get(k)?, set.tau)),
         }
     };
+    let start = Instant::now();
     let send = |frames: &mut Frames, k: usize, (c, tau): (Camera, f64)| {
+        if let Some(due) = period.map(|p| start + p.mul_f64(k as f64)) {
+            std::thread::sleep(due.saturating_duration_since(Instant::now()));
+        }
         frames.cluster.send_camera(&Message::Camera(osw_render::packet::packet(k as u64, &c, tau, now_us())))
     };
     // Cameras sent so far: frames 0..requested are on their way.
@@ -256,6 +274,7 @@ fn walk(p: &Plan, r: &mut osw_gpu::Renderer, ui: &mut Option<Ui>, frames: &mut F
 }
 
 fn run(a: &Args) -> anyhow::Result<()> {
+    let period = a.fps.map(fps_period).transpose()?;
     let set = a.cluster.resolve()?;
     let (w, h) = set.size;
     let addrs = &node_addresses(a, &set)?;
@@ -286,7 +305,7 @@ fn run(a: &Args) -> anyhow::Result<()> {
         ui.as_mut().map(Ui::pump);
     })?;
     std::fs::create_dir_all(a.out.join("frames"))?;
-    let plan = Plan { a, set: &set, path: &path, scene: &scene };
+    let plan = Plan { a, set: &set, path: &path, scene: &scene, period };
     let (rows, pvs_txt) = walk(&plan, &mut r, &mut ui, &mut frames)?;
     if let Some(u) = ui.as_mut() {
         u.finish();

@@ -256,6 +256,14 @@ fn bad_command_lines_are_refused() {
             "{tests:?}"
         );
     }
+    for fps in ["0", "-1", "NaN", "inf", "0.001"] {
+        let out = std::process::Command::new(bin("osw-display"))
+            .args(["--scene", "s.osw", "--path", "p.csv", "--nodes", "a,b", &format!("--fps={fps}"), "--out", "o"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(&format!("--fps {fps}: expected")), "--fps {fps}: {err}");
+    }
 }
 
 #[test]

@@ -37,10 +37,11 @@ fn node(name: &str, scene: &Path, listen: &str, peer: Option<&str>, log: &Path) 
     Proc(c.stdout(Stdio::null()).stderr(std::fs::File::create(log).unwrap()).spawn().unwrap())
 }
 
-fn display(scene: &Path, path: &Path, nodes: &str, out: &Path) -> Proc {
+fn display(scene: &Path, path: &Path, nodes: &str, out: &Path, extra: &[&str]) -> Proc {
     std::fs::create_dir_all(out).unwrap();
     let c = Command::new(bin("osw-display"))
         .args(["--scene", s(scene), "--path", s(path), "--nodes", nodes, "--size", SIZE, "--out", s(out)])
+        .args(extra)
         .stdout(Stdio::piped())
         .stderr(std::fs::File::create(out.with_extension("log")).unwrap())
         .spawn()
@@ -57,6 +58,16 @@ fn follow(d: &mut Proc, mut at: impl FnMut(u64)) -> std::process::ExitStatus {
         }
     }
     d.0.wait().unwrap()
+}
+
+/// The last lines of each of the processes' logs, for a failure's message.
+fn logs(d: &Path, names: &[&str]) -> String {
+    let tail = |n: &&str| {
+        let text = std::fs::read_to_string(d.join(n)).unwrap_or_default();
+        let lines: Vec<&str> = text.lines().collect();
+        format!("--- {n}\n{}", lines[lines.len().saturating_sub(40)..].join("\n"))
+    };
+    names.iter().map(tail).collect::<Vec<_>>().join("\n")
 }
 
 /// Every frame of `run` equals vfc's and culls no exactly visible leaf.
@@ -135,7 +146,9 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
     let mut a = Some(node("a", &scene, &addr_a, None, &d.path().join("a1.log")));
     let _b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
     let out = d.path().join("run");
-    let mut disp = display(&scene, &path, &format!("{to_a},{to_b}"), &out);
+    // Paced: the rejoin takes a restarted process's start and two reconnections' backoff
+    // (about 1.5 s here), while node b alone runs a frame in 4 ms.
+    let mut disp = display(&scene, &path, &format!("{to_a},{to_b}"), &out, &["--fps", "40"]);
     let (mut killed_at, mut restarted_at, mut relay_back) = (None, None, None);
     let status = follow(&mut disp, |n| {
         if n >= 50 && killed_at.is_none() {
@@ -200,7 +213,11 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
     let taken_over: Vec<(u64, u32)> =
         rows.iter().filter(|r| (a_last + 1..first).contains(&r.frame)).map(|r| (r.frame, r.hc_node)).collect();
     assert!(taken_over.iter().all(|&(_, hc)| hc == 1), "between node a's last HC ({a_last}) and the loss seen ({first}): {taken_over:?}");
-    assert!(last >= restarted_at.unwrap() && last < FRAMES - 1, "degraded until {last}, restarted at {restarted_at:?}: never rejoined");
+    assert!(
+        last >= restarted_at.unwrap() && last < FRAMES - 1,
+        "degraded until {last}, restarted at {restarted_at:?}: never rejoined\n{}",
+        logs(d.path(), &["a1.log", "a2.log", "b.log", "run.log"])
+    );
     // After the rejoin both nodes send frames again, in turn: the survivor may send a few more
     // alone (the restarted node connects to the display and to its peer at different times,
     // and the handover takes a frame), then they alternate to the end.
@@ -229,7 +246,7 @@ fn a_cut_link_between_the_nodes_heals_and_the_switch_resumes() {
     let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
     let mut b = node("b", &scene, &addr_b, Some(&between), &d.path().join("b.log"));
     let out = d.path().join("run");
-    let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out);
+    let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out, &[]);
     let (mut cut_at, mut healed_at) = (None, None);
     let status = follow(&mut disp, |n| {
         if n >= 50 && cut_at.is_none() {
@@ -241,8 +258,12 @@ fn a_cut_link_between_the_nodes_heals_and_the_switch_resumes() {
             healed_at = Some(n);
         }
     });
-    let logs = || ["a", "b"].map(|n| std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap()).join("\n");
-    assert!(status.success(), "display: {}\nnodes: {}", std::fs::read_to_string(out.with_extension("log")).unwrap(), logs());
+    assert!(
+        status.success(),
+        "display: {}\nnodes: {}",
+        std::fs::read_to_string(out.with_extension("log")).unwrap(),
+        logs(d.path(), &["a.log", "b.log"])
+    );
     assert_eq!(summary(&out).frames, FRAMES);
     for p in [&mut a, &mut b] {
         assert!(p.0.wait().unwrap().success(), "a node failed");
@@ -276,7 +297,7 @@ fn a_cut_link_to_the_display_heals_and_the_walk_goes_on() {
     let mut a = node("a", &scene, &addr_a, None, &d.path().join("a.log"));
     let mut b = node("b", &scene, &addr_b, Some(&addr_a), &d.path().join("b.log"));
     let out = d.path().join("run");
-    let mut disp = display(&scene, &path, &format!("{to_a},{addr_b}"), &out);
+    let mut disp = display(&scene, &path, &format!("{to_a},{addr_b}"), &out, &[]);
     let mut relay = Some(relay);
     let mut back = None;
     let status = follow(&mut disp, |n| {
@@ -291,17 +312,22 @@ fn a_cut_link_to_the_display_heals_and_the_walk_goes_on() {
         }
     });
     let _relay = back.expect("the link was cut").join().unwrap();
-    let logs = || ["a", "b"].map(|n| std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap()).join("\n");
-    assert!(status.success(), "display: {}\nnodes: {}", std::fs::read_to_string(out.with_extension("log")).unwrap(), logs());
+    assert!(
+        status.success(),
+        "display: {}\nnodes: {}",
+        std::fs::read_to_string(out.with_extension("log")).unwrap(),
+        logs(d.path(), &["a.log", "b.log"])
+    );
     let (sum, sw) = switch_summary(&out);
     assert_eq!(sum.frames, FRAMES);
     assert!(sw.node_losses >= 1 && sw.node_rejoins >= 1, "the display never lost node a: {sw:?}");
     for p in [&mut a, &mut b] {
-        assert!(p.0.wait().unwrap().success(), "a node failed: {}", logs());
+        assert!(p.0.wait().unwrap().success(), "a node failed: {}", logs(d.path(), &["a.log", "b.log"]));
     }
     let a_log = std::fs::read_to_string(d.path().join("a.log")).unwrap();
     assert!(a_log.contains("the display reconnected"), "node a never saw the display come back: {a_log}");
-    assert!(!logs().contains("starting over"), "a node started over for a reconnecting display: {}", logs());
+    let whole = ["a", "b"].map(|n| std::fs::read_to_string(d.path().join(format!("{n}.log"))).unwrap()).join("\n");
+    assert!(!whole.contains("starting over"), "a node started over for a reconnecting display: {whole}");
     // The switch ran on: both nodes sent frames in turn after the cut.
     let rows: Vec<DisplayFrame> = results::csv::read(&out.join("stats.csv")).unwrap();
     let tail: Vec<u32> = rows.iter().filter(|r| r.frame > 100).map(|r| r.hc_node).collect();
@@ -328,7 +354,7 @@ fn display_restart(impaired: Option<(&str, &str)>) {
     let mut b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
     let nodes = format!("{to_a},{to_b}");
     let first = d.path().join("first");
-    let mut disp = display(&scene, &path, &nodes, &first);
+    let mut disp = display(&scene, &path, &nodes, &first, &[]);
     let lines = BufReader::new(disp.0.stdout.take().unwrap()).lines();
     for l in lines.map_while(Result::ok) {
         if l == "frame 50" {
@@ -337,7 +363,7 @@ fn display_restart(impaired: Option<(&str, &str)>) {
     }
     drop(disp);
     let second = d.path().join("second");
-    let mut again = display(&scene, &path, &nodes, &second);
+    let mut again = display(&scene, &path, &nodes, &second, &[]);
     let status = follow(&mut again, |_| {});
     assert!(status.success(), "display: {}", std::fs::read_to_string(second.with_extension("log")).unwrap());
     assert_eq!(summary(&second).frames, FRAMES);
@@ -373,7 +399,7 @@ fn silent_and_garbage_connections_do_not_stop_the_cluster() {
     let mut junk = connect();
     std::io::Write::write_all(&mut junk, &[0xff, 0xff, 0xff, 0x7f, 1, 2, 3, 4, 5]).unwrap();
     let out = d.path().join("run");
-    let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out);
+    let mut disp = display(&scene, &path, &format!("{addr_a},{addr_b}"), &out, &[]);
     let status = follow(&mut disp, |_| {});
     assert!(status.success(), "display: {}", std::fs::read_to_string(out.with_extension("log")).unwrap());
     assert_eq!(summary(&out).frames, 40);
