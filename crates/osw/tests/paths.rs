@@ -25,10 +25,8 @@ fn segment_hits(p: Vec3, q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
     (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && (0.0..=1.0).contains(&t)
 }
 
-/// Smallest distance from any camera to any full-detail opaque triangle, and how many steps of
-/// the path cross one (a walk goes through translucent room volumes).
-fn clearance(scene: &SceneFile, cams: &[osw_scene::Camera]) -> (f32, usize) {
-    let local: Vec<Vec3> = cams.iter().map(|c| (c.position - scene.origin()).as_vec3()).collect();
+/// The scene's full-detail opaque triangles, scene-local.
+fn opaque_triangles(scene: &SceneFile) -> Vec<[Vec3; 3]> {
     let mut tris = Vec::new();
     for id in 0..scene.bvh_count() {
         let n = scene.node(id);
@@ -39,6 +37,14 @@ fn clearance(scene: &SceneFile, cams: &[osw_scene::Camera]) -> (f32, usize) {
             }
         }
     }
+    tris
+}
+
+/// Smallest distance from any camera to any full-detail opaque triangle, and how many steps of
+/// the path cross one (a walk goes through translucent room volumes).
+fn clearance(scene: &SceneFile, cams: &[osw_scene::Camera]) -> (f32, usize) {
+    let local: Vec<Vec3> = cams.iter().map(|c| (c.position - scene.origin()).as_vec3()).collect();
+    let tris = opaque_triangles(scene);
     let near = |p: Vec3, r: f32| {
         let (lo, hi) = (p - Vec3::splat(r), p + Vec3::splat(r));
         tris.iter().filter(move |t| {
@@ -133,6 +139,11 @@ fn write_building(path: &std::path::Path, yard: bool) {
             ([10.0, -0.3, 0.0, 14.0, 0.0, 8.0], 1.0),
         ],
     });
+    write_boxes(path, &parts);
+}
+
+/// A glTF of boxes (min x, y, z, max x, y, z), each with its alpha (below 1: blended).
+fn write_boxes(path: &std::path::Path, parts: &[([f32; 6], f64)]) {
     let (mut bin, mut views, mut accessors, mut meshes, mut nodes) = (vec![], vec![], vec![], vec![], vec![]);
     for (k, (b, alpha)) in parts.iter().enumerate() {
         let mut m = osw_scene::mesh::Mesh::default();
@@ -255,6 +266,63 @@ fn a_walk_through_an_offset_scene_is_the_same_walk_moved() {
     for (x, y) in a.iter().zip(&b) {
         assert_eq!(y.position - DVec3::new(1e7, 0.0, 1e7), x.position);
         assert_eq!(x.orientation, y.orientation);
+    }
+}
+
+/// How far below each camera the first opaque full-detail triangle lies, straight down
+/// (infinite where none does): each triangle's height at the camera's x and z, from its
+/// barycentric coordinates there.
+fn ground_below(scene: &SceneFile, cams: &[osw_scene::Camera]) -> Vec<f32> {
+    let tris = opaque_triangles(scene);
+    let below = |p: Vec3| {
+        let height = |t: &[Vec3; 3]| {
+            let [a, b, c] = t.map(|v| glam::Vec2::new(v.x, v.z));
+            let q = glam::Vec2::new(p.x, p.z);
+            let area = (b - a).perp_dot(c - a);
+            if area.abs() < 1e-9 {
+                return None;
+            }
+            let (u, v) = ((q - a).perp_dot(c - a) / area, (b - a).perp_dot(q - a) / area);
+            let y = t[0].y + u * (t[1].y - t[0].y) + v * (t[2].y - t[0].y);
+            (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && y <= p.y).then_some(p.y - y)
+        };
+        tris.iter().filter_map(height).fold(f32::INFINITY, f32::min)
+    };
+    cams.iter().map(|c| below((c.position - scene.origin()).as_vec3())).collect()
+}
+
+/// A model with ground of its own is walked on it: a terrain 40 m square raised 3 m on a
+/// post, beside a mast 20 m off whose foot is the model's lowest point. Under the terrain,
+/// every cell's floor at the lowest point is free, larger than the terrain and mostly roofed
+/// (the walk of an inside): a walk there sees the terrain from below. On forza (a race
+/// circuit whose lowest point lies under its terrain), the walk keeps eye height over the
+/// circuit's surfaces.
+#[test]
+fn a_walk_goes_on_a_models_own_ground_not_under_it() {
+    let d = tempfile::tempdir().unwrap();
+    let (glb, scene_path) = (d.path().join("terrain.glb"), d.path().join("terrain.osw"));
+    write_boxes(
+        &glb,
+        &[([0.0, 3.0, 0.0, 40.0, 3.2, 40.0], 1.0), ([19.5, 0.0, 19.5, 20.5, 3.0, 20.5], 1.0), ([60.0, 0.0, 0.0, 61.0, 8.0, 1.0], 1.0)],
+    );
+    osw_ok(&["build", s(&glb), "-o", s(&scene_path)]);
+    let walk = |scene: &std::path::Path, frames: &str| {
+        let csv = d.path().join(format!("{}.csv", scene.file_stem().unwrap().to_str().unwrap()));
+        osw_ok(&["path", "--scene", s(scene), "--kind", "walk", "--frames", frames, "-o", s(&csv)]);
+        osw_scene::path::read(&csv).unwrap()
+    };
+    let cams = walk(&scene_path, "200");
+    let below = ground_below(&SceneFile::open(&scene_path).unwrap(), &cams);
+    for (k, (c, h)) in cams.iter().zip(&below).enumerate() {
+        assert!((h - osw_scene::nav::EYE).abs() < 0.01, "frame {k} at {}: the terrain {h} m below", c.position);
+    }
+    let Some(forza) = real_model("a_walk_goes_on_a_models_own_ground_not_under_it", "torcs-forza.glb") else { return };
+    let scene_path = d.path().join("forza.osw");
+    osw_ok(&["build", s(&forza), "-o", s(&scene_path)]);
+    let cams = walk(&scene_path, "300");
+    let below = ground_below(&SceneFile::open(&scene_path).unwrap(), &cams);
+    for (k, (c, h)) in cams.iter().zip(&below).enumerate() {
+        assert!((h - osw_scene::nav::EYE).abs() < 0.05, "forza frame {k} at {}: the first surface {h} m below", c.position);
     }
 }
 

@@ -61,6 +61,10 @@ pub struct Floors {
     pub height: Vec<f32>,
     pub blocked: Vec<bool>,
     pub roofed: Vec<bool>,
+    /// Whether a surface of the scene carries the floor: false for a cell's lowest floor at
+    /// the scene's lowest point where nothing lies (the ground the model stands on, when it
+    /// has none of its own; under a model's own ground, nobody walks).
+    pub surface: Vec<bool>,
 }
 
 impl Floors {
@@ -81,7 +85,15 @@ impl Floors {
             }
         })?
         .concat();
-        let mut f = Floors { grid, start: Vec::new(), cell: Vec::new(), height: Vec::new(), blocked: Vec::new(), roofed: Vec::new() };
+        let mut f = Floors {
+            grid,
+            start: Vec::new(),
+            cell: Vec::new(),
+            height: Vec::new(),
+            blocked: Vec::new(),
+            roofed: Vec::new(),
+            surface: Vec::new(),
+        };
         found.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
         let mut next = found.iter().peekable();
         for c in 0..nx * nz {
@@ -89,12 +101,15 @@ impl Floors {
             let first = f.height.len();
             f.cell.push(c as u32);
             f.height.push(root.min.y);
+            f.surface.push(false);
             while let Some(&(_, h)) = next.next_if(|(k, _)| *k as usize == c) {
                 if h - f.height[f.height.len() - 1] < MERGE {
                     *f.height.last_mut().expect("a floor") = h.max(f.height[f.height.len() - 1]);
+                    *f.surface.last_mut().expect("a floor") = true;
                 } else {
                     f.cell.push(c as u32);
                     f.height.push(h);
+                    f.surface.push(true);
                 }
             }
             debug_assert!(f.height.len() > first);

@@ -132,19 +132,25 @@ fn paths_from(floors: &Floors, free: &[bool], clearance: &[u32], roomy: u32, fro
 /// The floors of the region of connected `free` floors to walk in, in index order: the lowest
 /// region mostly under a roof (inside a building or a level rather than around it: its ground
 /// floor, where a person comes in) of at least an eighth of the largest region (not the gap
-/// under an overhang), else the largest; and whether it is the region under a roof.
+/// under an overhang), else the largest; and whether it is the region under a roof. When the
+/// largest region stands on the floor every cell has at the scene's lowest point, the regions
+/// on the scene's surfaces are chosen from, where one is as large as a room: a model with
+/// ground of its own (a circuit's terrain, a level's floors) is walked on it, not under it.
 fn walk_region(floors: &Floors, free: &[bool]) -> (Vec<usize>, bool) {
     let mut region = vec![u32::MAX; free.len()];
-    // (floors, roofed floors, first floor, lowest height) of each region.
     let mut regions = Vec::new();
     for s in 0..free.len() {
         if !free[s] || region[s] != u32::MAX {
             continue;
         }
         region[s] = s as u32;
-        let (mut q, mut size, mut roofed, mut low) = (VecDeque::from([s]), 0, 0, f32::INFINITY);
+        let mut r = Region { first: s, size: 0, roofed: 0, surface: 0, low: f32::INFINITY };
+        let mut q = VecDeque::from([s]);
         while let Some(i) = q.pop_front() {
-            (size, roofed, low) = (size + 1, roofed + usize::from(floors.roofed[i]), low.min(floors.height[i]));
+            r.size += 1;
+            r.roofed += usize::from(floors.roofed[i]);
+            r.surface += usize::from(floors.surface[i]);
+            r.low = r.low.min(floors.height[i]);
             for j in floors.neighbours(i) {
                 if free[j] && region[j] == u32::MAX {
                     region[j] = s as u32;
@@ -152,13 +158,37 @@ fn walk_region(floors: &Floors, free: &[bool]) -> (Vec<usize>, bool) {
                 }
             }
         }
-        regions.push((size, roofed, s, low));
+        regions.push(r);
     }
-    let largest = regions.iter().map(|r| r.0).max().unwrap_or(0);
-    let inside = regions.iter().filter(|r| r.1 * 2 >= r.0 && r.0 * 8 >= largest).min_by(|a, b| a.3.total_cmp(&b.3));
-    let Some(&(_, _, first, _)) = inside.or_else(|| regions.iter().max_by_key(|r| r.0)) else { return (Vec::new(), false) };
-    ((0..free.len()).filter(|&i| region[i] as usize == first).collect(), inside.is_some())
+    // Where the largest region stands on the lowest point rather than on surfaces, the regions
+    // on surfaces at least as large as a room, if any.
+    let on_surface = |r: &Region| r.surface * 2 >= r.size;
+    let area = |r: &Region| r.size as f32 * floors.grid.cell_size * floors.grid.cell_size;
+    let mut candidates: Vec<&Region> = regions.iter().collect();
+    if regions.iter().max_by_key(|r| r.size).is_some_and(|r| !on_surface(r))
+        && regions.iter().any(|r| on_surface(r) && area(r) >= ROOM_AREA)
+    {
+        candidates.retain(|r| on_surface(r) && area(r) >= ROOM_AREA);
+    }
+    let largest = candidates.iter().map(|r| r.size).max().unwrap_or(0);
+    let inside = candidates.iter().filter(|r| r.size * 8 >= largest && r.roofed * 2 >= r.size).min_by(|a, b| a.low.total_cmp(&b.low));
+    let Some(chosen) = inside.or_else(|| candidates.iter().max_by_key(|r| r.size)) else { return (Vec::new(), false) };
+    ((0..free.len()).filter(|&i| region[i] as usize == chosen.first).collect(), inside.is_some())
 }
+
+/// A region of connected free floors: its first floor, how many floors it has, how many of
+/// them are roofed and carried by a surface, and its lowest height.
+struct Region {
+    first: usize,
+    size: usize,
+    roofed: usize,
+    surface: usize,
+    low: f32,
+}
+
+/// Smallest area (m²) of connected surfaces that a walk prefers to the scene's lowest point:
+/// a room's (a table top is not ground).
+const ROOM_AREA: f32 = 100.0;
 
 /// Clearance below which a step costs more (see `paths_from`).
 const ROOMY: f32 = 2.0;
