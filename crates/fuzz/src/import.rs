@@ -34,6 +34,6 @@ pub fn run_obj(data: &[u8]) {
 
 pub fn run_ply(data: &[u8]) {
     if let Ok(o) = ply::parse(data) {
-        check(Imported { objects: vec![o], skipped: Vec::new() });
+        check(Imported { objects: vec![o], ..Imported::default() });
     }
 }

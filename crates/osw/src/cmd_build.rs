@@ -100,7 +100,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let started = std::time::Instant::now();
     let bar = crate::progress::Bar::new();
-    let Input { source, name: input, notes } = input(&a)?;
+    let Input { source, name: input, notes, left_out } = input(&a)?;
     let mut source = match a.offset {
         Some(by) => Box::new(Shifted { inner: source, by: glam::DVec3::from_array(by) }),
         None => source,
@@ -117,6 +117,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let report = build(source.as_mut(), &input, notes, &opts, &a.output, started, &bar);
     bar.finish();
     let mut report = report?;
+    report.left_out.splice(0..0, left_out);
     report.peak_rss_kb = osw_render::stats::peak_resident_kb();
     let json = a.output.with_extension("build.json");
     std::fs::write(&json, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", json.display()))?;
@@ -125,11 +126,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What a build reads: its source, the name the report gives it, and the notes that come with it.
+/// What a build reads: its source, the name the report gives it, the notes that come with it
+/// and what of the input it leaves out.
 struct Input {
     source: Box<dyn Source>,
     name: String,
     notes: Vec<String>,
+    left_out: Vec<String>,
 }
 
 /// The model file, or the generator with its size checked against what it can make.
@@ -141,7 +144,8 @@ fn input(a: &Args) -> anyhow::Result<Input> {
             for s in &imported.skipped {
                 tracing::warn!("{}: skipped {s}", path.display());
             }
-            Input { source: Box::new(InMemory::new(imported.objects)), name: path.display().to_string(), notes }
+            let name = path.display().to_string();
+            Input { source: Box::new(InMemory::new(imported.objects)), name, notes, left_out: imported.left_out }
         }
         (None, Some(kind)) => {
             if a.instanced && kind != GenKind::Plant {
@@ -177,7 +181,7 @@ fn input(a: &Args) -> anyhow::Result<Input> {
                     (Box::new(InMemory::new(g.objects)), g.notes)
                 }
             };
-            Input { source, name: input, notes }
+            Input { source, name: input, notes, left_out: Vec::new() }
         }
         (None, None) => unreachable!("clap requires a source"),
     })

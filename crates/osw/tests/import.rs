@@ -536,3 +536,60 @@ fn mean_psnr(a: &Path, b: &Path) -> f64 {
         .collect();
     p.iter().sum::<f64>() / p.len() as f64
 }
+
+/// A GLB's JSON chunk.
+fn glb_json(path: &Path) -> serde_json::Value {
+    let b = std::fs::read(path).unwrap();
+    let len = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
+    serde_json::from_slice(&b[20..20 + len]).unwrap()
+}
+
+/// The build names the base colour textures it does not read and the MASK and BLEND materials
+/// whose alpha comes from one, in the report's `left_out`, counted against the file's own JSON:
+/// a fixture of three quads (a textured opaque material, a textured cut-out, a plain colour),
+/// and forza where it is (129 textures, 35 cut-out materials).
+#[test]
+fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
+    let d = tempfile::tempdir().unwrap();
+    let glb = d.path().join("textured.glb");
+    let (mut bin, mut views, mut accessors, mut meshes, mut nodes) = (Vec::<u8>::new(), vec![], vec![], vec![], vec![]);
+    for k in 0..3 {
+        let mut m = osw_scene::mesh::Mesh::default();
+        let x = 2.0 * k as f32;
+        m.positions = vec![[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x + 1.0, 1.0, 0.0], [x, 1.0, 0.0]];
+        m.indices = vec![0, 1, 2, 0, 2, 3];
+        let mut prim = push_mesh(&mut bin, &mut views, &mut accessors, &m);
+        prim["material"] = json!(k);
+        meshes.push(json!({"primitives": [prim]}));
+        nodes.push(json!({"mesh": k}));
+    }
+    let materials = json!([
+        {"name": "grass", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+        {"name": "fence", "alphaMode": "MASK", "pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}},
+        {"name": "paint", "pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.0, 0.0, 1.0]}},
+    ]);
+    let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2]}], "nodes": nodes, "meshes": meshes,
+        "materials": materials, "textures": [{"source": 0}, {"source": 1}], "images": [{"uri": "grass.png"}, {"uri": "fence.png"}],
+        "accessors": accessors, "bufferViews": views});
+    write_glb(&glb, doc, &bin);
+    let left_out =
+        |glb: &Path| build(glb).1["left_out"].as_array().unwrap().iter().map(|l| l.as_str().unwrap().to_owned()).collect::<Vec<_>>();
+    let has = |lines: &[String], needle: &str| lines.iter().any(|l| l.contains(needle));
+    let lines = left_out(&glb);
+    assert!(has(&lines, "2 base colour textures of 2 materials") && has(&lines, "'grass.png', 'fence.png'"), "{lines:?}");
+    assert!(has(&lines, "the texture alpha of 1 MASK or BLEND materials") && has(&lines, "): 'fence'"), "{lines:?}");
+    let Some(forza) = real_model("unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out", "torcs-forza.glb") else { return };
+    let copy = d.path().join("forza.glb");
+    std::fs::copy(&forza, &copy).unwrap();
+    // The reference: the file's materials, read as plain JSON.
+    let j = glb_json(&copy);
+    let textured: Vec<&serde_json::Value> =
+        j["materials"].as_array().unwrap().iter().filter(|m| m["pbrMetallicRoughness"]["baseColorTexture"].is_object()).collect();
+    let textures: std::collections::BTreeSet<u64> =
+        textured.iter().map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64().unwrap()).collect();
+    let cut_outs = textured.iter().filter(|m| m["alphaMode"].as_str().is_some_and(|a| a != "OPAQUE")).count();
+    let lines = left_out(&copy);
+    assert!(has(&lines, &format!("{} base colour textures of {} materials", textures.len(), textured.len())), "{lines:?}");
+    assert!(has(&lines, &format!("the texture alpha of {cut_outs} MASK or BLEND materials")), "{lines:?}");
+    assert!(textures.len() > 100 && cut_outs > 30, "forza has {} textures and {cut_outs} cut-outs", textures.len());
+}

@@ -89,7 +89,60 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
     // A mesh's notes once, however many nodes use it.
     let mut seen = std::collections::HashSet::new();
     out.skipped.retain(|s| seen.insert(s.clone()));
+    out.left_out = texture_notes(&doc);
     Ok(out)
+}
+
+/// What the build leaves out of the materials' base colour textures, which it does not read:
+/// the textures, and the alpha of MASK and BLEND materials that comes from them (a cut-out is
+/// drawn where its factor and COLOR_0 pass the cutoff). Each names its first few.
+fn texture_notes(doc: &gltf::Document) -> Vec<String> {
+    let textured: Vec<(gltf::Material, gltf::Texture)> =
+        doc.materials().filter_map(|m| Some((m.clone(), m.pbr_metallic_roughness().base_color_texture()?.texture()))).collect();
+    let textures: std::collections::BTreeSet<usize> = textured.iter().map(|(_, t)| t.index()).collect();
+    let alpha: Vec<String> = textured.iter().filter(|(m, _)| m.alpha_mode() != AlphaMode::Opaque).map(|(m, _)| material_name(m)).collect();
+    let mut notes = Vec::new();
+    if !textures.is_empty() {
+        let names: Vec<String> = textures.iter().filter_map(|&k| doc.textures().nth(k)).map(|t| texture_name(&t)).collect();
+        notes.push(format!(
+            "{} base colour textures of {} materials (textures are not read: those surfaces are drawn in their factor and COLOR_0): {}",
+            textures.len(),
+            textured.len(),
+            first_few(&names)
+        ));
+    }
+    if !alpha.is_empty() {
+        notes.push(format!(
+            "the texture alpha of {} MASK or BLEND materials (their cut-outs and blending follow the factor and COLOR_0 alone): {}",
+            alpha.len(),
+            first_few(&alpha)
+        ));
+    }
+    notes
+}
+
+fn material_name(m: &gltf::Material) -> String {
+    m.name().map_or_else(|| format!("material {}", m.index().map_or("default".into(), |k| k.to_string())), |n| format!("'{n}'"))
+}
+
+/// A texture's name, else its image's name or file, else its index.
+fn texture_name(t: &gltf::Texture) -> String {
+    let image = t.source();
+    let file = match image.source() {
+        gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => Some(uri),
+        _ => None,
+    };
+    t.name().or(image.name()).or(file).map_or_else(|| format!("texture {}", t.index()), |n| format!("'{n}'"))
+}
+
+/// The first six of `names`, and how many more there are.
+fn first_few(names: &[String]) -> String {
+    const FEW: usize = 6;
+    let shown = names[..names.len().min(FEW)].join(", ");
+    match names.len().saturating_sub(FEW) {
+        0 => shown,
+        more => format!("{shown} and {more} more"),
+    }
 }
 
 /// The `gltf` crate's validation (indices in range, so that its accessors cannot panic),
@@ -185,7 +238,7 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
     };
     let material = prim.material();
     let mut notes = Vec::new();
-    let name = || material.name().map_or_else(|| format!("{:?}", material.index()), |n| format!("'{n}'"));
+    let name = || material_name(&material);
     let encode = |c: [f32; 4], a: u8| [srgb8(c[0]), srgb8(c[1]), srgb8(c[2]), a];
     let colors = match material.alpha_mode() {
         AlphaMode::Opaque => rgba.iter().map(|&c| encode(c, 255)).collect(),
@@ -202,9 +255,6 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
             rgba.iter().map(|&c| encode(c, 255)).collect()
         }
     };
-    if material.alpha_mode() != AlphaMode::Opaque && material.pbr_metallic_roughness().base_color_texture().is_some() {
-        notes.push(format!("the alpha of material {}'s texture (textures are not read; its factor and COLOR_0 are)", name()));
-    }
     Ok((Mesh { positions, indices, colors }, notes))
 }
 

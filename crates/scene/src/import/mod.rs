@@ -68,11 +68,14 @@ impl ParseError {
     }
 }
 
-/// What an importer skipped with a warning (the build report lists these).
+/// What an importer read: the objects, what it skipped with a warning (the build report's
+/// notes), and what of the model it read but does not use (the report's `left_out`: the
+/// textures of a glTF).
 #[derive(Debug, Default)]
 pub struct Imported {
     pub objects: Vec<Object>,
     pub skipped: Vec<String>,
+    pub left_out: Vec<String>,
 }
 
 /// Reads `path` by its extension.
@@ -80,7 +83,7 @@ pub fn read(path: &Path) -> Result<Imported, ImportError> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("gltf") | Some("glb") => gltf::read(path),
         Some("obj") => obj::read(path),
-        Some("ply") => Ok(Imported { objects: vec![ply::read(path)?], skipped: Vec::new() }),
+        Some("ply") => Ok(Imported { objects: vec![ply::read(path)?], ..Imported::default() }),
         _ => Err(ImportError::UnknownFormat(path.to_owned())),
     }
 }

@@ -60,7 +60,7 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
             Object::placed(name, mesh, anchor, DAffine3::IDENTITY)
         })
         .collect();
-    Ok(Imported { objects, skipped: Vec::new() })
+    Ok(Imported { objects, ..Imported::default() })
 }
 
 fn describe(e: tobj::LoadError) -> ParseError {
