@@ -1,6 +1,6 @@
 //! Failover on loopback, with the processes started by hand on fixed ports as on
 //! three machines: node a killed at frame 50 of a 480-frame walk and restarted at frame 120
-//! rejoins; the display gets every frame, marks the degraded span, and every frame equals
+//! rejoins, whether its peer or the display reaches it first; the display gets every frame, marks the degraded span, and every frame equals
 //! frustum-only rendering with no exactly visible leaf culled. A display killed and started
 //! again is served from the start of its path; one whose link to a node is cut and back goes
 //! on with its path. Silent and garbage connections are refused
@@ -111,14 +111,28 @@ fn link(listen: &str, to: &str, delay_ms: &str, loss: &str, seed: &str) -> (Proc
 
 #[test]
 fn a_node_killed_and_restarted_rejoins_and_no_frame_is_lost() {
-    kill_and_restart(None);
+    kill_and_restart(None, First::Peer);
 }
 
 /// As above, every link 5 ms long each way and losing 1% of its segments (the kernel here has
 /// no netem: `osw link` relays each connection, delaying and stalling it as TCP would).
 #[test]
 fn the_same_over_links_with_delay_and_loss() {
-    kill_and_restart(Some(("5", "0.01")));
+    kill_and_restart(Some(("5", "0.01")), First::Peer);
+}
+
+/// As above, the display reaching the restarted node before node b does: the node waits for
+/// its peer with the display's cameras piling up, then rejoins.
+#[test]
+fn a_restarted_node_the_display_reaches_before_its_peer_rejoins() {
+    kill_and_restart(None, First::Display);
+}
+
+/// Which of the restarted node a's links comes back first.
+#[derive(Clone, Copy, PartialEq)]
+enum First {
+    Peer,
+    Display,
 }
 
 /// What the peer and the display connect to: node a for b, node a and node b for the display;
@@ -137,14 +151,19 @@ fn links(addr_a: &str, addr_b: &str, impaired: Option<(&str, &str)>) -> (Vec<Pro
     }
 }
 
-fn kill_and_restart(impaired: Option<(&str, &str)>) {
+fn kill_and_restart(impaired: Option<(&str, &str)>, order: First) {
     let d = tempfile::tempdir().unwrap();
     let (scene, path) = walk(d.path());
     let (addr_a, addr_b) = (free_addr(), free_addr());
     let (_links, (relay, to_a), [to_a_from_b, to_b]) = links(&addr_a, &addr_b, impaired);
     let display_to_a = std::sync::Arc::new(std::sync::Mutex::new(Some(relay)));
+    // Where the display comes back first, node b reaches node a through a relay of its own,
+    // held down until then.
+    let between = free_addr();
+    let b_to_a = std::sync::Arc::new(std::sync::Mutex::new((order == First::Display).then(|| link(&between, &addr_a, "0", "0", "5").0)));
+    let peer_of_b = if order == First::Display { between.clone() } else { to_a_from_b };
     let mut a = Some(node("a", &scene, &addr_a, None, &d.path().join("a1.log")));
-    let _b = node("b", &scene, &addr_b, Some(&to_a_from_b), &d.path().join("b.log"));
+    let _b = node("b", &scene, &addr_b, Some(&peer_of_b), &d.path().join("b.log"));
     let out = d.path().join("run");
     // Paced: the rejoin takes a restarted process's start and two reconnections' backoff
     // (about 1.5 s here), while node b alone runs a frame in 4 ms.
@@ -154,26 +173,37 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
         if n >= 50 && killed_at.is_none() {
             drop(a.take());
             drop(display_to_a.lock().unwrap().take());
+            drop(b_to_a.lock().unwrap().take());
             killed_at = Some(n);
         }
         if n >= 120 && restarted_at.is_none() {
             a = Some(node("a", &scene, &addr_a, None, &d.path().join("a2.log")));
             restarted_at = Some(n);
-            // The display reaches the restarted node only after node b has (b retries every
-            // 100 ms): its relay comes back 300 ms after node a listens, on a thread (a stalled
-            // display reads no frame to trigger on).
+            // The first link back is the only one to the restarted node a; once it holds a
+            // connection to it (polled), the other comes back, on a thread (a stalled display
+            // reads no frame to trigger on).
             let (slot, to_a, addr_a) = (std::sync::Arc::clone(&display_to_a), to_a.clone(), addr_a.clone());
+            let (peer_slot, between) = (std::sync::Arc::clone(&b_to_a), between.clone());
             let (delay, loss) = impaired.map_or(("0".to_string(), "0".to_string()), |(d, l)| (d.to_string(), l.to_string()));
             relay_back = Some(std::thread::spawn(move || {
-                // Until node b holds a connection to the restarted node a (the display's relay
-                // is down, so b's is the only one), polled.
+                let display_back = || *slot.lock().unwrap() = Some(link(&to_a, &addr_a, &delay, &loss, "4").0);
+                if order == First::Display {
+                    display_back();
+                }
                 let port = addr_a.rsplit(':').next().unwrap().to_owned();
                 let t = std::time::Instant::now();
                 while !established_to(&port) {
-                    assert!(t.elapsed().as_secs() < 20, "node b did not reconnect to the restarted node a");
+                    assert!(t.elapsed().as_secs() < 20, "the first link did not reach the restarted node a");
                     std::thread::sleep(std::time::Duration::from_millis(20));
                 }
-                *slot.lock().unwrap() = Some(link(&to_a, &addr_a, &delay, &loss, "4").0);
+                match order {
+                    First::Peer => display_back(),
+                    // The display's cameras reach node a for a while before its peer does.
+                    First::Display => {
+                        std::thread::sleep(std::time::Duration::from_millis(500));
+                        *peer_slot.lock().unwrap() = Some(link(&between, &addr_a, "0", "0", "6").0);
+                    }
+                }
             }));
         }
     });
@@ -227,6 +257,11 @@ fn kill_and_restart(impaired: Option<(&str, &str)>) {
     // Node b served on while the restarted node a waited for the display (held off above): a
     // peer started anew says so in its hello and asks to rejoin itself (b asks only a peer that
     // was running, after a cut link).
+    if order == First::Display {
+        // The scenario took place: the display's cameras reached node a before its peer.
+        let a_log = std::fs::read_to_string(d.path().join("a2.log")).unwrap();
+        assert!(a_log.contains("cameras held: dropping the oldest"), "node a held no cameras before its peer came:\n{a_log}");
+    }
     let b_log = std::fs::read_to_string(d.path().join("b.log")).unwrap();
     assert!(b_log.contains("rejoins: it gets a keyframe"), "node a never asked to rejoin:\n{b_log}");
     assert!(!b_log.contains("rejoining it"), "node b stopped serving for a restarted peer:\n{b_log}");
