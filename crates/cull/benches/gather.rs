@@ -18,7 +18,7 @@ fn clustered(kind: GenKind, triangles: u64) -> (Meshes, osw_scene::aabb::Aabb) {
         .objects
         .into_iter()
         .map(|o| {
-            let (indices, clusters, _) = osw_scene::cluster::clusterize(&o.mesh, None);
+            let osw_scene::cluster::Clustered { indices, clusters, .. } = osw_scene::cluster::clusterize(&o.mesh, None);
             (o.mesh.positions, indices, clusters)
         })
         .collect();

@@ -365,7 +365,7 @@ mod tests {
             let o = glam::Vec3::new((i % 20) as f32 * 3.0, (i / 20) as f32 * 3.0, (i % 7) as f32);
             add_box(&mut m, o, o + glam::Vec3::new(1.0 + (i % 3) as f32, 1.0, 0.5 + (i % 5) as f32));
         }
-        let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
+        let osw_scene::cluster::Clustered { indices, clusters, .. } = osw_scene::cluster::clusterize(&m, None);
         m.indices = indices;
         let views = (0..50)
             .map(|k| {
@@ -430,7 +430,7 @@ mod tests {
     fn the_eye_inside_a_closed_part_turns_the_back_face_tests_off() {
         let mut m = Mesh::default();
         add_box(&mut m, glam::Vec3::ZERO, glam::Vec3::splat(10.0));
-        let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
+        let osw_scene::cluster::Clustered { indices, clusters, .. } = osw_scene::cluster::clusterize(&m, None);
         m.indices = indices;
         let view = View::new(&Camera::look_at(DVec3::splat(5.0), DVec3::new(5.0, 5.0, 0.0), 60.0), DVec3::ZERO, 64, 64, 0.01);
         let mut s = ClusterStats::default();

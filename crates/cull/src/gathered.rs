@@ -205,6 +205,7 @@ mod tests {
                 indices: Indices::U32(Cow::Borrowed(b.1)),
                 clusters: Cow::Borrowed(b.2),
                 cuts: &[],
+                occluders: b.2.len(),
                 opaque: b.2.len(),
             })
         };
@@ -226,7 +227,7 @@ mod tests {
             let o = glam::Vec3::new(5.0 + i as f32 * 10.0, 2.0, 0.0);
             add_box(&mut m, o, o + glam::Vec3::splat(1e-4));
         }
-        let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
+        let osw_scene::cluster::Clustered { indices, clusters, .. } = osw_scene::cluster::clusterize(&m, None);
         let b = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
         let all = ClusterTests::default();
         let mut cache = Gathered::default();
@@ -260,7 +261,7 @@ mod tests {
             let o = glam::Vec3::new((i % 10) as f32 * 3.0, (i / 10) as f32 * 2.0, (i % 4) as f32);
             add_box(&mut m, o, o + glam::Vec3::new(1.0, 0.5 + (i % 3) as f32, 1.5));
         }
-        let (indices, clusters, _) = osw_scene::cluster::clusterize(&m, None);
+        let osw_scene::cluster::Clustered { indices, clusters, .. } = osw_scene::cluster::clusterize(&m, None);
         let b = (m.positions.as_slice(), indices.as_slice(), clusters.as_slice());
         let view_at = |eye: DVec3| View::new(&Camera::look_at(eye, DVec3::new(15.0, 5.0, 2.0), 60.0), DVec3::ZERO, 128, 96, 0.05);
         // gather's of the clusters `take` takes: each cluster alone, the counts of the

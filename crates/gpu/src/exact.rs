@@ -122,11 +122,11 @@ impl Renderer {
         let pixels: Vec<u32> = read.iter().map(|i| i[0]).collect();
         let items = distinct(read);
         let mut leaves: Vec<NodeId> = items.iter().map(|i| scene.node(i[0] - 1).parent).collect();
-        // Translucent surfaces are not in the depth buffer: what lies behind them was found
-        // above. They are visible where a triangle of theirs passes the depth test; a pass
-        // keeps only the last of overlapping ones, so passes repeat without the nodes found
-        // until one finds none.
-        let mut translucent: Vec<NodeId> = ids.iter().copied().filter(|&id| scene.has_translucent(id)).collect();
+        // Translucent surfaces and cut-outs are not in the depth buffer: what lies behind them
+        // was found above. They are visible where a triangle of theirs passes the depth test; a
+        // pass keeps only the last of overlapping ones, so passes repeat without the nodes
+        // found until one finds none.
+        let mut translucent: Vec<NodeId> = ids.iter().copied().filter(|&id| scene.has_see_through(id)).collect();
         let (mut translucent_triangles, mut drawn_triangles, mut first) = (0, drawn.triangles, true);
         while !translucent.is_empty() {
             let round = self.draw_translucent(scene, view, &translucent, Pass::Item, Load::Clear)?;
@@ -193,7 +193,7 @@ fn distinct(mut items: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
     items
 }
 
-/// The triangles, numbered as in the one draw of `ids` (which drew each block's opaque
+/// The triangles, numbered as in the one draw of `ids` (which drew each block's occluding
 /// clusters whole and in order), of the clusters holding the visible `items` (sorted
 /// [node id + 1, triangle index]), in that order; `None` if an index falls outside its node's
 /// triangles.
@@ -203,7 +203,7 @@ fn visible_clusters(scene: &SceneFile, ids: &[NodeId], items: &[[u32; 2]]) -> Re
     let mut at = 0;
     for &id in ids {
         let g = scene.geometry(id)?;
-        let end = first + g.opaque_indices() as u64 / 3;
+        let end = first + g.occluder_indices() as u64 / 3;
         let mut last = None;
         while at < items.len() && items[at][0] == id + 1 {
             let t = items[at][1] as u64;

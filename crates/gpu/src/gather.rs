@@ -37,7 +37,8 @@ impl Renderer {
     }
 
     /// [`Renderer::draw`]'s first half: the opaque clusters of `ids` only, in any pass. OR and
-    /// HC draw their occluders into the depth buffer with it.
+    /// HC draw their occluders into the depth buffer with it. The depth and item passes leave
+    /// out the cut-outs (`osw_scene::mesh::CUT_OUT`): what they hide is not known to be hidden.
     pub fn draw_opaque(
         &mut self,
         scene: &SceneFile,
@@ -47,7 +48,8 @@ impl Renderer {
         load: Load,
     ) -> Result<DrawStats, RenderError> {
         let tests = if pass == Pass::Item { ClusterTests::NONE } else { self.options().cluster_tests };
-        let drawn = self.gather(scene, view, ids, tests, None).and_then(|mut stats| {
+        let occluders_only = matches!(pass, Pass::Depth | Pass::Item);
+        let drawn = self.gather(scene, view, ids, tests, occluders_only, None).and_then(|mut stats| {
             self.submit(view, pass, Layer::Opaque, load, &mut stats)?;
             Ok(stats)
         });
@@ -78,7 +80,9 @@ impl Renderer {
     /// written, blended in a colour pass. The nodes go far to near by their box centres, ties
     /// by id, so that every mode blends the surfaces it shares with another in the same order
     /// (a node one mode culls is hidden, and blends nothing in the other). [`Load::Clear`]
-    /// clears the colour (or item ids) only, keeping the depth.
+    /// clears the colour (or item ids) only, keeping the depth. The item pass takes the
+    /// cut-outs too: like translucent surfaces, they are seen where they pass the depth test
+    /// and hide nothing.
     pub fn draw_translucent(
         &mut self,
         scene: &SceneFile,
@@ -89,7 +93,7 @@ impl Renderer {
     ) -> Result<DrawStats, RenderError> {
         let mut order: Vec<(f32, NodeId)> = ids
             .iter()
-            .filter(|&&id| scene.has_translucent(id))
+            .filter(|&&id| if pass == Pass::Item { scene.has_see_through(id) } else { scene.has_translucent(id) })
             .map(|&id| (view.relative(scene.node(id).aabb().center()).length_squared(), id))
             .collect();
         if order.is_empty() && load == Load::Keep {
@@ -114,7 +118,8 @@ impl Renderer {
                 }
             };
             let g = scene.geometry(id)?;
-            let (clusters, cuts) = (&g.clusters[g.opaque..], g.cuts.get(g.opaque..).unwrap_or(&[]));
+            let from = if pass == Pass::Item { g.occluders } else { g.opaque };
+            let (clusters, cuts) = (&g.clusters[from..], g.cuts.get(from..).unwrap_or(&[]));
             let out = &mut Out { indices: &mut self.indices, base, stats: &mut gathered.clusters };
             match &g.indices {
                 Indices::U16(ix) => gather(view, tests, &g.positions, ix, clusters, cuts, out),
@@ -142,16 +147,18 @@ impl Renderer {
         }
     }
 
-    /// Gathers into `self.indices` the indices of the opaque clusters of `ids` that pass `tests`
-    /// and `select(node, cluster index)` (all when `None`), less the triangles `tests` drop,
-    /// making the nodes' meshes resident and listing the nodes in `self.uses`; returns their
-    /// counts. What was tested under this view and tests is copied ([`osw_cull::gathered::Gathered`]).
+    /// Gathers into `self.indices` the indices of the opaque clusters of `ids` (with
+    /// `occluders_only`, less the cut-outs) that pass `tests` and `select(node, cluster index)`
+    /// (all when `None`), less the triangles `tests` drop, making the nodes' meshes resident and
+    /// listing the nodes in `self.uses`; returns their counts. What was tested under this view
+    /// and tests is copied ([`osw_cull::gathered::Gathered`]).
     pub fn gather(
         &mut self,
         scene: &SceneFile,
         view: &View,
         ids: &[NodeId],
         tests: ClusterTests,
+        occluders_only: bool,
         mut select: Option<&mut Select>,
     ) -> Result<DrawStats, RenderError> {
         debug_assert_eq!(scene.nodes().len(), self.nodes, "a renderer serves the scene it was made for");
@@ -162,10 +169,11 @@ impl Renderer {
             stats.nodes += 1;
             let arena = self.arena_base(scene, id)?;
             let base = self.uses.push(scene, view, id, arena)?;
-            let mut all = |_| true;
+            let end = if occluders_only { scene.occluder_clusters(id) as usize } else { usize::MAX };
+            let mut below = move |k: usize| k < end;
             let select: &mut dyn FnMut(usize) -> bool = match select.as_deref_mut() {
-                Some(select) => &mut move |k| select(id, k),
-                None => &mut all,
+                Some(select) => &mut move |k| k < end && select(id, k),
+                None => &mut below,
             };
             // An instance's geometry is placed at each read: read only when needed.
             let out = &mut Out { indices: &mut self.indices, base, stats: &mut stats.clusters };

@@ -232,6 +232,13 @@ fn print_report(report: &osw_scene::BuildReport, loose_split: f32) {
             report.translucent_objects
         );
     }
+    if report.cut_out_triangles > 0 {
+        out!(
+            "cut-outs: {} triangles of {} objects (drawn opaque, never occluders: their holes are not read)",
+            report.cut_out_triangles,
+            report.cut_out_objects
+        );
+    }
     if report.loose_splits > 0 {
         out!("{} loose splits (--loose-split {}): {} chunks", report.loose_splits, loose_split, report.chunks);
     }

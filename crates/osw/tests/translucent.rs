@@ -1,9 +1,11 @@
 //! Translucent surfaces (glTF alphaMode BLEND): drawn blended over what lies behind them, in
-//! the same order in every mode, and never an occluder. A red box stands behind a pane of
-//! glass that covers it on screen, a green box behind an opaque wall. Every mode shows the red
-//! box through the glass, with frames identical to frustum culling's; exact visibility counts
-//! the red box (and the glass) visible and the green box hidden; no mode culls what exact
-//! visibility sees, while the occlusion modes do cull the green box.
+//! the same order in every mode, and never an occluder; cut-outs (alphaMode MASK with a
+//! texture, whose holes the build does not read): drawn opaque, and never an occluder. A red
+//! box stands behind a pane of glass (or a cut-out) that covers it on screen, a green box
+//! behind an opaque wall. Every mode shows the red box through the glass, with frames
+//! identical to frustum culling's; exact visibility counts the red box (and the pane) visible
+//! and the green box hidden; no mode culls what exact visibility sees, while the occlusion
+//! modes do cull the green box.
 
 mod common;
 use common::*;
@@ -17,21 +19,41 @@ use std::path::Path;
 const RED: [f64; 4] = [0.8, 0.05, 0.05, 1.0];
 const GLASS: [f64; 4] = [0.1, 0.3, 0.9, 0.3];
 
-/// One node per (name, box, material colour, blended) under the root.
-fn write_scene(path: &Path, boxes: &[(&str, [f32; 6], [f64; 4], bool)]) {
+/// How a box is drawn: its material's alpha mode and colour factor.
+#[derive(Clone, Copy, PartialEq)]
+enum Surface {
+    Opaque([f64; 4]),
+    Glass,
+    /// A fence's texture on a MASK material.
+    CutOut,
+}
+
+impl Surface {
+    fn material(self, name: &str) -> serde_json::Value {
+        match self {
+            Surface::Opaque(c) => json!({"name": name, "pbrMetallicRoughness": {"baseColorFactor": c}}),
+            Surface::Glass => json!({"name": name, "alphaMode": "BLEND", "pbrMetallicRoughness": {"baseColorFactor": GLASS}}),
+            Surface::CutOut => json!({"name": name, "alphaMode": "MASK",
+                "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.6, 0.2, 1.0], "baseColorTexture": {"index": 0}}}),
+        }
+    }
+}
+
+/// One node per (name, box, surface) under the root.
+fn write_scene(path: &Path, boxes: &[(&str, [f32; 6], Surface)]) {
     let (mut bin, mut views, mut accessors, mut meshes, mut nodes, mut materials) = (vec![], vec![], vec![], vec![], vec![], vec![]);
-    for (k, &(name, b, color, blend)) in boxes.iter().enumerate() {
+    for (k, &(name, b, surface)) in boxes.iter().enumerate() {
         let mut m = Mesh::default();
         add_box(&mut m, glam::Vec3::new(b[0], b[1], b[2]), glam::Vec3::new(b[3], b[4], b[5]));
         let mut prim = push_mesh(&mut bin, &mut views, &mut accessors, &m);
         prim["material"] = json!(k);
         meshes.push(json!({"primitives": [prim]}));
         nodes.push(json!({"name": name, "mesh": k}));
-        let mode = if blend { "BLEND" } else { "OPAQUE" };
-        materials.push(json!({"name": name, "alphaMode": mode, "pbrMetallicRoughness": {"baseColorFactor": color}}));
+        materials.push(surface.material(name));
     }
     let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
-        "nodes": nodes, "meshes": meshes, "materials": materials, "accessors": accessors, "bufferViews": views});
+        "nodes": nodes, "meshes": meshes, "materials": materials, "textures": [{"source": 0}], "images": [{"uri": "fence.png"}],
+        "accessors": accessors, "bufferViews": views});
     write_glb(path, doc, &bin);
 }
 
@@ -66,25 +88,39 @@ fn centre(run: &Path, frame: u64) -> [u8; 4] {
 
 #[test]
 fn a_box_behind_glass_is_seen_through_it_in_every_mode_and_the_glass_culls_nothing() {
+    a_pane_in_front_culls_nothing(Surface::Glass);
+}
+
+/// The same behind a cut-out: until textures are read it is drawn opaque, hiding the red box
+/// in every mode alike, but exact visibility counts what its holes may show, and no mode's
+/// depth holds it (the test fails where it occludes: the red box culled).
+#[test]
+fn a_box_behind_a_cut_out_is_culled_in_no_mode_and_the_cut_out_culls_nothing() {
+    a_pane_in_front_culls_nothing(Surface::CutOut);
+}
+
+fn a_pane_in_front_culls_nothing(pane: Surface) {
     let d = tempfile::tempdir().unwrap();
-    let red = ("red", [-1.0, -1.0, -12.0, 1.0, 1.0, -10.0], RED, false);
-    let glass = ("glass", [-4.0, -4.0, -5.05, 4.0, 4.0, -5.0], GLASS, true);
-    let wall = ("wall", [2.0, -3.0, -6.0, 9.0, 3.0, -5.5], [0.5, 0.5, 0.5, 1.0], false);
-    let green = ("green", [5.0, -1.0, -12.0, 7.0, 1.0, -10.0], [0.05, 0.8, 0.05, 1.0], false);
+    let red = ("red", [-1.0, -1.0, -12.0, 1.0, 1.0, -10.0], Surface::Opaque(RED));
+    let pane_box = ("pane", [-4.0, -4.0, -5.05, 4.0, 4.0, -5.0], pane);
+    let wall = ("wall", [2.0, -3.0, -6.0, 9.0, 3.0, -5.5], Surface::Opaque([0.5, 0.5, 0.5, 1.0]));
+    let green = ("green", [5.0, -1.0, -12.0, 7.0, 1.0, -10.0], Surface::Opaque([0.05, 0.8, 0.05, 1.0]));
     let path = d.path().join("path.csv");
     write_path(&path);
-    let build = |name: &str, boxes: &[(&str, [f32; 6], [f64; 4], bool)]| {
+    let build = |name: &str, boxes: &[(&str, [f32; 6], Surface)]| {
         let (glb, scene) = (d.path().join(format!("{name}.glb")), d.path().join(format!("{name}.osw")));
         write_scene(&glb, boxes);
         osw_ok(&["build", s(&glb), "-o", s(&scene)]);
         scene
     };
-    let scene = build("scene", &[red, glass, wall, green]);
+    let scene = build("scene", &[red, pane_box, wall, green]);
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(scene.with_extension("build.json")).unwrap()).unwrap();
-    assert_eq!((report["translucent_triangles"].as_u64(), report["translucent_objects"].as_u64()), (Some(12), Some(1)), "{report}");
+    let layer = if pane == Surface::Glass { "translucent" } else { "cut_out" };
+    let counts = [format!("{layer}_triangles"), format!("{layer}_objects")].map(|k| report[k].as_u64());
+    assert_eq!(counts, [Some(12), Some(1)], "{report}");
     let file = SceneFile::open(&scene).unwrap();
     let red_leaf = leaf_in(&file, [-1.0, -1.0, -12.0], [1.0, 1.0, -10.0]);
-    let glass_leaf = leaf_in(&file, [-4.0, -4.0, -5.05], [4.0, 4.0, -5.0]);
+    let pane_leaf = leaf_in(&file, [-4.0, -4.0, -5.05], [4.0, 4.0, -5.0]);
     let green_leaf = leaf_in(&file, [5.0, -1.0, -12.0], [7.0, 1.0, -10.0]);
 
     let walk = ["--scene", s(&scene), "--path", s(&path), "--size", "96x96"];
@@ -92,20 +128,26 @@ fn a_box_behind_glass_is_seen_through_it_in_every_mode_and_the_glass_culls_nothi
     osw_ok(&[&["exact"], &walk[..], &["--out", s(&exact)]].concat());
     for (f, leaves) in sets(&exact.join("exact_leaves.txt")).iter().enumerate() {
         assert!(
-            leaves.contains(&red_leaf) && leaves.contains(&glass_leaf),
-            "frame {f}: exact misses what is behind or is the glass: {leaves:?}"
+            leaves.contains(&red_leaf) && leaves.contains(&pane_leaf),
+            "frame {f}: exact misses what is behind or is the pane: {leaves:?}"
         );
         assert!(!leaves.contains(&green_leaf), "frame {f}: the green box is behind an opaque wall");
     }
 
-    // The red box shows through the glass: the centre pixel is the glass over red, not over sky.
+    // The red box shows through the glass: the centre pixel is the glass over red, not over
+    // sky. The cut-out is drawn whole (its holes are in a texture not read): the same over both.
     let vfc = d.path().join("vfc");
     osw_ok(&[&["render", "--mode", "vfc"], &walk[..], &["--out", s(&vfc)]].concat());
-    let without = build("without", &[glass, wall, green]);
+    let without = build("without", &[pane_box, wall, green]);
     let sky = d.path().join("sky");
     osw_ok(&["render", "--mode", "vfc", "--scene", s(&without), "--path", s(&path), "--size", "96x96", "--out", s(&sky)]);
     let (through, over_sky) = (centre(&vfc, 0), centre(&sky, 0));
-    assert!(through[0] > through[2] && over_sky[2] > over_sky[0], "glass over red {through:?}, over sky {over_sky:?}");
+    match pane {
+        Surface::Glass => {
+            assert!(through[0] > through[2] && over_sky[2] > over_sky[0], "glass over red {through:?}, over sky {over_sky:?}")
+        }
+        _ => assert!(through == over_sky && through[1] > through[0], "the cut-out over red {through:?}, over sky {over_sky:?}"),
+    }
 
     let mut runs: Vec<(String, std::path::PathBuf)> = Vec::new();
     for mode in ["sw", "chc", "hzb", "prev", "ovc"] {
@@ -122,7 +164,7 @@ fn a_box_behind_glass_is_seen_through_it_in_every_mode_and_the_glass_culls_nothi
         assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{mode}: culls what exact visibility sees: {c}");
         assert_eq!(centre(run, 0), through, "{mode}");
     }
-    // The occlusion tests ran against the wall and not against the glass: the green box is
+    // The occlusion tests ran against the wall and not against the pane: the green box is
     // culled in the frames after the first (HC tests against the previous frame's set).
     let prev = &runs.iter().find(|(m, _)| m == "prev").unwrap().1;
     let pvs = sets(&prev.join("pvs.txt"));

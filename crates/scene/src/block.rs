@@ -23,20 +23,28 @@ pub struct Encoded {
 /// parts are joined by position already ([`crate::cluster`]).
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
     let mesh = mesh.welded();
-    let (indices, clusters, opaque) = crate::cluster::clusterize(&mesh, object);
-    encode_with(&mesh, &indices, &clusters, &[], opaque)
+    let c = crate::cluster::clusterize(&mesh, object);
+    encode_with(&mesh, &c.indices, &c.clusters, &[], Layers { occluders: c.occluders, opaque: c.opaque })
 }
 
 /// [`encode`] for a part of a cluster hierarchy: each cluster holds triangles of one cut.
 pub fn encode_cut(piece: &crate::clod::Piece, object: Option<crate::Aabb>) -> Encoded {
     let mesh = piece.mesh.welded();
     let c = crate::cluster::clusterize_cut(&mesh, object, &piece.cuts, &piece.cut_of);
-    encode_with(&mesh, &c.indices, &c.clusters, &c.cuts, c.opaque)
+    encode_with(&mesh, &c.indices, &c.clusters, &c.cuts, Layers { occluders: c.occluders, opaque: c.opaque })
 }
 
-/// [`encode`] with the clusters made already: `indices` in cluster order, `opaque_clusters`
-/// of them first; `cuts` one per cluster, or none (every cluster drawn at every tau).
-pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecord], cuts: &[Cut], opaque_clusters: u32) -> Encoded {
+/// Where a block's clusters of each layer end (see [`crate::mesh::Layer`]): the opaque ones
+/// at `occluders`, the cut-outs at `opaque`, the translucent ones at the last.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Layers {
+    pub occluders: u32,
+    pub opaque: u32,
+}
+
+/// [`encode`] with the clusters made already: `indices` in cluster order, in `layers`; `cuts`
+/// one per cluster, or none (every cluster drawn at every tau).
+pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecord], cuts: &[Cut], layers: Layers) -> Encoded {
     debug_assert!(cuts.is_empty() || cuts.len() == clusters.len());
     let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters));
     bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
@@ -59,9 +67,9 @@ pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecor
         index_bytes,
         color_bytes: if mesh.colors.is_empty() { 0 } else { 4 },
         cluster_count: clusters.len() as u32,
-        opaque_clusters,
+        opaque_clusters: layers.opaque,
         cut_bytes: if cuts.is_empty() { 0 } else { CUT_BYTES },
-        _pad: 0,
+        cut_out_clusters: layers.opaque - layers.occluders,
     };
     debug_assert_eq!(record.byte_len(), bytes.len() as u64);
     Encoded { bytes, record }
@@ -79,7 +87,9 @@ pub struct Geometry<'a> {
     pub clusters: Cow<'a, [ClusterRecord]>,
     /// Where the cut draws each cluster, in a cluster hierarchy's block; empty elsewhere.
     pub cuts: &'a [Cut],
-    /// `clusters[..opaque]` are opaque, the rest translucent ([`BlockRecord::opaque_clusters`]).
+    /// `clusters[..occluders]` are opaque, `occluders..opaque` cut-outs, the rest translucent
+    /// ([`BlockRecord::opaque_clusters`], [`BlockRecord::cut_out_clusters`]).
+    pub occluders: usize,
     pub opaque: usize,
 }
 
@@ -89,9 +99,14 @@ impl Geometry<'_> {
         self.cuts.get(k).unwrap_or(&Cut::ALWAYS)
     }
 
-    /// Indices of the opaque clusters: they come first, `0..opaque_indices()`.
+    /// Indices of the opaque clusters and the cut-outs: they come first, `0..opaque_indices()`.
     pub fn opaque_indices(&self) -> usize {
         self.clusters.get(self.opaque).map_or(self.indices.len(), |c| c.first_index as usize)
+    }
+
+    /// Indices of the opaque clusters, the occluders: `0..occluder_indices()`.
+    pub fn occluder_indices(&self) -> usize {
+        self.clusters.get(self.occluders).map_or(self.indices.len(), |c| c.first_index as usize)
     }
 }
 
@@ -150,6 +165,7 @@ pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
         indices,
         clusters: Cow::Borrowed(bytemuck::cast_slice(clusters)),
         cuts: bytemuck::cast_slice(&cuts[..rec.cluster_count as usize * rec.cut_bytes as usize]),
+        occluders: rec.opaque_clusters.saturating_sub(rec.cut_out_clusters) as usize,
         opaque: rec.opaque_clusters as usize,
     }
 }

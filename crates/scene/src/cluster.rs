@@ -27,7 +27,7 @@
 
 use crate::aabb::Aabb;
 use crate::format::{ClusterRecord, Cut};
-use crate::mesh::{Mesh, is_translucent};
+use crate::mesh::{Layer, Mesh, layer};
 use glam::{DVec3, Vec3};
 use rustc_hash::FxHashMap;
 
@@ -45,13 +45,13 @@ pub const MAX_VERTICES: usize = 32;
 /// A cone cutoff that no eye passes (meshopt gives 1 for a cone wider than a half-space).
 pub const NO_CONE: f32 = 2.0;
 
-/// `mesh`'s indices in cluster order, the clusters (index range, sphere, cone, box of their
-/// closed parts), and how many of them come first with the opaque triangles; the translucent
-/// ones follow. Every triangle is kept exactly once, with its winding. `object`: the box of
-/// the mesh's object when that object as a whole is closed and wound outwards.
-pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> (Vec<u32>, Vec<ClusterRecord>, u32) {
-    let c = clusterize_cut(mesh, object, &[Cut::ALWAYS], &[]);
-    (c.indices, c.clusters, c.opaque)
+/// `mesh`'s indices in cluster order and the clusters (index range, sphere, cone, box of their
+/// closed parts), those of the opaque triangles first, then the cut-outs', then the
+/// translucent ones' (see [`Layer`]). Every triangle is kept exactly once, with its winding.
+/// `object`: the box of the mesh's object when that object as a whole is closed and wound
+/// outwards.
+pub fn clusterize(mesh: &Mesh, object: Option<Aabb>) -> Clustered {
+    clusterize_cut(mesh, object, &[Cut::ALWAYS], &[])
 }
 
 /// A block's triangles in clusters ([`clusterize_cut`]).
@@ -61,7 +61,8 @@ pub struct Clustered {
     pub clusters: Vec<ClusterRecord>,
     /// Where the cut draws each cluster.
     pub cuts: Vec<Cut>,
-    /// Clusters `0..opaque` hold the opaque triangles.
+    /// Clusters `0..occluders` hold the opaque triangles, `occluders..opaque` the cut-outs.
+    pub occluders: u32,
     pub opaque: u32,
 }
 
@@ -77,18 +78,20 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
         cuts,
     };
     let space = mesh.bounds();
-    // Per triangle: translucent last, then by cut, then by facing bin, then along the Morton
-    // curve of its centroid. A cluster ends at a change of the first three, at MAX_TRIANGLES
-    // triangles or at MAX_VERTICES vertices (which keeps it compact where the curve jumps).
+    // Per triangle: by layer (opaque, cut-out, translucent), then by cut, then by facing bin,
+    // then along the Morton curve of its centroid. A cluster ends at a change of the first
+    // three, at MAX_TRIANGLES triangles or at MAX_VERTICES vertices (which keeps it compact
+    // where the curve jumps).
     let mut order: Vec<(u64, u32)> = mesh
         .indices
         .chunks_exact(3)
         .enumerate()
         .map(|(k, t)| {
-            let translucent = is_translucent(&mesh.colors, t) as u64;
+            let layer = layer(&mesh.colors, t) as u64;
             let cut = cut_of.get(k).copied().unwrap_or(0) as u64;
+            debug_assert!(cut <= CUT_MASK, "cut index {cut}");
             let centroid = t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0;
-            (translucent << 63 | cut << 33 | (facing(mesh, t) as u64) << 30 | morton(&space, centroid) as u64, k as u32)
+            (layer << 62 | cut << 33 | (facing(mesh, t) as u64) << 30 | morton(&space, centroid) as u64, k as u32)
         })
         .collect();
     order.sort_unstable();
@@ -97,7 +100,7 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
     let (mut clusters, mut cuts) = (Vec::new(), Vec::new());
     // Per vertex, the last cluster that used it: counts a cluster's distinct vertices.
     let mut stamp = vec![u32::MAX; mesh.positions.len()];
-    let mut opaque_clusters = 0;
+    let (mut occluders, mut opaque) = (0, 0);
     let (mut first_index, mut vertices) = (0u32, 0);
     for (n, &(key, k)) in order.iter().enumerate() {
         let t = &mesh.indices[k as usize * 3..k as usize * 3 + 3];
@@ -111,8 +114,11 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
             first_index = indices.len() as u32;
             vertices = 0;
         }
-        if key >> 63 == 0 {
-            opaque_clusters = clusters.len() as u32 + 1;
+        if key >> 62 == Layer::Opaque as u64 {
+            occluders = clusters.len() as u32 + 1;
+        }
+        if key >> 62 <= Layer::CutOut as u64 {
+            opaque = clusters.len() as u32 + 1;
         }
         let id = clusters.len() as u32;
         for &v in t {
@@ -127,8 +133,11 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
         }
     }
     debug_assert_eq!(indices.len(), mesh.indices.len());
-    Clustered { indices, clusters, cuts, opaque: opaque_clusters }
+    Clustered { indices, clusters, cuts, occluders, opaque }
 }
+
+/// Bits of a cut's index in a triangle's sort key.
+const CUT_MASK: u64 = 0x1fff_ffff;
 
 /// What each cluster of one block is made against: the mesh, its closed parts, the box of its
 /// object when that is closed, and the cuts its triangles are drawn at.
@@ -143,13 +152,18 @@ struct Clustering<'a> {
 impl Clustering<'_> {
     /// The cluster of `indices[first_index..]`, whose triangles' sort key is `key`: its bounds
     /// and its cone (meshopt's) with the box of its closed parts or the object's when the
-    /// triangles are opaque (back faces of a translucent surface show through it), and its cut.
+    /// triangles are opaque (back faces show through a translucent surface or a cut-out's
+    /// holes), and its cut.
     fn cluster(&self, indices: &[u32], first_index: u32, key: u64) -> (ClusterRecord, Cut) {
         let cluster = &indices[first_index as usize..];
         let b = meshopt::compute_cluster_bounds(cluster, &self.adapter);
-        let cut = self.cuts[(key >> 33 & 0x3fff_ffff) as usize];
+        let cut = self.cuts[(key >> 33 & CUT_MASK) as usize];
         // A simplified triangle may have lost its object's closure; an original one has not.
-        let closed = if key >> 63 == 0 { self.parts.closed_box(cluster).or(self.object.filter(|_| cut.lo.error == 0.0)) } else { None };
+        let closed = if key >> 62 == Layer::Opaque as u64 {
+            self.parts.closed_box(cluster).or(self.object.filter(|_| cut.lo.error == 0.0))
+        } else {
+            None
+        };
         let bbox = Aabb::from_points(cluster.iter().map(|&v| &self.mesh.positions[v as usize]));
         let c = ClusterRecord {
             center: b.center,
@@ -233,7 +247,7 @@ impl Parts {
                 *weld.entry(p.map(f32::to_bits)).or_insert(n)
             })
             .collect();
-        let opaque = || mesh.indices.chunks_exact(3).filter(|t| !is_translucent(&mesh.colors, t));
+        let opaque = || mesh.indices.chunks_exact(3).filter(|t| layer(&mesh.colors, t) == Layer::Opaque);
         let mut uf = UnionFind::new(weld.len());
         for t in opaque() {
             uf.join(welded[t[0] as usize], welded[t[1] as usize]);
@@ -363,9 +377,10 @@ mod tests {
             add_box(&mut m, o, o + Vec3::ONE);
         }
         let before = sorted_triangles(&m);
-        let (clusters, opaque);
-        (m.indices, clusters, opaque) = clusterize(&m, None);
-        assert_eq!(opaque as usize, clusters.len(), "no colours: every triangle opaque");
+        let c = clusterize(&m, None);
+        let clusters = c.clusters;
+        m.indices = c.indices;
+        assert_eq!((c.occluders as usize, c.opaque as usize), (clusters.len(), clusters.len()), "no colours: every triangle opaque");
         assert_eq!(sorted_triangles(&m), before);
         let mut next = 0;
         for c in &clusters {
@@ -389,9 +404,53 @@ mod tests {
     fn an_open_mesh_keeps_no_cone() {
         let mut m = Mesh::default();
         grid_plane(&mut m, Vec3::ZERO, Vec3::ONE, 20, 20);
-        let (_, clusters, _) = clusterize(&m, None);
+        let clusters = clusterize(&m, None).clusters;
         assert!(!clusters.is_empty());
         assert!(clusters.iter().all(|c| c.cone_cutoff == NO_CONE));
+    }
+
+    #[test]
+    fn cut_outs_come_between_the_opaque_and_the_translucent_without_a_cone_and_close_nothing() {
+        // Three closed boxes; the second's front face is a cut-out, the third's glass.
+        let mut m = Mesh::default();
+        for x in [0.0, 3.0, 6.0] {
+            add_box(&mut m, Vec3::X * x, Vec3::new(x + 1.0, 1.0, 1.0));
+        }
+        m.paint([200, 200, 200, 255]);
+        let front_of = |m: &Mesh, x: f32| -> Vec<u32> {
+            let on_front = |t: &&[u32]| t.iter().all(|&v| m.positions[v as usize][2] == 1.0 && m.positions[v as usize][0] >= x);
+            m.indices.chunks_exact(3).filter(on_front).flatten().copied().collect()
+        };
+        let (cut_out, glass) =
+            (front_of(&m, 3.0).into_iter().filter(|&v| m.positions[v as usize][0] < 5.0).collect::<Vec<_>>(), front_of(&m, 6.0));
+        cut_out.iter().for_each(|&v| m.colors[v as usize][3] = crate::mesh::CUT_OUT);
+        glass.iter().for_each(|&v| m.colors[v as usize][3] = crate::mesh::alpha(0.2));
+        assert!(m.cut_out_triangles() >= 2 && m.translucent_triangles() >= 2);
+        let c = clusterize(&m, None);
+        let (occluders, opaque) = (c.occluders as usize, c.opaque as usize);
+        assert!(0 < occluders && occluders < opaque && opaque < c.clusters.len(), "{occluders} {opaque} {}", c.clusters.len());
+        let tris = |r: &ClusterRecord| {
+            c.indices[r.first_index as usize..(r.first_index + r.index_count) as usize].chunks_exact(3).collect::<Vec<_>>()
+        };
+        for (k, r) in c.clusters.iter().enumerate() {
+            let want = if k < occluders {
+                Layer::Opaque
+            } else if k < opaque {
+                Layer::CutOut
+            } else {
+                Layer::Translucent
+            };
+            assert!(tris(r).iter().all(|t| layer(&m.colors, t) == want), "cluster {k}");
+        }
+        assert!(c.clusters[occluders..].iter().all(|r| r.cone_cutoff == NO_CONE));
+        // The boxes with a cut-out or glass face are open: their back faces show through.
+        let in_box =
+            |r: &ClusterRecord, x: f32| tris(r).iter().flat_map(|t| t.iter()).all(|&v| (x..=x + 1.0).contains(&m.positions[v as usize][0]));
+        assert!(c.clusters[..occluders].iter().filter(|r| in_box(r, 3.0)).all(|r| r.cone_cutoff == NO_CONE));
+        assert!(
+            c.clusters[..occluders].iter().filter(|r| in_box(r, 0.0)).all(|r| r.cone_cutoff < NO_CONE),
+            "the closed box keeps its cones"
+        );
     }
 
     #[test]
@@ -401,7 +460,7 @@ mod tests {
         add_box(&mut m, Vec3::ZERO, Vec3::ONE);
         add_box(&mut m, Vec3::X * 3.0, Vec3::new(4.0, 1.0, 1.0));
         m.paint([200, 200, 200, 255]);
-        let (_, all_opaque, _) = clusterize(&m, None);
+        let all_opaque = clusterize(&m, None).clusters;
         assert!(all_opaque.iter().all(|c| c.cone_cutoff < NO_CONE), "both boxes closed: every cluster keeps its cone");
         let front: Vec<u32> =
             m.indices[36..].chunks_exact(3).filter(|t| t.iter().all(|&v| m.positions[v as usize][2] == 1.0)).flatten().copied().collect();
@@ -410,7 +469,7 @@ mod tests {
             m.colors[v as usize][3] = crate::mesh::alpha(0.2);
         }
         let translucent = m.translucent_triangles();
-        let (indices, clusters, opaque) = clusterize(&m, None);
+        let crate::cluster::Clustered { indices, clusters, opaque, .. } = clusterize(&m, None);
         let opaque = opaque as usize;
         assert!(opaque > 0 && opaque < clusters.len());
         let tris = |c: &ClusterRecord| {

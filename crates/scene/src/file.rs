@@ -107,6 +107,18 @@ impl SceneFile {
         self.blocks().get(block as usize).is_some_and(BlockRecord::has_translucent)
     }
 
+    /// The occluding clusters of LOD node `lod`'s block: its opaque ones but the cut-outs.
+    pub fn occluder_clusters(&self, lod: NodeId) -> u32 {
+        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
+        self.blocks().get(block as usize).map_or(0, BlockRecord::occluder_clusters)
+    }
+
+    /// Whether LOD node `lod` has triangles that occlude nothing: translucent ones or cut-outs.
+    pub fn has_see_through(&self, lod: NodeId) -> bool {
+        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
+        self.blocks().get(block as usize).is_some_and(|b| b.has_translucent() || b.cut_out_clusters > 0)
+    }
+
     /// The geometry of LOD node `lod` in the scene's frame, checked on first read; a node of an
     /// instance gets its block placed ([`crate::instance`]) at each read, so that reading a
     /// scene of ten billion placed triangles holds no more than what is read at once.
@@ -221,6 +233,7 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
             && (b.color_bytes == 0 || b.color_bytes == 4)
             && (b.cut_bytes == 0 || b.cut_bytes == CUT_BYTES)
             && b.opaque_clusters <= b.cluster_count
+            && b.cut_out_clusters <= b.opaque_clusters
             && b.index_count.is_multiple_of(3)
             && b.vertex_count <= MAX_BLOCK_VERTICES
             && b.offset.checked_add(b.byte_len()).is_some_and(|e| e <= h.blob_bytes);

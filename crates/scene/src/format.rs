@@ -47,7 +47,9 @@ pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// mesh used several times is stored once: nodes name an [`InstanceRecord`]; triangle counts
 /// of subtrees and the scene are u64. 8: a cluster's [`Cut`] is stored only in a cluster
 /// hierarchy's blocks ([`BlockRecord::cut_bytes`]): a static LOD's clusters are drawn at every
-/// tau, and a chains scene stored 40 bytes a cluster to say so.
+/// tau, and a chains scene stored 40 bytes a cluster to say so. Later in 8, a block's padding
+/// became [`BlockRecord::cut_out_clusters`]: 0 in files written before, which reads as what
+/// they meant (no cut-outs), and a reader from before takes cut-outs for opaque triangles.
 pub const VERSION: u32 = 8;
 
 /// The fixed-size file header.
@@ -237,7 +239,9 @@ pub struct BlockRecord {
     /// 40 when a [`Cut`] per cluster follows the clusters (a cluster hierarchy's block), else 0:
     /// every cluster is drawn at every tau ([`Cut::ALWAYS`]).
     pub cut_bytes: u32,
-    pub _pad: u32,
+    /// The last of the opaque clusters that hold cut-outs ([`crate::mesh::CUT_OUT`]): drawn
+    /// opaque, never into an occluder pass's depth.
+    pub cut_out_clusters: u32,
 }
 
 impl BlockRecord {
@@ -254,6 +258,11 @@ impl BlockRecord {
 
     pub fn has_translucent(&self) -> bool {
         self.opaque_clusters < self.cluster_count
+    }
+
+    /// Clusters that occlude: `0..occluder_clusters()`, the opaque ones but the cut-outs.
+    pub fn occluder_clusters(&self) -> u32 {
+        self.opaque_clusters.saturating_sub(self.cut_out_clusters)
     }
 }
 

@@ -10,7 +10,7 @@
 //! and for `--instances expand` at the build, so the two draw the same triangles.
 
 use crate::aabb::Aabb;
-use crate::block::{Encoded, Geometry, Indices, encode_with, geometry_of};
+use crate::block::{Encoded, Geometry, Indices, Layers, encode_with, geometry_of};
 use crate::cluster::NO_CONE;
 use crate::format::ClusterRecord;
 use crate::mesh::Mesh;
@@ -113,6 +113,7 @@ impl Placement {
             indices,
             clusters: Cow::Owned(clusters),
             cuts: g.cuts,
+            occluders: g.occluders,
             opaque: g.opaque,
         }
     }
@@ -155,7 +156,8 @@ pub fn place_block(e: &Encoded, place: &Placement) -> Encoded {
     let g = place.geometry(&geometry_of(&e.bytes, &e.record));
     let indices: Vec<u32> = g.indices.iter().collect();
     let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec() };
-    encode_with(&mesh, &indices, &g.clusters, g.cuts, e.record.opaque_clusters)
+    let layers = Layers { occluders: e.record.occluder_clusters(), opaque: e.record.opaque_clusters };
+    encode_with(&mesh, &indices, &g.clusters, g.cuts, layers)
 }
 
 #[cfg(test)]

@@ -16,27 +16,52 @@ pub struct Mesh {
     pub positions: Vec<[f32; 3]>,
     pub indices: Vec<u32>,
     /// The model's colour per vertex, RGBA8 as displayed (sRGB), or empty when the model gives
-    /// none. Alpha is 255 for an opaque colour, 1 to 254 for a translucent one (its coverage,
-    /// see [`alpha`]), and 0 for [`NO_COLOR`] (a vertex of a mesh merged with an uncoloured
-    /// one), which is drawn opaque in the object's hashed colour.
+    /// none. Alpha is 255 for an opaque colour, [`CUT_OUT`] for a cut-out's, 1 to 253 for a
+    /// translucent one (its coverage, see [`alpha`]), and 0 for [`NO_COLOR`] (a vertex of a
+    /// mesh merged with an uncoloured one), which is drawn opaque in the object's hashed colour.
     pub colors: Vec<[u8; 4]>,
 }
 
 /// A vertex without a colour from the model, in a mesh whose other vertices have one.
 pub const NO_COLOR: [u8; 4] = [0; 4];
 
-/// The alpha byte of a colour of coverage `a` (0 to 1): 255 when opaque, else 1 to 254, so that
-/// a fully transparent surface stays a translucent one and never reads as [`NO_COLOR`].
+/// The alpha byte of a cut-out (glTF alphaMode MASK): opaque where drawn, but holed where its
+/// texture's alpha, which the build does not read, falls below the cutoff. It is drawn opaque
+/// and never an occluder (nothing it hides is known to be hidden).
+pub const CUT_OUT: u8 = 254;
+
+/// The alpha byte of a colour of coverage `a` (0 to 1): 255 when opaque, else 1 to 253, so that
+/// a fully transparent surface stays a translucent one and never reads as [`NO_COLOR`], and a
+/// nearly opaque one never as a [`CUT_OUT`].
 pub fn alpha(a: f32) -> u8 {
     let a = (a.clamp(0.0, 1.0) * 255.0).round() as u8;
-    if a == 255 { 255 } else { a.max(1) }
+    if a == 255 { 255 } else { a.clamp(1, CUT_OUT - 1) }
 }
 
-/// Whether a triangle with these vertex colours is translucent: drawn blended after everything
-/// opaque, and never an occluder. One translucent corner is enough (a simplified level may
-/// join a translucent vertex to an opaque one).
+/// How a triangle is drawn, by its corners' alphas: the first that one corner asks for, of
+/// translucent, cut-out and opaque (a simplified level may join such a vertex to an opaque one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Layer {
+    /// Drawn and an occluder.
+    Opaque,
+    /// Drawn opaque, never an occluder ([`CUT_OUT`]).
+    CutOut,
+    /// Drawn blended after everything opaque, never an occluder.
+    Translucent,
+}
+
+pub fn layer(colors: &[[u8; 4]], t: &[u32]) -> Layer {
+    let corner = |v: &u32| match colors[*v as usize][3] {
+        1..CUT_OUT => Layer::Translucent,
+        CUT_OUT => Layer::CutOut,
+        _ => Layer::Opaque,
+    };
+    if colors.is_empty() { Layer::Opaque } else { t.iter().map(corner).max().unwrap_or(Layer::Opaque) }
+}
+
+/// Whether a triangle with these vertex colours is translucent (see [`Layer`]).
 pub fn is_translucent(colors: &[[u8; 4]], t: &[u32]) -> bool {
-    !colors.is_empty() && t.iter().any(|&v| (1..255).contains(&colors[v as usize][3]))
+    layer(colors, t) == Layer::Translucent
 }
 
 /// One input object: a named mesh and where it stands in the world. Objects are what chunks are
@@ -211,6 +236,11 @@ impl Mesh {
         self.indices.chunks_exact(3).filter(|t| is_translucent(&self.colors, t)).count()
     }
 
+    /// Triangles of the cut-out layer (see [`Layer`]).
+    pub fn cut_out_triangles(&self) -> usize {
+        self.indices.chunks_exact(3).filter(|t| layer(&self.colors, t) == Layer::CutOut).count()
+    }
+
     /// Adds a triangle by its three corners (no welding).
     pub fn push_triangle(&mut self, a: Vec3, b: Vec3, c: Vec3) {
         let base = self.positions.len() as u32;
@@ -336,16 +366,21 @@ mod tests {
 
     #[test]
     fn a_triangle_is_translucent_when_a_corner_is() {
-        assert_eq!([alpha(0.0), alpha(0.12), alpha(0.99), alpha(0.999), alpha(2.0)], [1, 31, 252, 255, 255]);
+        assert_eq!([alpha(0.0), alpha(0.12), alpha(0.99), alpha(0.997), alpha(0.999), alpha(2.0)], [1, 31, 252, 253, 255, 255]);
         let mut m = quad();
         assert_eq!(m.translucent_triangles(), 0, "no colours: opaque");
         m.paint([9, 9, 9, 255]);
         assert_eq!(m.translucent_triangles(), 0);
         m.colors[m.indices[0] as usize] = NO_COLOR;
         assert_eq!(m.translucent_triangles(), 0, "no colour is opaque");
-        m.colors[m.indices[0] as usize][3] = alpha(0.5);
+        m.colors[m.indices[0] as usize][3] = CUT_OUT;
         let shared = m.indices[3..].contains(&m.indices[0]);
-        assert_eq!(m.translucent_triangles(), 1 + usize::from(shared));
+        assert_eq!((m.translucent_triangles(), m.cut_out_triangles()), (0, 1 + usize::from(shared)));
+        m.colors[m.indices[0] as usize][3] = alpha(0.5);
+        assert_eq!((m.translucent_triangles(), m.cut_out_triangles()), (1 + usize::from(shared), 0));
+        // A translucent corner wins over a cut-out one.
+        m.colors[m.indices[1] as usize][3] = CUT_OUT;
+        assert_eq!(layer(&m.colors, &m.indices[..3]), Layer::Translucent);
     }
 
     #[test]

@@ -40,6 +40,7 @@ fn gather_noted(
         view,
         pvs,
         r.options().cluster_tests,
+        false,
         Some(&mut |id, k| {
             let take = notes.takes(id, k);
             hidden += u64::from(!take);

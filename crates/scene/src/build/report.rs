@@ -21,6 +21,10 @@ pub struct BuildReport {
     /// the opaque ones, never occluders (see [`crate::format::BlockRecord::opaque_clusters`]).
     pub translucent_triangles: u64,
     pub translucent_objects: u64,
+    /// Triangles of cut-outs, and the objects that have any: drawn opaque, never occluders (see
+    /// [`crate::mesh::CUT_OUT`]).
+    pub cut_out_triangles: u64,
+    pub cut_out_objects: u64,
     pub nodes: u64,
     pub leaves: u64,
     pub groups: u64,

@@ -323,6 +323,7 @@ struct Seen {
 struct Kept {
     triangles: u64,
     translucent: u64,
+    cut_out: u64,
     uncolored: bool,
 }
 
@@ -331,6 +332,7 @@ impl Kept {
         Kept {
             triangles: mesh.triangle_count() as u64,
             translucent: mesh.translucent_triangles() as u64,
+            cut_out: mesh.cut_out_triangles() as u64,
             uncolored: mesh.colors.is_empty(),
         }
     }
@@ -342,6 +344,8 @@ impl Stream<'_> {
         self.report.objects_without_color += u64::from(kept.uncolored);
         self.report.translucent_triangles += kept.translucent;
         self.report.translucent_objects += u64::from(kept.translucent > 0);
+        self.report.cut_out_triangles += kept.cut_out;
+        self.report.cut_out_objects += u64::from(kept.cut_out > 0);
         self.closed_objects.push(closed);
         self.closed_objects.len() as u32 - 1
     }

@@ -5,7 +5,8 @@
 //! POSITION may be float or KHR_mesh_quantization's (normalized) integers; views may be
 //! EXT_meshopt_compression streams. Colours are COLOR_0 times the material's factor; a BLEND
 //! material's alpha makes its triangles translucent, a MASK material's discards those below
-//! its cutoff (see [`crate::mesh::Mesh::colors`]). Points and lines are skipped with a warning; Draco is
+//! its cutoff and makes cut-outs of those it may hole (see [`crate::mesh::Mesh::colors`]).
+//! Points and lines are skipped with a warning; Draco is
 //! refused with how to re-export. Images are never decoded. Every accessor is checked against
 //! its buffer before it is read.
 //!
@@ -95,7 +96,7 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
 
 /// What the build leaves out of the materials' base colour textures, which it does not read:
 /// the textures, and the alpha of MASK and BLEND materials that comes from them (a cut-out is
-/// drawn where its factor and COLOR_0 pass the cutoff). Each names its first few.
+/// drawn whole and occludes nothing). Each names its first few.
 fn texture_notes(doc: &gltf::Document) -> Vec<String> {
     let textured: Vec<(gltf::Material, gltf::Texture)> =
         doc.materials().filter_map(|m| Some((m.clone(), m.pbr_metallic_roughness().base_color_texture()?.texture()))).collect();
@@ -113,7 +114,7 @@ fn texture_notes(doc: &gltf::Document) -> Vec<String> {
     }
     if !alpha.is_empty() {
         notes.push(format!(
-            "the texture alpha of {} MASK or BLEND materials (their cut-outs and blending follow the factor and COLOR_0 alone): {}",
+            "the texture alpha of {} MASK or BLEND materials (a MASK one is drawn opaque and occludes nothing, a BLEND one blends by its factor and COLOR_0): {}",
             alpha.len(),
             first_few(&alpha)
         ));
@@ -244,7 +245,9 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
         AlphaMode::Opaque => rgba.iter().map(|&c| encode(c, 255)).collect(),
         AlphaMode::Blend => rgba.iter().map(|&c| encode(c, crate::mesh::alpha(c[3]))).collect(),
         // Alpha testing (glTF 2.0 sec. 3.9.4) without textures: a triangle whose alpha is below
-        // the cutoff at every corner is discarded whole, the rest drawn opaque.
+        // the cutoff at every corner is discarded whole, the rest drawn opaque. Those holed
+        // where their alpha falls below the cutoff, between corners or by their texture's alpha
+        // (not read), are cut-outs: never occluders.
         AlphaMode::Mask => {
             let cutoff = material.alpha_cutoff().unwrap_or(0.5);
             let before = indices.len() / 3;
@@ -252,7 +255,12 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
             if indices.len() / 3 < before {
                 notes.push(format!("{} triangles below material {}'s alpha cutoff {cutoff} (MASK)", before - indices.len() / 3, name()));
             }
-            rgba.iter().map(|&c| encode(c, 255)).collect()
+            let textured = material.pbr_metallic_roughness().base_color_texture().is_some();
+            let mut colors: Vec<[u8; 4]> = rgba.iter().map(|&c| encode(c, 255)).collect();
+            for t in indices.chunks_exact(3).filter(|t| textured || t.iter().any(|&v| rgba[v as usize][3] < cutoff)) {
+                t.iter().for_each(|&v| colors[v as usize][3] = crate::mesh::CUT_OUT);
+            }
+            colors
         }
     };
     Ok((Mesh { positions, indices, colors }, notes))
