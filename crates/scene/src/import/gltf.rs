@@ -15,7 +15,7 @@
 //! required extensions are checked by [`gltf_raw::Raw::check_extensions`].
 
 use super::gltf_raw::{self, Raw};
-use super::{ImportError, Imported, ParseError};
+use super::{ImportError, Imported, ParseError, first_few};
 use crate::mesh::{Mesh, Object};
 use glam::{DAffine3, DMat4, DQuat, DVec3, Vec3};
 use gltf::accessor::{Accessor, DataType, Dimensions, Item};
@@ -134,16 +134,6 @@ fn texture_name(t: &gltf::Texture) -> String {
         _ => None,
     };
     t.name().or(image.name()).or(file).map_or_else(|| format!("texture {}", t.index()), |n| format!("'{n}'"))
-}
-
-/// The first six of `names`, and how many more there are.
-fn first_few(names: &[String]) -> String {
-    const FEW: usize = 6;
-    let shown = names[..names.len().min(FEW)].join(", ");
-    match names.len().saturating_sub(FEW) {
-        0 => shown,
-        more => format!("{shown} and {more} more"),
-    }
 }
 
 /// The `gltf` crate's validation (indices in range, so that its accessors cannot panic),

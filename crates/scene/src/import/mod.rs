@@ -78,6 +78,16 @@ pub struct Imported {
     pub left_out: Vec<String>,
 }
 
+/// The first six of `names`, and how many more there are (a note of what was left out).
+pub(crate) fn first_few(names: &[String]) -> String {
+    const FEW: usize = 6;
+    let shown = names[..names.len().min(FEW)].join(", ");
+    match names.len().saturating_sub(FEW) {
+        0 => shown,
+        more => format!("{shown} and {more} more"),
+    }
+}
+
 /// Reads `path` by its extension.
 pub fn read(path: &Path) -> Result<Imported, ImportError> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {

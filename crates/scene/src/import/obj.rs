@@ -2,10 +2,11 @@
 //! becomes an object, polygons are fanned into triangles, negative (relative) indices are
 //! resolved; points and lines are skipped. The material libraries it names (`mtllib`, beside
 //! the file) must be readable; an object's material gives its colour (Kd) and, with d below 1,
-//! its translucency. All objects of a file share one f32 anchor (see
-//! [`crate::place`]).
+//! its translucency; one with an alpha texture (map_d) is a cut-out ([`crate::mesh::CUT_OUT`]).
+//! Textures are not read: `left_out` names them. All objects of a file share one f32 anchor
+//! (see [`crate::place`]).
 
-use super::{ImportError, Imported, ParseError};
+use super::{ImportError, Imported, ParseError, first_few};
 use crate::mesh::{Mesh, Object};
 use glam::{DAffine3, DVec3};
 use std::cell::RefCell;
@@ -54,13 +55,47 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
             if let Some(kd) = material.and_then(|mat| mat.diffuse) {
                 let c = |k: usize| (kd[k].clamp(0.0, 1.0) * 255.0).round() as u8;
                 let d = material.and_then(|mat| mat.dissolve).unwrap_or(1.0);
-                mesh.paint([c(0), c(1), c(2), crate::mesh::alpha(d as f32)]);
+                let cut_out = material.is_some_and(|mat| mat.dissolve_texture.is_some());
+                let a = match crate::mesh::alpha(d as f32) {
+                    255 if cut_out => crate::mesh::CUT_OUT,
+                    a => a,
+                };
+                mesh.paint([c(0), c(1), c(2), a]);
             }
             let name = if m.name.is_empty() { format!("object {i}") } else { m.name };
             Object::placed(name, mesh, anchor, DAffine3::IDENTITY)
         })
         .collect();
-    Ok(Imported { objects, ..Imported::default() })
+    Ok(Imported { objects, left_out: texture_notes(&materials), ..Imported::default() })
+}
+
+/// The textures of `materials`, which the build does not read: the diffuse ones (map_Kd), and
+/// the alpha ones (map_d) of cut-outs, each note naming its first few.
+fn texture_notes(materials: &[tobj::Material]) -> Vec<String> {
+    let named = |texture: fn(&tobj::Material) -> Option<&String>| {
+        let mut names: Vec<String> = materials.iter().filter_map(texture).map(|t| format!("'{t}'")).collect();
+        names.sort();
+        names.dedup();
+        (materials.iter().filter(|m| texture(m).is_some()).count(), names)
+    };
+    let mut notes = Vec::new();
+    let (uses, names) = named(|m| m.diffuse_texture.as_ref());
+    if uses > 0 {
+        notes.push(format!(
+            "{} diffuse textures (map_Kd) of {uses} materials (textures are not read: those surfaces are drawn in their Kd): {}",
+            names.len(),
+            first_few(&names)
+        ));
+    }
+    let (uses, names) = named(|m| m.dissolve_texture.as_ref());
+    if uses > 0 {
+        notes.push(format!(
+            "{} alpha textures (map_d) of {uses} materials (their surfaces are cut-outs, drawn whole, occluding nothing): {}",
+            names.len(),
+            first_few(&names)
+        ));
+    }
+    notes
 }
 
 fn describe(e: tobj::LoadError) -> ParseError {
