@@ -69,33 +69,27 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
     Ok(Imported { objects, left_out: texture_notes(&materials), ..Imported::default() })
 }
 
+/// One of a material's texture maps.
+type Map = fn(&tobj::Material) -> Option<&String>;
+
 /// The textures of `materials`, which the build does not read: the diffuse ones (map_Kd), and
 /// the alpha ones (map_d) of cut-outs, each note naming its first few.
 fn texture_notes(materials: &[tobj::Material]) -> Vec<String> {
-    let named = |texture: fn(&tobj::Material) -> Option<&String>| {
+    let named = |texture: Map| {
         let mut names: Vec<String> = materials.iter().filter_map(texture).map(|t| format!("'{t}'")).collect();
         names.sort();
         names.dedup();
         (materials.iter().filter(|m| texture(m).is_some()).count(), names)
     };
-    let mut notes = Vec::new();
-    let (uses, names) = named(|m| m.diffuse_texture.as_ref());
-    if uses > 0 {
-        notes.push(format!(
-            "{} diffuse textures (map_Kd) of {uses} materials (textures are not read: those surfaces are drawn in their Kd): {}",
-            names.len(),
-            first_few(&names)
-        ));
-    }
-    let (uses, names) = named(|m| m.dissolve_texture.as_ref());
-    if uses > 0 {
-        notes.push(format!(
-            "{} alpha textures (map_d) of {uses} materials (their surfaces are cut-outs, drawn whole, occluding nothing): {}",
-            names.len(),
-            first_few(&names)
-        ));
-    }
-    notes
+    let kinds: [(Map, &str, &str); 2] = [
+        (|m| m.diffuse_texture.as_ref(), "diffuse textures (map_Kd)", "textures are not read: those surfaces are drawn in their Kd"),
+        (|m| m.dissolve_texture.as_ref(), "alpha textures (map_d)", "their surfaces are cut-outs, drawn whole, occluding nothing"),
+    ];
+    let notes = kinds.into_iter().map(|(texture, what, why)| {
+        let (uses, names) = named(texture);
+        (uses > 0).then(|| format!("{} {what} of {uses} materials ({why}): {}", names.len(), first_few(&names)))
+    });
+    notes.flatten().collect()
 }
 
 fn describe(e: tobj::LoadError) -> ParseError {
