@@ -546,14 +546,15 @@ fn glb_json(path: &Path) -> serde_json::Value {
 
 /// The build names the base colour textures it does not read and the MASK and BLEND materials
 /// whose alpha comes from one, in the report's `left_out`, counted against the file's own JSON:
-/// a fixture of three quads (a textured opaque material, a textured cut-out, a plain colour),
-/// and forza where it is (129 textures, 35 cut-out materials).
+/// a fixture of four quads (a textured opaque material, a textured cut-out, a plain colour, a
+/// specular-glossiness material's diffuse texture), and forza where it is (129 textures, 35
+/// cut-out materials).
 #[test]
 fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
     let d = tempfile::tempdir().unwrap();
     let glb = d.path().join("textured.glb");
     let (mut bin, mut views, mut accessors, mut meshes, mut nodes) = (Vec::<u8>::new(), vec![], vec![], vec![], vec![]);
-    for k in 0..3 {
+    for k in 0..4 {
         let mut m = osw_scene::mesh::Mesh::default();
         let x = 2.0 * k as f32;
         m.positions = vec![[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x + 1.0, 1.0, 0.0], [x, 1.0, 0.0]];
@@ -567,16 +568,18 @@ fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
         {"name": "grass", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
         {"name": "fence", "alphaMode": "MASK", "pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}},
         {"name": "paint", "pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.0, 0.0, 1.0]}},
+        {"name": "gloss", "extensions": {"KHR_materials_pbrSpecularGlossiness": {"diffuseTexture": {"index": 2}}}},
     ]);
-    let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2]}], "nodes": nodes, "meshes": meshes,
-        "materials": materials, "textures": [{"source": 0}, {"source": 1}], "images": [{"uri": "grass.png"}, {"uri": "fence.png"}],
-        "accessors": accessors, "bufferViews": views});
+    let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2, 3]}], "nodes": nodes, "meshes": meshes,
+        "materials": materials, "textures": [{"source": 0}, {"source": 1}, {"source": 2}],
+        "images": [{"uri": "grass.png"}, {"uri": "fence.png"}, {"uri": "marble.jpg"}],
+        "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"], "accessors": accessors, "bufferViews": views});
     write_glb(&glb, doc, &bin);
     let left_out =
         |glb: &Path| build(glb).1["left_out"].as_array().unwrap().iter().map(|l| l.as_str().unwrap().to_owned()).collect::<Vec<_>>();
     let has = |lines: &[String], needle: &str| lines.iter().any(|l| l.contains(needle));
     let lines = left_out(&glb);
-    assert!(has(&lines, "2 base colour textures of 2 materials") && has(&lines, "'grass.png', 'fence.png'"), "{lines:?}");
+    assert!(has(&lines, "3 base colour textures of 3 materials") && has(&lines, "'grass.png', 'fence.png', 'marble.jpg'"), "{lines:?}");
     assert!(has(&lines, "the texture alpha of 1 MASK or BLEND materials") && has(&lines, "): 'fence'"), "{lines:?}");
     let Some(forza) = real_model("unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out", "torcs-forza.glb") else { return };
     let copy = d.path().join("forza.glb");

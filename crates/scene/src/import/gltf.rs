@@ -94,12 +94,13 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
     Ok(out)
 }
 
-/// What the build leaves out of the materials' base colour textures, which it does not read:
-/// the textures, and the alpha of MASK and BLEND materials that comes from them (a cut-out is
-/// drawn whole and occludes nothing). Each names its first few.
+/// What the build leaves out of the materials' base colour textures (or the diffuse ones of
+/// KHR_materials_pbrSpecularGlossiness), which it does not read: the textures, and the alpha
+/// of MASK and BLEND materials that comes from them (a cut-out is drawn whole and occludes
+/// nothing). Each names its first few.
 fn texture_notes(doc: &gltf::Document) -> Vec<String> {
     let textured: Vec<(gltf::Material, gltf::Texture)> =
-        doc.materials().filter_map(|m| Some((m.clone(), m.pbr_metallic_roughness().base_color_texture()?.texture()))).collect();
+        doc.materials().filter_map(|m| Some((m.clone(), base_texture(&m)?.texture()))).collect();
     let textures: std::collections::BTreeSet<usize> = textured.iter().map(|(_, t)| t.index()).collect();
     let alpha: Vec<String> = textured.iter().filter(|(m, _)| m.alpha_mode() != AlphaMode::Opaque).map(|(m, _)| material_name(m)).collect();
     let mut notes = Vec::new();
@@ -120,6 +121,11 @@ fn texture_notes(doc: &gltf::Document) -> Vec<String> {
         ));
     }
     notes
+}
+
+/// A material's base colour texture, or the diffuse one of KHR_materials_pbrSpecularGlossiness.
+fn base_texture<'a>(m: &gltf::Material<'a>) -> Option<gltf::texture::Info<'a>> {
+    m.pbr_metallic_roughness().base_color_texture().or_else(|| m.pbr_specular_glossiness()?.diffuse_texture())
 }
 
 fn material_name(m: &gltf::Material) -> String {
@@ -245,7 +251,7 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
             if indices.len() / 3 < before {
                 notes.push(format!("{} triangles below material {}'s alpha cutoff {cutoff} (MASK)", before - indices.len() / 3, name()));
             }
-            let textured = material.pbr_metallic_roughness().base_color_texture().is_some();
+            let textured = base_texture(&material).is_some();
             let mut colors: Vec<[u8; 4]> = rgba.iter().map(|&c| encode(c, 255)).collect();
             for t in indices.chunks_exact(3).filter(|t| textured || t.iter().any(|&v| rgba[v as usize][3] < cutoff)) {
                 t.iter().for_each(|&v| colors[v as usize][3] = crate::mesh::CUT_OUT);
