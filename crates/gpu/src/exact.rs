@@ -12,6 +12,7 @@
 
 use crate::draw::{Layer, Load, Pass};
 use crate::renderer::{RenderError, Renderer};
+use osw_cull::cluster::ClusterTests;
 use osw_cull::{View, frustum_cull};
 use osw_scene::{NodeId, NodeKind, SceneFile};
 use std::ops::Range;
@@ -143,6 +144,11 @@ impl Renderer {
         }
         leaves.sort_unstable();
         leaves.dedup();
+        // The see-through rounds listed their own nodes in the use table: the item pass's again
+        // for the draws of its triangles below (gathered as then, copied from the first time).
+        if !first {
+            self.gather(scene, view, &ids, ClusterTests::NONE, true, None)?;
+        }
         // The floors need the pass's triangles numbered as one draw numbered them.
         let (mut cluster_triangles, mut visible_draw_ms, mut cluster_draw_ms) = (None, None, None);
         if drawn.draws == 1 {

@@ -598,27 +598,31 @@ fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
 }
 
 /// An OBJ's textures are named in `left_out`, and a material with an alpha texture (map_d)
-/// makes cut-outs: a hedge of two triangles before a wall of two.
+/// makes cut-outs, with a Kd or without: a hedge of two triangles before a wall of two, and a
+/// grate of one.
 #[test]
 fn an_objs_textures_are_named_and_its_alpha_textured_surfaces_are_cut_outs() {
     let d = tempfile::tempdir().unwrap();
     let obj = d.path().join("garden.obj");
     std::fs::write(
         d.path().join("garden.mtl"),
-        "newmtl hedge\nKd 0.1 0.5 0.1\nmap_Kd hedge.png\nmap_d hedge_alpha.png\nnewmtl wall\nKd 0.6 0.6 0.6\nmap_Kd bricks.jpg\nnewmtl plaster\nKd 0.9 0.9 0.9\n",
+        "newmtl hedge\nKd 0.1 0.5 0.1\nmap_Kd hedge.png\nmap_d hedge_alpha.png\nnewmtl wall\nKd 0.6 0.6 0.6\nmap_Kd bricks.jpg\nnewmtl plaster\nKd 0.9 0.9 0.9\nnewmtl grate\nmap_d grate.png\n",
     )
     .unwrap();
     std::fs::write(
         &obj,
-        "mtllib garden.mtl\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 0 0 -1\nv 2 0 -1\nv 2 1 -1\nv 0 1 -1\no hedge\nusemtl hedge\nf 1 2 3 4\no wall\nusemtl wall\nf 5 6 7 8\no post\nusemtl plaster\nf 1 5 8\n",
+        "mtllib garden.mtl\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 0 0 -1\nv 2 0 -1\nv 2 1 -1\nv 0 1 -1\no hedge\nusemtl hedge\nf 1 2 3 4\no wall\nusemtl wall\nf 5 6 7 8\no post\nusemtl plaster\nf 1 5 8\no grate\nusemtl grate\nf 2 6 7\n",
     )
     .unwrap();
     let (_, report) = build(&obj);
-    assert_eq!((report["cut_out_triangles"].as_u64(), report["cut_out_objects"].as_u64()), (Some(2), Some(1)), "{report}");
+    assert_eq!((report["cut_out_triangles"].as_u64(), report["cut_out_objects"].as_u64()), (Some(3), Some(2)), "{report}");
     let left_out = report["left_out"].to_string();
     assert!(
         left_out.contains("2 diffuse textures (map_Kd) of 2 materials") && left_out.contains("'bricks.jpg', 'hedge.png'"),
         "{left_out}"
     );
-    assert!(left_out.contains("1 alpha textures (map_d) of 1 materials") && left_out.contains("'hedge_alpha.png'"), "{left_out}");
+    assert!(
+        left_out.contains("2 alpha textures (map_d) of 2 materials") && left_out.contains("'grate.png', 'hedge_alpha.png'"),
+        "{left_out}"
+    );
 }

@@ -223,7 +223,9 @@ impl Stream<'_> {
         report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
         report.degenerate_triangles_dropped = clean_stats.degenerate_triangles;
         if colors_dropped > 0 {
-            report.left_out.push(format!("the model's colours and translucency of {colors_dropped} objects (--colors hashed)"));
+            report.left_out.push(format!(
+                "the model's colours, translucency and cut-outs of {colors_dropped} objects (--colors hashed: glass and cut-outs drawn opaque, and occluding)"
+            ));
         }
         if clean_stats.degenerate_triangles > 0 {
             report.left_out.push(format!(

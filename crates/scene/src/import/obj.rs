@@ -52,10 +52,11 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
             // Kd, the diffuse colour, as display values (what OBJ viewers show); d below 1 is
             // translucent.
             let material = m.mesh.material_id.and_then(|id| materials.get(id));
-            if let Some(kd) = material.and_then(|mat| mat.diffuse) {
+            // A cut-out without Kd takes MTL's default, 0.8: its alpha must be stored.
+            let cut_out = material.is_some_and(|mat| mat.dissolve_texture.is_some());
+            if let Some(kd) = material.and_then(|mat| mat.diffuse.or(cut_out.then_some([0.8; 3]))) {
                 let c = |k: usize| (kd[k].clamp(0.0, 1.0) * 255.0).round() as u8;
                 let d = material.and_then(|mat| mat.dissolve).unwrap_or(1.0);
-                let cut_out = material.is_some_and(|mat| mat.dissolve_texture.is_some());
                 let a = match crate::mesh::alpha(d as f32) {
                     255 if cut_out => crate::mesh::CUT_OUT,
                     a => a,
