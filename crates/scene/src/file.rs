@@ -95,28 +95,30 @@ impl SceneFile {
         instances_of(&self.map, &self.header)
     }
 
+    /// The block record of LOD node `lod` (None for other nodes).
+    fn block_record(&self, lod: NodeId) -> Option<&BlockRecord> {
+        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
+        self.blocks().get(block as usize)
+    }
+
     /// The opaque clusters of LOD node `lod`'s block (0 for other nodes).
     pub fn opaque_clusters(&self, lod: NodeId) -> u32 {
-        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
-        self.blocks().get(block as usize).map_or(0, |b| b.opaque_clusters)
+        self.block_record(lod).map_or(0, |b| b.opaque_clusters)
     }
 
     /// Whether LOD node `lod` has translucent triangles (false for other nodes).
     pub fn has_translucent(&self, lod: NodeId) -> bool {
-        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
-        self.blocks().get(block as usize).is_some_and(BlockRecord::has_translucent)
+        self.block_record(lod).is_some_and(BlockRecord::has_translucent)
     }
 
     /// The occluding clusters of LOD node `lod`'s block: its opaque ones but the cut-outs.
     pub fn occluder_clusters(&self, lod: NodeId) -> u32 {
-        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
-        self.blocks().get(block as usize).map_or(0, BlockRecord::occluder_clusters)
+        self.block_record(lod).map_or(0, BlockRecord::occluder_clusters)
     }
 
     /// Whether LOD node `lod` has triangles that occlude nothing: translucent ones or cut-outs.
     pub fn has_see_through(&self, lod: NodeId) -> bool {
-        let block = self.nodes().get(lod as usize).map_or(NONE, |n| n.block);
-        self.blocks().get(block as usize).is_some_and(|b| b.has_translucent() || b.cut_out_clusters > 0)
+        self.block_record(lod).is_some_and(|b| b.occluder_clusters() < b.cluster_count)
     }
 
     /// The geometry of LOD node `lod` in the scene's frame, checked on first read; a node of an
