@@ -202,6 +202,7 @@ mod tests {
             Ok::<_, Infallible>(Geometry {
                 positions: Cow::Borrowed(b.0),
                 colors: &[],
+                normals: Cow::Borrowed(&[]),
                 indices: Indices::U32(Cow::Borrowed(b.1)),
                 clusters: Cow::Borrowed(b.2),
                 cuts: &[],

@@ -130,7 +130,7 @@ impl DrawPipelines {
         };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("draw"),
-            // The view, the pass's use table, the vertex arena.
+            // The view, the pass's use table, the vertex arena, the normal arena.
             entries: &[
                 entry(
                     0,
@@ -139,6 +139,7 @@ impl DrawPipelines {
                 ),
                 entry(1, read, wgpu::ShaderStages::VERTEX),
                 entry(2, read, wgpu::ShaderStages::VERTEX),
+                entry(3, read, wgpu::ShaderStages::VERTEX),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -147,12 +148,13 @@ impl DrawPipelines {
             immediate_size: 0,
         });
         let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>, layer: Layer, compare| {
+            let vs = if fs.is_some_and(|(_, f)| f == COLOR) { "vs_shade" } else { "vs_main" };
             let blend = (layer == Layer::Translucent && fs.is_some_and(|(_, f)| f == COLOR)).then_some(wgpu::BlendState::ALPHA_BLENDING);
             let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend, write_mask: wgpu::ColorWrites::ALL })]);
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&pl),
-                vertex: wgpu::VertexState { module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+                vertex: wgpu::VertexState { module, entry_point: Some(vs), compilation_options: Default::default(), buffers: &[] },
                 // No back-face culling: imported models are not reliably closed or wound.
                 primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
                 depth_stencil: Some(depth_state(layer == Layer::Opaque, compare)),

@@ -136,6 +136,9 @@ pub struct RenderOptions {
     /// Place instances with f32 rows ([`Rows::Single`]) also where the adapter has 64-bit
     /// floats: what an adapter without them draws.
     pub single_rows: bool,
+    /// Colour passes shade with the scene's normals, uploaded beside the vertices; without,
+    /// every surface is shaded flat and no normal is uploaded (OR and HC draw no colour).
+    pub shade: bool,
     /// Geometry residency budget, bytes ([`crate::residency`]).
     pub residency_bytes: u64,
     /// Largest vertex arena, bytes: the device's largest buffer, or less (tests make a frame's
@@ -154,6 +157,7 @@ impl Default for RenderOptions {
             time_gpu: false,
             overlap: false,
             single_rows: false,
+            shade: true,
             residency_bytes: crate::limits::RESIDENCY_BYTES,
             max_arena_bytes: u64::MAX,
             max_nodes: usize::MAX,
@@ -181,8 +185,10 @@ pub struct Renderer {
     view_buf: wgpu::Buffer,
     /// The pass's use table on the GPU ([`crate::uses`]).
     uses_buf: wgpu::Buffer,
-    /// The draw pipelines' bind group, and the arena and use table it binds.
-    draw_group: Option<(wgpu::BindGroup, wgpu::Buffer, wgpu::Buffer)>,
+    /// The draw pipelines' bind group, and the arena, use table and normal arena it binds.
+    draw_group: Option<(wgpu::BindGroup, [wgpu::Buffer; 3])>,
+    /// What the draw pipelines bind as normals where none are uploaded.
+    no_normals: wgpu::Buffer,
     /// The pass's indices into the vertex arena, gathered from the nodes' (see `draw`).
     index_buf: wgpu::Buffer,
     boxes_buf: wgpu::Buffer,
@@ -242,6 +248,7 @@ impl Renderer {
         let results_buf = storage(&gpu, "box results", n * 4, U::STORAGE | U::COPY_SRC | U::COPY_DST);
         let results_staging = crate::readback::staging(&gpu, "box results readback", n * 4);
         let uses_buf = storage(&gpu, "pass uses", 64, U::STORAGE | U::COPY_DST);
+        let no_normals = storage(&gpu, "no normals", 4, U::STORAGE);
         let box_group = bind(&gpu, &boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
         let target = Target::new(&gpu, width, height);
         let pyramid = Pyramid::new(&gpu, &target, &view_buf, &boxes_buf, &results_buf);
@@ -263,12 +270,13 @@ impl Renderer {
             query_staging,
             pyramid,
             target,
-            residency: Residency::new(options.residency_bytes, options.max_arena_bytes),
+            residency: Residency::new(options.residency_bytes, options.max_arena_bytes, options.shade),
             draw,
             boxtest,
             view_buf,
             uses_buf,
             draw_group: None,
+            no_normals,
             index_buf,
             boxes_buf,
             results_buf,
@@ -398,9 +406,10 @@ impl Renderer {
     /// draw; false while there is no arena (nothing resident to draw).
     fn bind_arena(&mut self) -> bool {
         let Some(arena) = self.residency.arena() else { return false };
-        if self.draw_group.as_ref().is_none_or(|(_, a, u)| a != arena || u != &self.uses_buf) {
-            let buffers = [&self.view_buf, &self.uses_buf, arena];
-            self.draw_group = Some((bind(&self.gpu, &self.draw.layout, &buffers), arena.clone(), self.uses_buf.clone()));
+        let bound = [arena, &self.uses_buf, self.residency.normals().unwrap_or(&self.no_normals)];
+        if self.draw_group.as_ref().is_none_or(|(_, b)| b.iter().zip(bound).any(|(was, is)| was != is)) {
+            let group = bind(&self.gpu, &self.draw.layout, &[&self.view_buf, bound[1], bound[0], bound[2]]);
+            self.draw_group = Some((group, bound.map(Clone::clone)));
         }
         true
     }
@@ -451,7 +460,7 @@ impl Renderer {
         if let Some((set, _, _)) = query {
             rp.begin_pipeline_statistics_query(set, 0);
         }
-        if let (Some(bytes), Some((group, _, _))) = (bytes, &self.draw_group) {
+        if let (Some(bytes), Some((group, _))) = (bytes, &self.draw_group) {
             rp.set_pipeline(self.draw.pipeline(pass, layer));
             rp.set_bind_group(0, group, &[]);
             rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);

@@ -5,6 +5,10 @@
 //! differ only in their rows of the pass's use table ([`crate::uses`]). Geometry never drawn is
 //! never read from the file or uploaded.
 //!
+//! Normals lie in an arena of their own, beside the vertex arena (the same vertex at the same
+//! index), filled only by a renderer that shades: OR's and HC's depth and item passes read
+//! positions alone, and upload nothing else.
+//!
 //! One arena, so that a pass is one draw call over all its nodes: a draw call costs lavapipe
 //! more than most nodes' triangles do (docs/measurements/2026-12-01-scene-and-renderer.md).
 //! The indices stay in the file and are gathered per pass (see `Renderer::draw`).
@@ -29,6 +33,8 @@ pub struct ArenaVertex {
 const _: () = assert!(std::mem::size_of::<ArenaVertex>() == 16);
 
 const VERTEX_BYTES: u64 = std::mem::size_of::<ArenaVertex>() as u64;
+/// A vertex's normal in the normal arena (octahedral, see [`osw_scene::normal`]).
+const NORMAL_BYTES: u64 = 4;
 
 /// Smallest arena, vertices.
 const MIN_CAPACITY: u32 = 1 << 16;
@@ -70,6 +76,9 @@ pub struct Residency {
     /// Blocks ever read from the file.
     read: std::collections::HashSet<u64>,
     arena: Option<wgpu::Buffer>,
+    /// A normal per arena vertex, where the renderer shades.
+    normals: Option<wgpu::Buffer>,
+    shade: bool,
     /// Arena size in vertices, and its free ranges.
     capacity: u32,
     free: FreeRanges,
@@ -82,12 +91,15 @@ pub struct Residency {
 }
 
 impl Residency {
-    pub fn new(budget: u64, max_arena_bytes: u64) -> Residency {
+    /// `shade`: normals are uploaded too ([`Residency::normals`]).
+    pub fn new(budget: u64, max_arena_bytes: u64, shade: bool) -> Residency {
         Residency {
             map: HashMap::new(),
             ever: Vec::new(),
             read: Default::default(),
             arena: None,
+            normals: None,
+            shade,
             capacity: 0,
             free: FreeRanges::default(),
             budget,
@@ -103,6 +115,16 @@ impl Residency {
         self.arena.as_ref()
     }
 
+    /// The normal arena, once anything is resident in a renderer that shades.
+    pub fn normals(&self) -> Option<&wgpu::Buffer> {
+        self.normals.as_ref()
+    }
+
+    /// Bytes a resident vertex takes: its position and colour, and its normal where shaded.
+    fn vertex_bytes(&self) -> u64 {
+        VERTEX_BYTES + if self.shade { NORMAL_BYTES } else { 0 }
+    }
+
     /// Starts a new use epoch: nodes used in the current epoch are never evicted.
     pub fn next_epoch(&mut self) {
         self.frame += 1;
@@ -111,9 +133,10 @@ impl Residency {
     /// The first vertex in the arena of LOD node `id`'s mesh, whose geometry block lies at
     /// `block` in the scene's blob, if it is resident, marking it used in this epoch.
     pub fn resident(&mut self, id: NodeId, block: u64) -> Option<u32> {
+        let vertex_bytes = self.vertex_bytes();
         let r = self.map.get_mut(&block)?;
         r.last_used = self.frame;
-        let (base, bytes) = (r.base, r.vertices as u64 * VERTEX_BYTES);
+        let (base, bytes) = (r.base, r.vertices as u64 * vertex_bytes);
         if self.first_draw(id) {
             self.stats.shared_bytes += bytes;
         }
@@ -135,13 +158,26 @@ impl Residency {
         {
             gpu.queue.write_buffer(arena, base as u64 * VERTEX_BYTES, bytemuck::cast_slice(&vertices));
         }
-        let bytes = n as u64 * VERTEX_BYTES;
+        if let Some(normals) = &self.normals
+            && n > 0
+        {
+            let flat;
+            let stored: &[u32] = if g.normals.is_empty() {
+                flat = vec![osw_scene::normal::NO_NORMAL; n as usize];
+                &flat
+            } else {
+                &g.normals
+            };
+            gpu.queue.write_buffer(normals, base as u64 * NORMAL_BYTES, bytemuck::cast_slice(stored));
+        }
+        let bytes = n as u64 * self.vertex_bytes();
         self.bytes += bytes;
         self.stats.uploads += 1;
         self.stats.upload_bytes += bytes;
         self.first_draw(id);
         if self.read.insert(block) {
-            self.stats.distinct_bytes += g.positions.len() as u64 * 12 + g.indices.bytes().len() as u64;
+            let normal_bytes = if self.shade { std::mem::size_of_val(g.normals.as_ref()) as u64 } else { 0 };
+            self.stats.distinct_bytes += g.positions.len() as u64 * 12 + normal_bytes + g.indices.bytes().len() as u64;
         }
         self.map.insert(block, Resident { base, vertices: n, last_used: self.frame });
         Ok(base)
@@ -166,7 +202,7 @@ impl Residency {
         if let Some(at) = self.free.take(n) {
             return Ok(at);
         }
-        let over_budget = (self.capacity as u64 + n as u64) * VERTEX_BYTES > self.budget;
+        let over_budget = (self.capacity as u64 + n as u64) * self.vertex_bytes() > self.budget;
         if over_budget && let Some(at) = self.evict_for(n) {
             return Ok(at);
         }
@@ -177,7 +213,8 @@ impl Residency {
         }
     }
 
-    /// Doubles the arena (at least by `n` vertices), copying what it holds.
+    /// Doubles the arena and the normal arena (at least by `n` vertices), copying what they
+    /// hold.
     fn grow(&mut self, gpu: &Gpu, n: u32) -> Result<(), ResidencyError> {
         let limits = gpu.device.limits();
         let max = limits.max_buffer_size.min(limits.max_storage_buffer_binding_size).min(self.max_arena_bytes) / VERTEX_BYTES;
@@ -186,16 +223,9 @@ impl Residency {
         if capacity < self.capacity as u64 + n as u64 {
             return Err(ResidencyError::TooLarge(max * VERTEX_BYTES));
         }
-        let arena = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("vertex arena"),
-            size: capacity * VERTEX_BYTES,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        if let Some(old) = self.arena.replace(arena) {
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            enc.copy_buffer_to_buffer(&old, 0, self.arena.as_ref().expect("just set"), 0, Some(old.size()));
-            gpu.queue.submit([enc.finish()]);
+        self.arena = Some(grown(gpu, self.arena.take(), "vertex arena", capacity * VERTEX_BYTES));
+        if self.shade {
+            self.normals = Some(grown(gpu, self.normals.take(), "normal arena", capacity * NORMAL_BYTES));
         }
         self.free.give(self.capacity, capacity as u32 - self.capacity);
         self.capacity = capacity as u32;
@@ -227,7 +257,7 @@ impl Residency {
     fn evict(&mut self, block: u64) {
         let r = self.map.remove(&block).expect("resident");
         self.free.give(r.base, r.vertices);
-        self.bytes -= r.vertices as u64 * VERTEX_BYTES;
+        self.bytes -= r.vertices as u64 * self.vertex_bytes();
         self.stats.evictions += 1;
     }
 
@@ -243,4 +273,20 @@ impl Residency {
             self.evict(block);
         }
     }
+}
+
+/// A storage buffer of `size` bytes holding what `old` held.
+fn grown(gpu: &Gpu, old: Option<wgpu::Buffer>, label: &str, size: u64) -> wgpu::Buffer {
+    let new = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    if let Some(old) = old {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&old, 0, &new, 0, Some(old.size()));
+        gpu.queue.submit([enc.finish()]);
+    }
+    new
 }

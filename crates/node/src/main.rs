@@ -89,7 +89,8 @@ fn run(a: &Args) -> anyhow::Result<()> {
     let agreed = a.agreed.resolve(cfg)?;
     let me = Hello::new(scene.content_hash(), a.name.clone(), Role::Node, agreed.said(set.size));
     let gpu = osw_gpu::Gpu::new(a.cluster.adapter.as_deref())?;
-    let options = osw_gpu::RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, ..Default::default() };
+    // OR and HC draw depth and item ids: no normals are uploaded.
+    let options = osw_gpu::RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, shade: false, ..Default::default() };
     let renderer = osw_gpu::Renderer::new(gpu, &scene, w, h, options)?;
     if a.gpu_times && !renderer.times_gpu() {
         anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", renderer.gpu().info.name);

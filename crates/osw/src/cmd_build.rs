@@ -3,6 +3,7 @@
 use anyhow::{Context, bail};
 use osw_scene::build::{Instances, Lod};
 use osw_scene::generators::GenKind;
+use osw_scene::smooth::Normals;
 use osw_scene::source::{InMemory, Shifted, Source};
 use osw_scene::{BuildOptions, build};
 use std::path::PathBuf;
@@ -44,6 +45,16 @@ pub struct Args {
     /// objects without one in hashed colours), or hashed for every object.
     #[arg(long, value_enum, default_value_t = Colors::Model)]
     colors: Colors,
+    /// Normals for shading: `smooth` keeps the model's (glTF NORMAL, OBJ vn, PLY nx ny nz) and
+    /// computes the rest, weighted by area and angle; `flat` stores none (every facet shaded
+    /// from its depth, and 4 bytes a vertex less).
+    #[arg(long, value_enum, default_value_t = Shading::Smooth)]
+    normals: Shading,
+    /// Where computed normals split: faces meeting at a sharper angle (degrees, 0 to 180) keep
+    /// their own normals along their edge. The default keeps a box's and an octagon's edges
+    /// and rounds a pipe of twelve facets or more.
+    #[arg(long, default_value_t = osw_scene::smooth::CREASE_DEGREES, value_name = "DEGREES")]
+    crease_angle: f32,
     /// Most input triangles built in memory at once (one subtree of the hierarchy at a time:
     /// peak memory follows this, not the model's size). The scene is the same for any value;
     /// only the order of its blocks in the file changes.
@@ -75,6 +86,12 @@ const MOST_INSTANCED: u64 = 20_000_000_000;
 const MOST_IN_MEMORY: u64 = 100_000_000;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Shading {
+    Smooth,
+    Flat,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Colors {
     Model,
     Hashed,
@@ -98,6 +115,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.bucket_triangles == 0 {
         bail!("--bucket-triangles must be at least 1");
     }
+    if !(0.0..=180.0).contains(&a.crease_angle) {
+        bail!("--crease-angle must be from 0 to 180 degrees (got {})", a.crease_angle);
+    }
     let started = std::time::Instant::now();
     let bar = crate::progress::Bar::new();
     let Input { source, name: input, notes, left_out } = input(&a)?;
@@ -109,6 +129,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         chunk_triangles: a.chunk_triangles,
         loose_split: a.loose_split,
         model_colors: a.colors == Colors::Model,
+        normals: match a.normals {
+            Shading::Smooth => Normals::Smooth { crease_degrees: a.crease_angle },
+            Shading::Flat => Normals::Flat,
+        },
         bucket_triangles: a.bucket_triangles,
         lod: a.lod,
         instances: a.instances,

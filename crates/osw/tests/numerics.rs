@@ -122,7 +122,11 @@ fn write_chain_scene(path: &Path, tris: &[[DVec3; 3]]) {
     }
     let blocks = tris
         .iter()
-        .map(|t| osw_scene::Mesh { positions: t.iter().map(|p| p.as_vec3().into()).collect(), indices: vec![0, 1, 2], colors: Vec::new() })
+        .map(|t| osw_scene::Mesh {
+            positions: t.iter().map(|p| p.as_vec3().into()).collect(),
+            indices: vec![0, 1, 2],
+            ..Default::default()
+        })
         .collect();
     let data = osw_scene::writer::SceneData {
         origin: [0.0; 3],

@@ -1,5 +1,5 @@
 //! One geometry block's bytes, encoded by the build and decoded in place by every reader:
-//! positions, colours if any, the indices in cluster order (u16 when every index fits, else
+//! positions, colours and normals if any, the indices in cluster order (u16 when every index fits, else
 //! u32), padding to 4 bytes and the clusters ([`crate::format`] lays out the file around them).
 
 use crate::format::{BlockRecord, CUT_BYTES, ClusterRecord, Cut};
@@ -16,9 +16,9 @@ pub struct Encoded {
 /// The bytes of one block. `object`: the box of
 /// the block's object when that is closed (see [`crate::cluster::clusterize`]).
 ///
-/// Vertices of bit-identical position and colour are stored once: osw draws neither normals
-/// nor texture coordinates, so the seams a model splits its vertices at are not needed, and a
-/// cluster hierarchy's node gathers pieces that share their borders and the original corners
+/// Vertices of bit-identical position, colour and normal are stored once: osw draws no
+/// texture coordinates, so the seams a model splits its vertices at for them are not needed,
+/// and a cluster hierarchy's node gathers pieces that share their borders and the original corners
 /// of simplified triangles (docs/measurements/2026-12-07-constants.md, "encode"). Connected
 /// parts are joined by position already ([`crate::cluster`]).
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
@@ -49,6 +49,9 @@ pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecor
     let mut bytes = Vec::with_capacity(mesh.positions.len() * 16 + indices.len() * 4 + std::mem::size_of_val(clusters));
     bytes.extend_from_slice(bytemuck::cast_slice(&mesh.positions));
     bytes.extend_from_slice(mesh.colors.as_flattened());
+    // A block of flat triangles alone stores no normals (see crate::normal).
+    let normals: &[crate::normal::Normal] = if mesh.normals.iter().all(|&n| n == crate::normal::NO_NORMAL) { &[] } else { &mesh.normals };
+    bytes.extend_from_slice(bytemuck::cast_slice(normals));
     let index_bytes = if mesh.positions.len() <= 1 << 16 {
         bytes.extend(indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
         2
@@ -70,6 +73,8 @@ pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecor
         opaque_clusters: layers.opaque,
         cut_bytes: if cuts.is_empty() { 0 } else { CUT_BYTES },
         cut_out_clusters: layers.opaque - layers.occluders,
+        normal_bytes: if normals.is_empty() { 0 } else { 4 },
+        reserved: 0,
     };
     debug_assert_eq!(record.byte_len(), bytes.len() as u64);
     Encoded { bytes, record }
@@ -82,6 +87,8 @@ pub struct Geometry<'a> {
     pub positions: Cow<'a, [[f32; 3]]>,
     /// One per vertex, or empty when the block has no colours.
     pub colors: &'a [[u8; 4]],
+    /// One per vertex, or empty when the block has no normals; an instance's turned.
+    pub normals: Cow<'a, [crate::normal::Normal]>,
     /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
     pub indices: Indices<'a>,
     pub clusters: Cow<'a, [ClusterRecord]>,
@@ -152,7 +159,8 @@ pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
     let (front, clusters) = bytes.split_at(rec.clusters_at() as usize);
     let (clusters, cuts) = clusters.split_at(rec.cluster_count as usize * crate::format::CLUSTER_BYTES as usize);
     let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
-    let (colors, idx) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
+    let (colors, rest) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
+    let (normals, idx) = rest.split_at(rec.vertex_count as usize * rec.normal_bytes as usize);
     let idx = &idx[..rec.index_count as usize * rec.index_bytes as usize];
     let indices = if rec.index_bytes == 2 {
         Indices::U16(Cow::Borrowed(bytemuck::cast_slice(idx)))
@@ -162,6 +170,7 @@ pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
     Geometry {
         positions: Cow::Borrowed(bytemuck::cast_slice(pos)),
         colors: bytemuck::cast_slice(colors),
+        normals: Cow::Borrowed(bytemuck::cast_slice(normals)),
         indices,
         clusters: Cow::Borrowed(bytemuck::cast_slice(clusters)),
         cuts: bytemuck::cast_slice(&cuts[..rec.cluster_count as usize * rec.cut_bytes as usize]),

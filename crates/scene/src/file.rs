@@ -233,6 +233,7 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
         let ok = b.offset.is_multiple_of(BLOCK_ALIGN)
             && (b.index_bytes == 2 || b.index_bytes == 4)
             && (b.color_bytes == 0 || b.color_bytes == 4)
+            && (b.normal_bytes == 0 || b.normal_bytes == 4)
             && (b.cut_bytes == 0 || b.cut_bytes == CUT_BYTES)
             && b.opaque_clusters <= b.cluster_count
             && b.cut_out_clusters <= b.opaque_clusters

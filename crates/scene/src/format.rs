@@ -1,4 +1,4 @@
-//! The scene file format, version 8: one file that the three processes of the cluster map into
+//! The scene file format, version 9: one file that the three processes of the cluster map into
 //! memory and read in place (occlusion switch, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
@@ -6,11 +6,12 @@
 //! offset 0              Header (256 bytes)
 //! header.blob_offset    geometry blocks (256), each BLOCK_ALIGN-aligned and padded to it:
 //!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
-//!                       block has colours, [u16 or u32; index_count] in cluster order,
+//!                       block has colours, [u32; vertex_count] octahedral normals when
+//!                       it has normals, [u16 or u32; index_count] in cluster order,
 //!                       padding to 4 bytes, [ClusterRecord; cluster_count], then in a
 //!                       cluster hierarchy's block [Cut; cluster_count]
 //! header.nodes_offset   [NodeRecord; node_count]       104 bytes each, right after the blob
-//! header.blocks_offset  [BlockRecord; block_count]     48 bytes each, 8-aligned
+//! header.blocks_offset  [BlockRecord; block_count]     56 bytes each, 8-aligned
 //! header.instances_offset [InstanceRecord; instance_count] 104 bytes each, to the end
 //! ```
 //! The tables follow the blob because the build streams: blocks are written as each part of the
@@ -50,7 +51,9 @@ pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// tau, and a chains scene stored 40 bytes a cluster to say so. Later in 8, a block's padding
 /// became [`BlockRecord::cut_out_clusters`]: 0 in files written before, which reads as what
 /// they meant (no cut-outs), and a reader from before takes cut-outs for opaque triangles.
-pub const VERSION: u32 = 8;
+/// 9: a block may store a normal per vertex ([`BlockRecord::normal_bytes`]), after the
+/// colours: the depth passes read positions alone, and a scene built flat stores none.
+pub const VERSION: u32 = 9;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -215,7 +218,7 @@ impl NodeRecord {
     }
 }
 
-/// Where one geometry block lies in the blob: 48 bytes.
+/// Where one geometry block lies in the blob: 56 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct BlockRecord {
@@ -242,13 +245,22 @@ pub struct BlockRecord {
     /// The last of the opaque clusters that hold cut-outs ([`crate::mesh::CUT_OUT`]): drawn
     /// opaque, never into an occluder pass's depth.
     pub cut_out_clusters: u32,
+    /// 4 when the block stores a normal per vertex (octahedral, see [`crate::normal`]), else 0:
+    /// shaded flat.
+    pub normal_bytes: u32,
+    pub reserved: u32,
 }
 
 impl BlockRecord {
-    /// Bytes of positions, colours and indices (positions are 12 bytes a vertex and colours
-    /// 4, so indices start 4-byte aligned), rounded up to 4.
+    /// Bytes of a vertex's attributes: position, colour and normal.
+    pub fn vertex_bytes(&self) -> u64 {
+        12 + self.color_bytes as u64 + self.normal_bytes as u64
+    }
+
+    /// Bytes of the vertices and indices (every vertex stream is a multiple of 4 bytes, so
+    /// indices start 4-byte aligned), rounded up to 4.
     pub fn clusters_at(&self) -> u64 {
-        (self.vertex_count as u64 * (12 + self.color_bytes as u64) + self.index_count as u64 * self.index_bytes as u64).next_multiple_of(4)
+        (self.vertex_count as u64 * self.vertex_bytes() + self.index_count as u64 * self.index_bytes as u64).next_multiple_of(4)
     }
 
     /// Bytes of the whole block.
@@ -335,7 +347,7 @@ pub const CUT_BYTES: u32 = std::mem::size_of::<Cut>() as u32;
 pub const INSTANCE_BYTES: u64 = std::mem::size_of::<InstanceRecord>() as u64;
 
 /// Where the instance table starts after `block_count` blocks at `blocks_offset` (8-aligned
-/// already: blocks are 48 bytes).
+/// already: blocks are 56 bytes).
 pub fn instances_offset(blocks_offset: u64, block_count: u32) -> Option<u64> {
     blocks_offset.checked_add(block_count as u64 * BLOCK_BYTES)
 }
@@ -377,7 +389,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<Header>(), 256);
         assert_eq!(std::mem::size_of::<NodeRecord>(), 104);
         assert_eq!(std::mem::size_of::<InstanceRecord>(), 104);
-        assert_eq!(std::mem::size_of::<BlockRecord>(), 48);
+        assert_eq!(std::mem::size_of::<BlockRecord>(), 56);
         assert_eq!(std::mem::size_of::<ClusterRecord>(), 100);
         assert_eq!(CUT_BYTES, 40);
     }

@@ -91,13 +91,20 @@ impl Placement {
         Aabb::new(out.min - pad, out.max + pad)
     }
 
-    /// `mesh` placed: positions placed, winding reversed where the placement mirrors.
+    /// `mesh` placed: positions placed, normals turned, winding reversed where the placement
+    /// mirrors.
     pub fn mesh(&self, mesh: &Mesh) -> Mesh {
         let indices = if self.flips { flipped(&mesh.indices) } else { mesh.indices.clone() };
-        Mesh { positions: self.points(&mesh.positions), indices, colors: mesh.colors.clone() }
+        Mesh { positions: self.points(&mesh.positions), indices, colors: mesh.colors.clone(), normals: self.normals(&mesh.normals) }
     }
 
-    /// A block placed: its own positions and clusters, its indices reversed where the
+    fn normals(&self, normals: &[crate::normal::Normal]) -> Vec<crate::normal::Normal> {
+        let mut out = normals.to_vec();
+        crate::normal::transform(&mut out, self.affine.matrix3);
+        out
+    }
+
+    /// A block placed: its own positions, normals and clusters, its indices reversed where the
     /// placement mirrors (else the stored ones), its colours the stored ones.
     pub fn geometry<'a>(&self, g: &Geometry<'a>) -> Geometry<'a> {
         let positions = self.points(&g.positions);
@@ -110,6 +117,7 @@ impl Placement {
         Geometry {
             positions: Cow::Owned(positions),
             colors: g.colors,
+            normals: Cow::Owned(self.normals(&g.normals)),
             indices,
             clusters: Cow::Owned(clusters),
             cuts: g.cuts,
@@ -155,7 +163,7 @@ fn flipped<T: Copy>(ix: &[T]) -> Vec<T> {
 pub fn place_block(e: &Encoded, place: &Placement) -> Encoded {
     let g = place.geometry(&geometry_of(&e.bytes, &e.record));
     let indices: Vec<u32> = g.indices.iter().collect();
-    let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec() };
+    let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec(), normals: g.normals.to_vec() };
     let layers = Layers { occluders: e.record.occluder_clusters(), opaque: e.record.opaque_clusters };
     encode_with(&mesh, &indices, &g.clusters, g.cuts, layers)
 }

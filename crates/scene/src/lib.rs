@@ -4,6 +4,7 @@
 //! - [`mesh`]: indexed triangle meshes and the clean-up every input goes through.
 //! - [`import`]: glTF 2.0 (.gltf/.glb) and PLY readers; [`generators`]: the city, teapots and plant
 //!   generators.
+//! - [`normal`] and [`smooth`]: normals stored in 4 bytes, and computed where a model gives none.
 //! - [`place`]: one scene origin for the objects' f64 world coordinates, scene-local f32.
 //! - [`instance`]: a mesh used several times stored once, and how one use places its blocks.
 //! - [`chunk`]: splits large objects into chunks of bounded triangle count, and halves chunks
@@ -41,11 +42,13 @@ pub mod limits;
 pub mod lod;
 pub mod mesh;
 pub mod nav;
+pub mod normal;
 pub mod path;
 pub mod path_gen;
 pub mod place;
 pub mod progress;
 pub mod repeat;
+pub mod smooth;
 pub mod source;
 pub mod spill;
 pub mod writer;

@@ -20,6 +20,9 @@ pub struct Mesh {
     /// translucent one (its coverage, see [`alpha`]), and 0 for [`NO_COLOR`] (a vertex of a
     /// mesh merged with an uncoloured one), which is drawn opaque in the object's hashed colour.
     pub colors: Vec<[u8; 4]>,
+    /// A unit normal per vertex, octahedral ([`crate::normal`]), or empty when the mesh has
+    /// none; [`crate::normal::NO_NORMAL`] at a vertex of a mesh merged with one without.
+    pub normals: Vec<crate::normal::Normal>,
 }
 
 /// A vertex without a colour from the model, in a mesh whose other vertices have one.
@@ -112,6 +115,8 @@ pub enum MeshError {
     NonFinite { vertex: usize, pos: [f32; 3] },
     #[error("{colors} colours for {vertices} vertices")]
     Colors { colors: usize, vertices: usize },
+    #[error("{normals} normals for {vertices} vertices")]
+    Normals { normals: usize, vertices: usize },
 }
 
 /// Counts of what [`Mesh::clean`] removed.
@@ -160,6 +165,9 @@ impl Mesh {
         if !self.colors.is_empty() && self.colors.len() != n {
             return Err(MeshError::Colors { colors: self.colors.len(), vertices: n });
         }
+        if !self.normals.is_empty() && self.normals.len() != n {
+            return Err(MeshError::Normals { normals: self.normals.len(), vertices: n });
+        }
         Ok(())
     }
 
@@ -190,7 +198,7 @@ impl Mesh {
     }
 
     /// The mesh made of `indices` into this mesh's vertices, with only the used vertices (and
-    /// their colours), in first-use order.
+    /// their colours and normals), in first-use order.
     pub fn sub_mesh(&self, indices: &[u32]) -> Mesh {
         // A hash map, not one slot per vertex: a large object's hierarchy leaves in tens of
         // thousands of small pieces, and a map over all its vertices each time cost more than
@@ -203,6 +211,9 @@ impl Mesh {
                 if let Some(c) = self.colors.get(i as usize) {
                     out.colors.push(*c);
                 }
+                if let Some(n) = self.normals.get(i as usize) {
+                    out.normals.push(*n);
+                }
                 out.positions.len() as u32 - 1
             });
             out.indices.push(slot);
@@ -210,20 +221,14 @@ impl Mesh {
         out
     }
 
-    /// Appends `o`, offsetting its indices. When only one of the two has colours, the other's
-    /// vertices get [`NO_COLOR`].
+    /// Appends `o`, offsetting its indices. When only one of the two has colours (normals), the
+    /// other's vertices get [`NO_COLOR`] ([`crate::normal::NO_NORMAL`]).
     pub fn append(&mut self, o: &Mesh) {
-        let base = self.positions.len() as u32;
-        if self.colors.is_empty() != o.colors.is_empty() {
-            self.colors.resize(self.positions.len(), NO_COLOR);
-        }
+        let (before, base) = (self.positions.len(), self.positions.len() as u32);
         self.positions.extend_from_slice(&o.positions);
         self.indices.extend(o.indices.iter().map(|i| i + base));
-        match o.colors.is_empty() {
-            false => self.colors.extend_from_slice(&o.colors),
-            true if !self.colors.is_empty() => self.colors.resize(self.positions.len(), NO_COLOR),
-            true => {}
-        }
+        append_attribute(&mut self.colors, &o.colors, before, self.positions.len(), NO_COLOR);
+        append_attribute(&mut self.normals, &o.normals, before, self.positions.len(), crate::normal::NO_NORMAL);
     }
 
     /// Gives every vertex the colour `c`; an alpha of 0 is made 1 (see [`alpha`]).
@@ -248,28 +253,47 @@ impl Mesh {
         self.indices.extend([base, base + 1, base + 2]);
     }
 
-    /// Applies an affine transform to every position.
+    /// Applies an affine transform to every position, and its normal matrix to every normal.
     pub fn transform(&mut self, m: &glam::Affine3A) {
         for p in &mut self.positions {
             *p = m.transform_point3(Vec3::from_array(*p)).to_array();
         }
+        crate::normal::transform(&mut self.normals, glam::Mat3::from(m.matrix3).as_dmat3());
     }
 
-    /// Merges vertices with bit-identical positions and colours (meshoptimizer's remap), so
-    /// that the simplifier sees a connected surface in inputs that repeat corners per triangle.
+    /// Merges vertices with bit-identical positions, colours and normals (meshoptimizer's
+    /// remap), so that the simplifier sees a connected surface in inputs that repeat corners
+    /// per triangle.
     pub fn welded(&self) -> Mesh {
-        let keys: Vec<[u32; 4]> = (0..self.positions.len())
+        let keys: Vec<[u32; 5]> = (0..self.positions.len())
             .map(|i| {
                 let p = self.positions[i].map(f32::to_bits);
-                [p[0], p[1], p[2], self.colors.get(i).map_or(0, |c| u32::from_le_bytes(*c))]
+                let c = self.colors.get(i).map_or(0, |c| u32::from_le_bytes(*c));
+                [p[0], p[1], p[2], c, self.normals.get(i).copied().unwrap_or(0)]
             })
             .collect();
         let (unique, remap) = meshopt::generate_vertex_remap(&keys, Some(&self.indices));
-        let colors = if self.colors.is_empty() { Vec::new() } else { meshopt::remap_vertex_buffer(&self.colors, unique, &remap) };
-        let positions = meshopt::remap_vertex_buffer(&self.positions, unique, &remap);
-        let indices = meshopt::remap_index_buffer(Some(&self.indices), self.indices.len(), &remap);
-        Mesh { positions, indices, colors }
+        fn remapped<T: Copy + Default>(v: &[T], unique: usize, remap: &[u32]) -> Vec<T> {
+            if v.is_empty() { Vec::new() } else { meshopt::remap_vertex_buffer(v, unique, remap) }
+        }
+        Mesh {
+            colors: remapped(&self.colors, unique, &remap),
+            normals: remapped(&self.normals, unique, &remap),
+            positions: meshopt::remap_vertex_buffer(&self.positions, unique, &remap),
+            indices: meshopt::remap_index_buffer(Some(&self.indices), self.indices.len(), &remap),
+        }
     }
+}
+
+/// `to` after appending `from`'s attribute to a mesh of `before` vertices, now `after`: empty
+/// while neither has it, else one per vertex, `none` where only the other had it.
+fn append_attribute<T: Copy>(to: &mut Vec<T>, from: &[T], before: usize, after: usize, none: T) {
+    if to.is_empty() && from.is_empty() {
+        return;
+    }
+    to.resize(before, none);
+    to.extend_from_slice(from);
+    to.resize(after, none);
 }
 
 /// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5).
@@ -314,6 +338,7 @@ mod tests {
             positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
             indices: vec![0, 1, 2, 0, 2, 3],
             colors: Vec::new(),
+            normals: Vec::new(),
         }
     }
 
@@ -362,6 +387,15 @@ mod tests {
         assert_eq!(both.welded().positions.len(), 8);
         m.colors.pop();
         assert_eq!(m.validate(), Err(MeshError::Colors { colors: 7, vertices: 8 }));
+        // Normals the same way: the quad without them gets NO_NORMAL, and they split a weld.
+        let mut bent = quad();
+        bent.normals = vec![7; 4];
+        let mut m = quad();
+        m.append(&bent);
+        assert_eq!(m.normals, [[crate::normal::NO_NORMAL; 4], [7; 4]].concat());
+        assert_eq!(m.welded().positions.len(), 8);
+        m.normals.pop();
+        assert_eq!(m.validate(), Err(MeshError::Normals { normals: 7, vertices: 8 }));
     }
 
     #[test]

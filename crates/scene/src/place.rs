@@ -103,6 +103,7 @@ pub fn to_local(objects: &mut [Object], origin: DVec3) {
                 let local = o.placement.transform_point3(glam::Vec3::from_array(*p).as_dvec3());
                 *p = (local + shift).as_vec3().to_array();
             }
+            crate::normal::transform(&mut o.mesh.normals, o.placement.matrix3);
         }
         (o.placement, o.anchor) = (DAffine3::IDENTITY, DVec3::ZERO);
     });
@@ -120,7 +121,7 @@ mod tests {
     use glam::Vec3;
 
     fn object(points: &[[f32; 3]], anchor: DVec3, placement: DAffine3) -> Object {
-        Object::placed("o", Mesh { positions: points.to_vec(), indices: vec![0, 1, 2], colors: Vec::new() }, anchor, placement)
+        Object::placed("o", Mesh { positions: points.to_vec(), indices: vec![0, 1, 2], ..Default::default() }, anchor, placement)
     }
 
     #[test]

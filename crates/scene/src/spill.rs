@@ -17,6 +17,7 @@ pub struct SpillRef {
     vertices: u32,
     indices: u32,
     colored: bool,
+    normals: bool,
     /// Cuts of the piece; each triangle's cut is stored when there is more than one.
     cuts: u32,
 }
@@ -29,7 +30,7 @@ impl SpillRef {
     }
 
     fn mesh_bytes(&self) -> usize {
-        self.vertices as usize * (12 + if self.colored { 4 } else { 0 }) + self.indices as usize * self.index_bytes()
+        self.vertices as usize * (12 + 4 * self.colored as usize + 4 * self.normals as usize) + self.indices as usize * self.index_bytes()
     }
 
     fn bytes(&self) -> usize {
@@ -68,11 +69,13 @@ impl Spill {
             vertices: m.positions.len() as u32,
             indices: m.indices.len() as u32,
             colored: !m.colors.is_empty(),
+            normals: !m.normals.is_empty(),
             cuts: p.cuts.len() as u32,
         };
         let mut bytes = Vec::with_capacity(r.bytes());
         bytes.extend_from_slice(bytemuck::cast_slice(&m.positions));
         bytes.extend_from_slice(m.colors.as_flattened());
+        bytes.extend_from_slice(bytemuck::cast_slice(&m.normals));
         if r.index_bytes() == 2 {
             bytes.extend(m.indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
         } else {
@@ -134,10 +137,12 @@ impl Sealed {
 
     fn mesh(r: &SpillRef, buf: &[u8]) -> Mesh {
         let (pos, rest) = buf.split_at(r.vertices as usize * 12);
-        let (colors, idx) = rest.split_at(if r.colored { r.vertices as usize * 4 } else { 0 });
+        let (colors, rest) = rest.split_at(if r.colored { r.vertices as usize * 4 } else { 0 });
+        let (normals, idx) = rest.split_at(if r.normals { r.vertices as usize * 4 } else { 0 });
         Mesh {
             positions: bytemuck::pod_collect_to_vec(pos),
             colors: bytemuck::pod_collect_to_vec(colors),
+            normals: bytemuck::pod_collect_to_vec(normals),
             indices: if r.index_bytes() == 2 {
                 idx.chunks_exact(2).map(|b| u16::from_le_bytes([b[0], b[1]]) as u32).collect()
             } else {
@@ -161,8 +166,8 @@ mod tests {
     fn chunks_come_back_as_written_and_the_file_goes() {
         let d = tempfile::tempdir().unwrap();
         let mut s = Spill::create(&d.path().join("s.osw")).unwrap();
-        let a = Mesh { positions: vec![[0.0; 3], [1.0, 2.0, 3.0], [4.0, 5.0, 6.5]], indices: vec![0, 1, 2], colors: Vec::new() };
-        let b = Mesh { colors: vec![[1, 2, 3, 255]; 3], indices: vec![2, 1, 0, 0, 1, 2], ..a.clone() };
+        let a = Mesh { positions: vec![[0.0; 3], [1.0, 2.0, 3.0], [4.0, 5.0, 6.5]], indices: vec![0, 1, 2], ..Default::default() };
+        let b = Mesh { colors: vec![[1, 2, 3, 255]; 3], normals: vec![7, 8, 9], indices: vec![2, 1, 0, 0, 1, 2], ..a.clone() };
         let (a, mut b) = (Piece::always(a), Piece::always(b));
         b.cuts.push(Cut { hi: crate::format::ErrorBound { center: [1.0, 2.0, 3.0], radius: 4.0, error: 0.5 }, ..Cut::ALWAYS });
         b.cut_of = vec![0, 1];

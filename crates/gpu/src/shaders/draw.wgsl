@@ -3,7 +3,9 @@
 // pass's use table and the vertex within its mesh in the arena (gpu/src/uses.rs). Positions
 // are scene-local, made camera-relative by view.offset (precision far from the origin), or an
 // instanced part's own, placed by its use's rows (`place`, from place64.wgsl or place32.wgsl,
-// appended); view.view_proj is reversed Z with an infinite far plane.
+// appended); view.view_proj is reversed Z with an infinite far plane. Colour passes start at
+// vs_shade, which also reads the vertex's normal from the normal arena (binding 3), filled only
+// where the renderer shades: depth and item passes read positions alone.
 
 // The mesh vertex in the arena (ArenaVertex).
 struct Vertex {
@@ -26,6 +28,10 @@ struct Use {
 @group(0) @binding(0) var<uniform> view: ViewUniform;
 @group(0) @binding(1) var<storage, read> uses: array<Use>;
 @group(0) @binding(2) var<storage, read> arena: array<Vertex>;
+// A normal per arena vertex, octahedral (osw_scene::normal), NO_NORMAL where the mesh has none.
+@group(0) @binding(3) var<storage, read> normals: array<u32>;
+
+const NO_NORMAL: u32 = 0xffffffffu;
 
 struct VertexOut {
     // Invariant: the colour, depth and item pipelines compute the same depth for a vertex, so
@@ -38,10 +44,16 @@ struct VertexOut {
     // The object's colour (or the pass's tint), the same at every vertex of a node: made once
     // per vertex rather than per pixel (lavapipe shades on the CPU; measured).
     @location(3) @interpolate(flat) base: vec3<f32>,
+    // The surface's normal, camera-relative frame; zero where it has none (shaded flat).
+    @location(4) normal: vec3<f32>,
 }
 
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> VertexOut {
+    return vertex(index);
+}
+
+fn vertex(index: u32) -> VertexOut {
     let shift = view.draw.y;
     // Field by field: a unique node's vertex reads 16 bytes of its use, not 128.
     let slot = index >> shift;
@@ -58,7 +70,39 @@ fn vs_main(@builtin(vertex_index) index: u32) -> VertexOut {
     out.color = unpack4x8unorm(v.color);
     let h = hash(uses[slot].object);
     out.base = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0 * 0.6 + 0.3;
+    out.normal = vec3<f32>(0.0);
     return out;
+}
+
+@vertex
+fn vs_shade(@builtin(vertex_index) index: u32) -> VertexOut {
+    var out = vertex(index);
+    let slot = index >> view.draw.y;
+    let e = normals[uses[slot].base + (index & ((1u << view.draw.y) - 1u))];
+    if (e != NO_NORMAL) {
+        out.normal = octahedral(e);
+        if (uses[slot].placed != 0u) {
+            out.normal = turned(linear_rows(uses[slot].rows), out.normal);
+        }
+    }
+    return out;
+}
+
+// Cigolle et al. 2014's octahedral decoding (osw_scene::normal::decode).
+fn octahedral(e: u32) -> vec3<f32> {
+    let f = unpack2x16snorm(e);
+    var n = vec3<f32>(f, 1.0 - abs(f.x) - abs(f.y));
+    let t = max(-n.z, 0.0);
+    n.x -= t * sign(n.x);
+    n.y -= t * sign(n.y);
+    return normalize(n);
+}
+
+// A normal under the linear map of rows a, b, c: by its inverse transpose, as the rows' cofactors
+// (osw_scene::normal::transform), signed so that a mirror keeps it outward.
+fn turned(r: array<vec3<f32>, 3>, n: vec3<f32>) -> vec3<f32> {
+    let c = vec3<f32>(dot(cross(r[1], r[2]), n), dot(cross(r[2], r[0]), n), dot(cross(r[0], r[1]), n));
+    return normalize(c) * sign(dot(r[0], cross(r[1], r[2])));
 }
 
 // PCG hash: a stable colour per object.
@@ -69,8 +113,13 @@ fn hash(v: u32) -> u32 {
 }
 
 fn shade(in: VertexOut) -> vec3<f32> {
-    // Flat shading from screen-space derivatives: no normals stored in the scene file.
-    let n = normalize(cross(dpdx(in.rel), dpdy(in.rel)));
+    // The stored normal, else flat from the screen-space derivatives of the position (taken
+    // outside the branch: derivatives need every pixel of the quad).
+    let flat = normalize(cross(dpdx(in.rel), dpdy(in.rel)));
+    var n = flat;
+    if (dot(in.normal, in.normal) > 1e-12) {
+        n = normalize(in.normal);
+    }
     var base = in.base;
     if (in.color.a > 0.0) {
         base = in.color.rgb;

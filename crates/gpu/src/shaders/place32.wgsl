@@ -14,3 +14,8 @@ fn place(r: Rows, position: vec3<f32>) -> vec3<f32> {
     let p = vec4<f32>(position, 1.0);
     return vec3<f32>(dot(r.x, p), dot(r.y, p), dot(r.z, p));
 }
+
+// The rows' linear part, for normals (draw.wgsl's `turned`).
+fn linear_rows(r: Rows) -> array<vec3<f32>, 3> {
+    return array<vec3<f32>, 3>(r.x.xyz, r.y.xyz, r.z.xyz);
+}

@@ -17,3 +17,8 @@ fn place(r: Rows, position: vec3<f32>) -> vec3<f32> {
     let p = vec3<f64>(position);
     return vec3<f32>(vec3<f64>(row(r.x, p), row(r.y, p), row(r.z, p))) + view.offset.xyz;
 }
+
+// The rows' linear part, for normals (draw.wgsl's `turned`).
+fn linear_rows(r: Rows) -> array<vec3<f32>, 3> {
+    return array<vec3<f32>, 3>(vec3<f32>(r.x.xyz), vec3<f32>(r.y.xyz), vec3<f32>(r.z.xyz));
+}

@@ -62,7 +62,8 @@ pub fn build(
     started: Instant,
     progress: &dyn Progress,
 ) -> Result<BuildReport, BuildError> {
-    let mut report = BuildReport { input: input.to_owned(), notes, lod: opts.lod.to_string(), ..Default::default() };
+    let normals = opts.normals.to_string();
+    let mut report = BuildReport { input: input.to_owned(), notes, lod: opts.lod.to_string(), normals, ..Default::default() };
     let mut times = Times::default();
     times.0.insert("input".into(), started.elapsed().as_secs_f64());
     let s = stream::stream(source, opts, out, &mut report, &mut times, progress)?;
@@ -86,6 +87,9 @@ pub fn build(
         leaf_count: report.leaves as u32,
         leaf_triangles: bvh[0].triangles,
     };
+    let mut stored = rustc_hash::FxHashSet::default();
+    let distinct = lods.iter().filter(|(_, b)| stored.insert(b.offset));
+    report.normal_bytes = distinct.map(|(_, b)| b.vertex_count as u64 * b.normal_bytes as u64).sum();
     let (bytes, hash) = times
         .run("write", || writer.finish(fields, &bvh, &lods, if opts.instances == Instances::Keep { &c.instances } else { &[] }))
         .map_err(|e| BuildError::Write { path: out.display().to_string(), source: e })?;

@@ -10,6 +10,8 @@ pub struct BuildOptions {
     pub loose_split: f32,
     /// Keep the model's colours (false: every object in its hashed colour).
     pub model_colors: bool,
+    /// Normals stored for shading: the model's and computed ones, or none.
+    pub normals: crate::smooth::Normals,
     /// Most input triangles built in memory at once (see [`crate::limits::BUCKET_TRIANGLES`]).
     pub bucket_triangles: u64,
     /// Static LOD chains per chunk, or a cluster hierarchy per object.
@@ -79,6 +81,7 @@ impl Default for BuildOptions {
             chunk_triangles: crate::limits::CHUNK_TRIANGLES,
             loose_split: crate::limits::LOOSE_SPLIT,
             model_colors: true,
+            normals: crate::smooth::Normals::default(),
             bucket_triangles: crate::limits::BUCKET_TRIANGLES,
             lod: Lod::Chains,
             instances: Instances::Keep,

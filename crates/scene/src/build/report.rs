@@ -25,6 +25,16 @@ pub struct BuildReport {
     /// [`crate::mesh::CUT_OUT`]).
     pub cut_out_triangles: u64,
     pub cut_out_objects: u64,
+    /// How surfaces are shaded: "flat", or "smooth, creases at N°" ([`crate::smooth::Normals`]).
+    #[serde(default)]
+    pub normals: String,
+    /// Objects whose model gives normals (the rest are computed, or none are stored: flat).
+    #[serde(default)]
+    pub objects_with_model_normals: u64,
+    /// Bytes of normals stored, once per block (the rest of the file is what a flat build
+    /// stores).
+    #[serde(default)]
+    pub normal_bytes: u64,
     pub nodes: u64,
     pub leaves: u64,
     pub groups: u64,

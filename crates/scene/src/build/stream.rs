@@ -16,6 +16,7 @@ use crate::format::{InstanceRecord, NONE};
 use crate::instance::Placement;
 use crate::mesh::{CleanStats, Mesh, MeshError, Object};
 use crate::progress::Progress;
+use crate::smooth::Normals;
 use crate::source::Source;
 use crate::spill::{Sealed, Spill, SpillRef};
 use rayon::prelude::*;
@@ -153,6 +154,7 @@ impl Stream<'_> {
             self.colors_dropped += batch.iter().filter(|o| !o.mesh.colors.is_empty()).count();
             batch.iter_mut().for_each(|o| o.mesh.colors = Vec::new());
         }
+        self.report.objects_with_model_normals += batch.iter().filter(|o| !o.mesh.normals.is_empty()).count() as u64;
         let first = self.objects_seen;
         self.objects_seen += batch.len();
         let instancing = self.instancing;
@@ -165,7 +167,8 @@ impl Stream<'_> {
         let own = times.run("repeats", || self.found_repeats(own, origin, split))?;
         let (indices, mut own): (Vec<usize>, Vec<Object>) = own.into_iter().unzip();
         times.run("place", || crate::place::to_local(&mut own, origin));
-        let cleaned = times.run("clean", || clean(indices.into_iter().zip(own).collect()))?;
+        let normals = self.opts.normals;
+        let cleaned = times.run("clean", || clean(indices.into_iter().zip(own).collect(), normals))?;
         let lod = self.opts.lod;
         let cut: Vec<CutObject> = times.run("chunk", || cleaned.into_par_iter().map(|(o, stats)| cut(o, stats, lod, split)).collect());
         times.run("spill", || cut.into_iter().try_for_each(|c| self.spill_object(c)))
@@ -222,6 +225,10 @@ impl Stream<'_> {
         report.chunks = chunks.len() as u64;
         report.closed_objects = closed_objects.iter().filter(|c| c.is_some()).count() as u64;
         report.degenerate_triangles_dropped = clean_stats.degenerate_triangles;
+        if opts.normals == Normals::Flat && report.objects_with_model_normals > 0 {
+            let n = report.objects_with_model_normals;
+            report.left_out.push(format!("the model's normals of {n} objects (--normals flat: every surface shaded flat)"));
+        }
         if colors_dropped > 0 {
             report.left_out.push(format!(
                 "the model's colours, translucency and cut-outs of {colors_dropped} objects (--colors hashed: glass and cut-outs drawn opaque, and occluding)"
@@ -439,6 +446,7 @@ impl Stream<'_> {
         if !self.seen.contains_key(&key) {
             let input = mesh.triangle_count() as u64;
             let (mesh, stats) = mesh.clean().map_err(|source| BuildError::Mesh { index, name: name.clone(), source })?;
+            let mesh = self.opts.normals.apply(mesh);
             self.clean_stats.add(stats);
             let closed = crate::cluster::Parts::of(&mesh).all_closed().then(|| mesh.bounds());
             let c = crate::chunk::split(&mesh, split);
@@ -495,13 +503,14 @@ impl Stream<'_> {
     }
 }
 
-/// Names a mesh's content (positions, indices and colours): 128 bits of xxh3, so that two
+/// Names a mesh's content (positions, indices, colours and normals): 128 bits of xxh3, so that two
 /// meshes of one name differ in fewer than one of 2^64 models of 2^32 meshes.
 fn mesh_hash(m: &Mesh) -> u128 {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
     h.update(bytemuck::cast_slice(&m.positions));
     h.update(bytemuck::cast_slice(&m.indices));
     h.update(m.colors.as_flattened());
+    h.update(bytemuck::cast_slice(&m.normals));
     h.digest128()
 }
 
@@ -565,12 +574,12 @@ impl Repeats {
 }
 
 /// Cleans objects, each with its index in the input (errors name it by that index).
-fn clean(batch: Vec<(usize, Object)>) -> Result<Vec<(Object, CleanStats)>, BuildError> {
+fn clean(batch: Vec<(usize, Object)>, normals: Normals) -> Result<Vec<(Object, CleanStats)>, BuildError> {
     batch
         .into_par_iter()
         .map(|(index, o)| {
             let (mesh, stats) = o.mesh.clean().map_err(|source| BuildError::Mesh { index, name: o.name.clone(), source })?;
-            Ok((Object { mesh, ..o }, stats))
+            Ok((Object { mesh: normals.apply(mesh), ..o }, stats))
         })
         .collect()
 }

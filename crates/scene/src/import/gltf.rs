@@ -17,6 +17,7 @@
 use super::gltf_raw::{self, Raw};
 use super::{ImportError, Imported, ParseError, first_few};
 use crate::mesh::{Mesh, Object};
+use crate::normal::{NO_NORMAL, Normal};
 use glam::{DAffine3, DMat4, DQuat, DVec3, Vec3};
 use gltf::accessor::{Accessor, DataType, Dimensions, Item};
 use gltf::material::AlphaMode;
@@ -230,11 +231,12 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
         )));
     }
     let mut indices = triangle_list(prim.mode(), &order);
+    let mut notes = Vec::new();
+    let normals = normals(prim, buffers, positions.len(), &mut notes)?;
     let Some(rgba) = colors(prim, buffers, positions.len())? else {
-        return Ok((Mesh { positions, indices, colors: Vec::new() }, Vec::new()));
+        return Ok((Mesh { positions, indices, normals, ..Mesh::default() }, notes));
     };
     let material = prim.material();
-    let mut notes = Vec::new();
     let name = || material_name(&material);
     let encode = |c: [f32; 4], a: u8| [srgb8(c[0]), srgb8(c[1]), srgb8(c[2]), a];
     let colors = match material.alpha_mode() {
@@ -259,7 +261,26 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
             colors
         }
     };
-    Ok((Mesh { positions, indices, colors }, notes))
+    Ok((Mesh { positions, indices, colors, normals }, notes))
+}
+
+/// The primitive's NORMAL, encoded; empty without one. A normal of zero length or not finite
+/// is left for the build to compute, and counted in `notes`.
+fn normals(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize, notes: &mut Vec<String>) -> Result<Vec<Normal>, ParseError> {
+    let Some(acc) = prim.get(&gltf::Semantic::Normals) else { return Ok(Vec::new()) };
+    if acc.dimensions() != Dimensions::Vec3 {
+        return Err(ParseError::new(format!("NORMAL is {:?}, expected VEC3", acc.dimensions())));
+    }
+    let given = floats::<3>(&acc, buffers).map_err(|e| e.at("NORMAL"))?;
+    if given.len() != vertices {
+        return Err(ParseError::new(format!("NORMAL has {} elements for {vertices} vertices", given.len())));
+    }
+    let normals: Vec<Normal> = given.into_iter().map(|n| crate::normal::given(Vec3::from_array(n))).collect();
+    let bad = normals.iter().filter(|&&n| n == NO_NORMAL).count();
+    if bad > 0 {
+        notes.push(format!("{bad} normals of zero length or not finite (computed instead)"));
+    }
+    Ok(normals)
 }
 
 /// The primitive's linear colour per vertex: COLOR_0 times the material's baseColorFactor

@@ -34,7 +34,8 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
         }
         r
     };
-    let opts = tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+    // One index per corner: a vertex is split where its faces give it another normal (vn).
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let (models, materials) = tobj::load_obj_buf(obj, &opts, load_mtl).map_err(describe)?;
     if let Some((mtl, why)) = failed_mtl.into_inner() {
         return Err(ParseError::caused(format!("material library {}", mtl.display()), why));
@@ -48,7 +49,11 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
         .enumerate()
         .map(|(i, m)| {
             let p: Vec<[f64; 3]> = m.mesh.positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-            let mut mesh = Mesh { positions: crate::place::relative(&p, anchor), indices: m.mesh.indices, colors: Vec::new() };
+            let mut mesh = Mesh { positions: crate::place::relative(&p, anchor), indices: m.mesh.indices, ..Mesh::default() };
+            if m.mesh.normals.len() == p.len() * 3 {
+                let given = m.mesh.normals.chunks_exact(3).map(|n| DVec3::new(n[0], n[1], n[2]).as_vec3());
+                mesh.normals = given.map(crate::normal::given).collect();
+            }
             // Kd, the diffuse colour, as display values (what OBJ viewers show); d below 1 is
             // translucent.
             let material = m.mesh.material_id.and_then(|id| materials.get(id));

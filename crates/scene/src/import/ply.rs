@@ -172,10 +172,13 @@ fn read_body(elements: &[Element], mut src: Body<'_>, bytes: usize) -> Result<Ob
     let mut positions: Vec<[f64; 3]> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
     let mut colors: Vec<[u8; 4]> = Vec::new();
+    let mut normals: Vec<crate::normal::Normal> = Vec::new();
     for el in elements {
         let xyz = ["x", "y", "z"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
         let rgb = ["red", "green", "blue", "alpha"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
         let has_rgb = el.name == "vertex" && rgb[..3].iter().all(Option::is_some);
+        let nxyz = ["nx", "ny", "nz"].map(|a| el.props.iter().position(|p| p.name == a && p.list.is_none()));
+        let has_normal = el.name == "vertex" && nxyz.iter().all(Option::is_some);
         let faces = el.props.iter().position(|p| (p.name == "vertex_indices" || p.name == "vertex_index") && p.list.is_some());
         if el.name == "vertex" && xyz.iter().any(Option::is_none) {
             return Err(ParseError::new("vertex element without x, y, z"));
@@ -187,6 +190,7 @@ fn read_body(elements: &[Element], mut src: Body<'_>, bytes: usize) -> Result<Ob
         for i in 0..el.count {
             let mut p = [0f64; 3];
             let mut c = [0u8, 0, 0, 255];
+            let mut n = glam::Vec3::ZERO;
             for (k, prop) in el.props.iter().enumerate() {
                 let at = |e: ParseError| e.at(format!("element {} {i}, property {}", el.name, prop.name));
                 match prop.list {
@@ -194,6 +198,8 @@ fn read_body(elements: &[Element], mut src: Body<'_>, bytes: usize) -> Result<Ob
                         let v = src.value(prop.ty).map_err(at)?;
                         if let Some(axis) = xyz.iter().position(|&a| a == Some(k)) {
                             p[axis] = v;
+                        } else if let Some(axis) = nxyz.iter().position(|&a| a == Some(k)) {
+                            n[axis] = v as f32;
                         } else if let Some(ch) = rgb.iter().position(|&a| a == Some(k)) {
                             let unit = matches!(prop.ty, Scalar::F32 | Scalar::F64);
                             let v = if unit { v } else { v / 255.0 };
@@ -222,11 +228,14 @@ fn read_body(elements: &[Element], mut src: Body<'_>, bytes: usize) -> Result<Ob
                 if has_rgb {
                     colors.push(c);
                 }
+                if has_normal {
+                    normals.push(crate::normal::given(n));
+                }
             }
         }
     }
     let anchor = crate::place::anchor(positions.iter().map(|p| glam::DVec3::from_array(*p)));
-    let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices, colors };
+    let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices, colors, normals };
     Ok(Object::placed("", mesh, anchor, glam::DAffine3::IDENTITY))
 }
 
