@@ -227,13 +227,16 @@ pub fn test_cluster(view: &View, tests: ClusterTests, c: &ClusterRecord, cut: &C
         stats.frustum_culled += 1;
         return None;
     }
-    let outside_closed = c.cone_cutoff < NO_CONE && eye_outside_closed(c, view);
-    if tests.cone && outside_closed && faces_away(c, center, radius, view) {
+    // A single-sided surface is never drawn from behind: its back faces are dropped in every
+    // pass, whatever its tests, so that OR's depth, RVG's frame and exact visibility agree.
+    let single = c.single_sided();
+    let outside_closed = single || (c.cone_cutoff < NO_CONE && eye_outside_closed(c, view));
+    if (tests.cone || single) && outside_closed && faces_away(c, center, radius, view) {
         stats.cone_culled += 1;
         return None;
     }
     // A cluster whose every triangle faces the eye has no back face to drop.
-    Some(tests.backface && outside_closed && !faces_toward(c, center, radius, view))
+    Some((tests.backface || single) && outside_closed && !faces_toward(c, center, radius, view))
 }
 
 /// Cluster `c`'s triangles in a block's `indices`.
@@ -424,6 +427,41 @@ mod tests {
         let mut out = Vec::new();
         gather(view, tests, &m.positions, &m.indices, clusters, &[], &mut Out { indices: &mut out, base: 0, stats: s });
         out
+    }
+
+    /// Open boxes (a top missing) of single-sided and of double-sided faces, seen from inside
+    /// through the opening: with no tests asked for, every pass still drops the single-sided
+    /// back faces, and only those; the double-sided ones are all drawn.
+    #[test]
+    fn single_sided_back_faces_are_dropped_whatever_the_tests() {
+        let open_box = |single: bool| {
+            let mut m = Mesh::default();
+            add_box(&mut m, glam::Vec3::ZERO, glam::Vec3::splat(10.0));
+            let top = |t: &[u32]| t.iter().all(|&v| m.positions[v as usize][1] == 10.0);
+            m.indices = m.indices.chunks_exact(3).filter(|t| !top(t)).flatten().copied().collect();
+            m.single_sided = vec![single; m.positions.len()];
+            let osw_scene::cluster::Clustered { indices, clusters, .. } = osw_scene::cluster::clusterize(&m, None);
+            m.indices = indices;
+            (m, clusters)
+        };
+        // Beside and above: the outside of the near wall faces the eye; through the opening,
+        // the insides of the far walls and of the floor are back faces.
+        let view = View::new(&Camera::look_at(DVec3::new(30.0, 25.0, 5.5), DVec3::splat(5.0), 60.0), DVec3::ZERO, 64, 64, 0.01);
+        for single in [true, false] {
+            let (m, clusters) = open_box(single);
+            assert!(clusters.iter().all(|c| c.single_sided() == single));
+            let mut s = ClusterStats::default();
+            let out = draw(&view, &m, &clusters, ClusterTests::NONE, &mut s);
+            let away = m.indices.chunks_exact(3).filter(|t| !front_facing(&m, t, view.eye)).count();
+            assert!(away > 0 && away < m.indices.len() / 3, "the box turns some faces away and some not");
+            let kept: Vec<&[u32]> = out.chunks_exact(3).collect();
+            if single {
+                assert_eq!(kept.len(), m.indices.len() / 3 - away, "{s:?}");
+                assert!(kept.iter().all(|t| front_facing(&m, t, view.eye)));
+            } else {
+                assert_eq!(out, m.indices, "every triangle, in cluster order");
+            }
+        }
     }
 
     #[test]

@@ -155,7 +155,8 @@ impl DrawPipelines {
                 label: Some(label),
                 layout: Some(&pl),
                 vertex: wgpu::VertexState { module, entry_point: Some(vs), compilation_options: Default::default(), buffers: &[] },
-                // No back-face culling: imported models are not reliably closed or wound.
+                // No back-face culling: a single-sided surface's back faces are dropped while its
+                // pass gathers them (osw_cull::cluster), the same way in every pass.
                 primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
                 depth_stencil: Some(depth_state(layer == Layer::Opaque, compare)),
                 multisample: Default::default(),

@@ -55,6 +55,12 @@ pub struct Args {
     /// and rounds a pipe of twelve facets or more.
     #[arg(long, default_value_t = osw_scene::smooth::CREASE_DEGREES, value_name = "DEGREES")]
     crease_angle: f32,
+    /// Sides: `model` culls the back faces of single-sided surfaces (glTF materials without
+    /// doubleSided) in every pass; `both` draws every surface from both sides, for a model
+    /// whose triangles are not wound counter-clockwise as glTF says (OBJ and PLY are drawn
+    /// from both sides either way).
+    #[arg(long, value_enum, default_value_t = Sides::Model)]
+    sides: Sides,
     /// Most input triangles built in memory at once (one subtree of the hierarchy at a time:
     /// peak memory follows this, not the model's size). The scene is the same for any value;
     /// only the order of its blocks in the file changes.
@@ -84,6 +90,12 @@ const MOST_INSTANCED: u64 = 20_000_000_000;
 /// Most triangles of a generator that makes its scene in memory (all but the plant): about 6 GB
 /// of mesh and build tables at 100M.
 const MOST_IN_MEMORY: u64 = 100_000_000;
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Sides {
+    Model,
+    Both,
+}
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Shading {
@@ -133,6 +145,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             Shading::Smooth => Normals::Smooth { crease_degrees: a.crease_angle },
             Shading::Flat => Normals::Flat,
         },
+        model_sides: a.sides == Sides::Model,
         bucket_triangles: a.bucket_triangles,
         lod: a.lod,
         instances: a.instances,

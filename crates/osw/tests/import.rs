@@ -502,14 +502,18 @@ fn the_engines_meshes_stored_once_draw_as_their_copies() {
             run(&expand, args, &ea);
             let pvs = |r: &Path| std::fs::read_to_string(r.join("pvs.txt")).unwrap();
             assert_eq!(pvs(&ka), pvs(&ea), "{model} {name}: visible sets");
-            assert!(differing(&ka, &ea, 8) <= 1e-4, "{model} {name}: {} of the pixels differ", differing(&ka, &ea, 8));
+            // A use's normals turn on the GPU in f32, a copy's on the CPU (stored rounded): a
+            // level apart where the light rounds between them.
+            let (off, far_off) = (differing(&ka, &ea, 8), differing_by(&ka, &ea, 8, 1));
+            assert!(off <= 1e-3 && far_off <= 1e-4, "{model} {name}: {off} of the pixels differ, {far_off} by more than a level");
         }
         let exact = d.path().join(format!("{model}-exact1"));
         osw_ok(&["exact", "--scene", s(&keep), "--path", s(&path), "--size", SIZE, "--tau", "1", "--out", s(&exact)]);
-        let full = d.path().join(format!("{model}-full"));
-        run(&expand, &["render", "--mode", "vfc", "--tau", "0"], &full);
         let mut psnr = Vec::new();
         for (m, scene) in [("keep", &keep), ("expand", &expand)] {
+            // Against its own full detail: a use's normals and a copy's round a level apart.
+            let full = d.path().join(format!("{model}-full-{m}"));
+            run(scene, &["render", "--mode", "vfc", "--tau", "0"], &full);
             let out = d.path().join(format!("{model}-prev1-{m}"));
             run(scene, &["render", "--mode", "prev", "--tau", "1", "--always-cull"], &out);
             let cmp = d.path().join(format!("{model}-cmp1-{m}"));

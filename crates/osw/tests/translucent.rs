@@ -5,7 +5,9 @@
 //! behind an opaque wall. Every mode shows the red box through the glass, with frames
 //! identical to frustum culling's; exact visibility counts the red box (and the pane) visible
 //! and the green box hidden; no mode culls what exact visibility sees, while the occlusion
-//! modes do cull the green box.
+//! modes do cull the green box. A sheet turned away from the eye hides the red box when it is
+//! double-sided and shows it when it is single-sided (glTF doubleSided false), in every mode
+//! and in exact visibility.
 
 mod common;
 use common::*;
@@ -26,6 +28,10 @@ enum Surface {
     Glass,
     /// A fence's texture on a MASK material.
     CutOut,
+    /// One grey quad at the box's near z, its front facing -z (away from the paths' eye).
+    Sheet {
+        double_sided: bool,
+    },
 }
 
 impl Surface {
@@ -35,6 +41,8 @@ impl Surface {
             Surface::Glass => json!({"name": name, "alphaMode": "BLEND", "pbrMetallicRoughness": {"baseColorFactor": GLASS}}),
             Surface::CutOut => json!({"name": name, "alphaMode": "MASK",
                 "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.6, 0.2, 1.0], "baseColorTexture": {"index": 0}}}),
+            Surface::Sheet { double_sided } => json!({"name": name, "doubleSided": double_sided,
+                "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}}),
         }
     }
 }
@@ -44,7 +52,12 @@ fn write_scene(path: &Path, boxes: &[(&str, [f32; 6], Surface)]) {
     let (mut bin, mut views, mut accessors, mut meshes, mut nodes, mut materials) = (vec![], vec![], vec![], vec![], vec![], vec![]);
     for (k, &(name, b, surface)) in boxes.iter().enumerate() {
         let mut m = Mesh::default();
-        add_box(&mut m, glam::Vec3::new(b[0], b[1], b[2]), glam::Vec3::new(b[3], b[4], b[5]));
+        if let Surface::Sheet { .. } = surface {
+            m.positions = vec![[b[0], b[1], b[2]], [b[0], b[4], b[2]], [b[3], b[4], b[2]], [b[3], b[1], b[2]]];
+            m.indices = vec![0, 1, 2, 0, 2, 3];
+        } else {
+            add_box(&mut m, glam::Vec3::new(b[0], b[1], b[2]), glam::Vec3::new(b[3], b[4], b[5]));
+        }
         let mut prim = push_mesh(&mut bin, &mut views, &mut accessors, &m);
         prim["material"] = json!(k);
         meshes.push(json!({"primitives": [prim]}));
@@ -170,4 +183,57 @@ fn a_pane_in_front_culls_nothing(pane: Surface) {
     let pvs = sets(&prev.join("pvs.txt"));
     let lod = |leaf: u32| file.node(leaf).first_lod;
     assert!(pvs[1..].iter().all(|p| p.contains(&lod(red_leaf)) && !p.contains(&lod(green_leaf))), "prev's PVS: {pvs:?}");
+}
+
+/// Every mode and exact visibility against the same sheet turned away from the eye in front of
+/// the red box: single-sided, it is neither drawn nor an occluder, so the red box shows; double
+/// sided, it hides the box. Frames equal vfc's, and no mode culls what exact visibility sees.
+#[test]
+fn a_sheet_seen_from_behind_hides_only_when_double_sided() {
+    let d = tempfile::tempdir().unwrap();
+    let path = d.path().join("path.csv");
+    write_path(&path);
+    for double_sided in [false, true] {
+        let red = ("red", [-1.0, -1.0, -12.0, 1.0, 1.0, -10.0], Surface::Opaque(RED));
+        let sheet = ("sheet", [-4.0, -4.0, -5.0, 4.0, 4.0, -5.0], Surface::Sheet { double_sided });
+        let (glb, scene) = (d.path().join(format!("{double_sided}.glb")), d.path().join(format!("{double_sided}.osw")));
+        write_scene(&glb, &[red, sheet]);
+        osw_ok(&["build", s(&glb), "-o", s(&scene)]);
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(scene.with_extension("build.json")).unwrap()).unwrap();
+        assert_eq!(report["single_sided_triangles"].as_u64(), Some(if double_sided { 12 } else { 14 }), "{report}");
+        let file = SceneFile::open(&scene).unwrap();
+        let red_leaf = leaf_in(&file, [-1.0, -1.0, -12.0], [1.0, 1.0, -10.0]);
+        let sheet_leaf = leaf_in(&file, [-4.0, -4.0, -5.0], [4.0, 4.0, -5.0]);
+        let walk = ["--scene", s(&scene), "--path", s(&path), "--size", "96x96"];
+        let dir = d.path().join(format!("{double_sided}"));
+        let exact = dir.join("exact");
+        osw_ok(&[&["exact"], &walk[..], &["--out", s(&exact)]].concat());
+        for (f, leaves) in sets(&exact.join("exact_leaves.txt")).iter().enumerate() {
+            let want = if double_sided { (false, true) } else { (true, false) };
+            assert_eq!(
+                (leaves.contains(&red_leaf), leaves.contains(&sheet_leaf)),
+                want,
+                "frame {f}, double-sided {double_sided}: {leaves:?}"
+            );
+        }
+        let vfc = dir.join("vfc");
+        osw_ok(&[&["render", "--mode", "vfc"], &walk[..], &["--out", s(&vfc)]].concat());
+        let c = centre(&vfc, 0);
+        assert_eq!(c[0] > c[1] + 50, !double_sided, "the centre {c:?}: red through a single-sided sheet, grey on a double-sided one");
+        let mut runs = Vec::new();
+        for mode in ["sw", "chc", "hzb", "prev", "ovc"] {
+            let out = dir.join(mode);
+            osw_ok(&[&["render", "--mode", mode, "--always-cull"], &walk[..], &["--out", s(&out)]].concat());
+            runs.push((mode, out));
+        }
+        let switch = dir.join("switch");
+        osw_ok(&[&["run", "--tau", "0", "--always-cull"], &walk[..], &["--out", s(&switch)]].concat());
+        runs.push(("switch", switch));
+        for (mode, run) in &runs {
+            let cmp = compare(run, &vfc, &exact, &dir.join(format!("cmp-{mode}")));
+            assert_same_frames(&cmp, 4, &format!("{mode} against vfc, double-sided {double_sided}"));
+            assert_eq!(cmp["culling_a"]["false_culled_leaves_total"], 0, "{mode}: culls what exact visibility sees: {cmp}");
+        }
+    }
 }

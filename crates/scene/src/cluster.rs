@@ -78,10 +78,10 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
         cuts,
     };
     let space = mesh.bounds();
-    // Per triangle: by layer (opaque, cut-out, translucent), then by cut, then by facing bin,
-    // then along the Morton curve of its centroid. A cluster ends at a change of the first
-    // three, at MAX_TRIANGLES triangles or at MAX_VERTICES vertices (which keeps it compact
-    // where the curve jumps).
+    // Per triangle: by layer (opaque, cut-out, translucent), then by sides, then by cut, then
+    // by facing bin, then along the Morton curve of its centroid. A cluster ends at a change of
+    // the first four, at MAX_TRIANGLES triangles or at MAX_VERTICES vertices (which keeps it
+    // compact where the curve jumps).
     let mut order: Vec<(u64, u32)> = mesh
         .indices
         .chunks_exact(3)
@@ -91,7 +91,8 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
             let cut = cut_of.get(k).copied().unwrap_or(0) as u64;
             debug_assert!(cut <= CUT_MASK, "cut index {cut}");
             let centroid = t.iter().map(|&i| Vec3::from(mesh.positions[i as usize])).sum::<Vec3>() / 3.0;
-            (layer << 62 | cut << 33 | (facing(mesh, t) as u64) << 30 | morton(&space, centroid) as u64, k as u32)
+            let single = mesh.is_single_sided(t) as u64;
+            (layer << 62 | single << SINGLE_BIT | cut << 33 | (facing(mesh, t) as u64) << 30 | morton(&space, centroid) as u64, k as u32)
         })
         .collect();
     order.sort_unstable();
@@ -136,8 +137,10 @@ pub fn clusterize_cut(mesh: &Mesh, object: Option<Aabb>, cuts: &[Cut], cut_of: &
     Clustered { indices, clusters, cuts, occluders, opaque }
 }
 
-/// Bits of a cut's index in a triangle's sort key.
-const CUT_MASK: u64 = 0x1fff_ffff;
+/// Bits of a cut's index in a triangle's sort key, and the bit above them that says it is
+/// single-sided.
+const CUT_MASK: u64 = 0x0fff_ffff;
+const SINGLE_BIT: u64 = 61;
 
 /// What each cluster of one block is made against: the mesh, its closed parts, the box of its
 /// object when that is closed, and the cuts its triangles are drawn at.
@@ -153,7 +156,8 @@ impl Clustering<'_> {
     /// The cluster of `indices[first_index..]`, whose triangles' sort key is `key`: its bounds
     /// and its cone (meshopt's) with the box of its closed parts or the object's when the
     /// triangles are opaque (back faces show through a translucent surface or a cut-out's
-    /// holes), and its cut.
+    /// holes), or an empty box when they are single-sided (never seen from behind, whatever
+    /// the layer), and its cut.
     fn cluster(&self, indices: &[u32], first_index: u32, key: u64) -> (ClusterRecord, Cut) {
         let cluster = &indices[first_index as usize..];
         let b = meshopt::compute_cluster_bounds(cluster, &self.adapter);
@@ -164,6 +168,7 @@ impl Clustering<'_> {
         } else {
             None
         };
+        let closed = if key >> SINGLE_BIT & 1 == 1 { Some(Aabb::EMPTY) } else { closed };
         let bbox = Aabb::from_points(cluster.iter().map(|&v| &self.mesh.positions[v as usize]));
         let c = ClusterRecord {
             center: b.center,

@@ -52,7 +52,8 @@ pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// became [`BlockRecord::cut_out_clusters`]: 0 in files written before, which reads as what
 /// they meant (no cut-outs), and a reader from before takes cut-outs for opaque triangles.
 /// 9: a block may store a normal per vertex ([`BlockRecord::normal_bytes`]), after the
-/// colours: the depth passes read positions alone, and a scene built flat stores none.
+/// colours: the depth passes read positions alone, and a scene built flat stores none; a
+/// cluster of single-sided triangles has an empty closed box ([`ClusterRecord::single_sided`]).
 pub const VERSION: u32 = 9;
 
 /// The fixed-size file header.
@@ -309,6 +310,13 @@ pub struct ClusterRecord {
 }
 
 impl ClusterRecord {
+    /// A cluster of single-sided triangles (glTF `doubleSided` false) stores an empty closed
+    /// box (min above max): its back faces are never drawn, so the eye is outside it
+    /// everywhere, and every pass drops them whatever its tests (see `osw_cull::cluster`).
+    pub fn single_sided(&self) -> bool {
+        self.closed_min[0] > self.closed_max[0]
+    }
+
     pub fn aabb(&self) -> crate::Aabb {
         crate::Aabb::new(self.bbox_min.into(), self.bbox_max.into())
     }

@@ -95,7 +95,8 @@ impl Placement {
     /// mirrors.
     pub fn mesh(&self, mesh: &Mesh) -> Mesh {
         let indices = if self.flips { flipped(&mesh.indices) } else { mesh.indices.clone() };
-        Mesh { positions: self.points(&mesh.positions), indices, colors: mesh.colors.clone(), normals: self.normals(&mesh.normals) }
+        let (colors, single_sided) = (mesh.colors.clone(), mesh.single_sided.clone());
+        Mesh { positions: self.points(&mesh.positions), indices, colors, normals: self.normals(&mesh.normals), single_sided }
     }
 
     fn normals(&self, normals: &[crate::normal::Normal]) -> Vec<crate::normal::Normal> {
@@ -133,8 +134,11 @@ impl Placement {
         let ulp = Vec3::from_array(center).abs().max_element() * f32::EPSILON * 4.0;
         let cone = c.cone_cutoff < NO_CONE && self.similar;
         let axis = (self.affine.matrix3 * Vec3::from_array(c.cone_axis).as_dvec3()).normalize_or_zero().as_vec3();
-        let closed =
-            if cone { self.bounds(Aabb::new(c.closed_min.into(), c.closed_max.into())) } else { Aabb::new(Vec3::ZERO, Vec3::ZERO) };
+        let closed = match (c.single_sided(), cone) {
+            (true, _) => Aabb::EMPTY,
+            (false, true) => self.bounds(Aabb::new(c.closed_min.into(), c.closed_max.into())),
+            (false, false) => Aabb::new(Vec3::ZERO, Vec3::ZERO),
+        };
         ClusterRecord {
             center,
             radius: c.radius * self.scale + ulp,
@@ -163,7 +167,14 @@ fn flipped<T: Copy>(ix: &[T]) -> Vec<T> {
 pub fn place_block(e: &Encoded, place: &Placement) -> Encoded {
     let g = place.geometry(&geometry_of(&e.bytes, &e.record));
     let indices: Vec<u32> = g.indices.iter().collect();
-    let mesh = Mesh { positions: g.positions.to_vec(), indices: indices.clone(), colors: g.colors.to_vec(), normals: g.normals.to_vec() };
+    // Sides are the clusters' (ClusterRecord::single_sided), passed on as they are.
+    let mesh = Mesh {
+        positions: g.positions.to_vec(),
+        indices: indices.clone(),
+        colors: g.colors.to_vec(),
+        normals: g.normals.to_vec(),
+        ..Mesh::default()
+    };
     let layers = Layers { occluders: e.record.occluder_clusters(), opaque: e.record.opaque_clusters };
     encode_with(&mesh, &indices, &g.clusters, g.cuts, layers)
 }

@@ -23,6 +23,10 @@ pub struct Mesh {
     /// A unit normal per vertex, octahedral ([`crate::normal`]), or empty when the mesh has
     /// none; [`crate::normal::NO_NORMAL`] at a vertex of a mesh merged with one without.
     pub normals: Vec<crate::normal::Normal>,
+    /// Per vertex, true where its surface is single-sided (glTF `doubleSided` false): never
+    /// drawn from behind. Empty when every surface is double-sided (OBJ, PLY, generators). A
+    /// triangle is single-sided when its three corners are ([`Mesh::is_single_sided`]).
+    pub single_sided: Vec<bool>,
 }
 
 /// A vertex without a colour from the model, in a mesh whose other vertices have one.
@@ -117,6 +121,8 @@ pub enum MeshError {
     Colors { colors: usize, vertices: usize },
     #[error("{normals} normals for {vertices} vertices")]
     Normals { normals: usize, vertices: usize },
+    #[error("{flags} single-sided flags for {vertices} vertices")]
+    Sides { flags: usize, vertices: usize },
 }
 
 /// Counts of what [`Mesh::clean`] removed.
@@ -168,6 +174,9 @@ impl Mesh {
         if !self.normals.is_empty() && self.normals.len() != n {
             return Err(MeshError::Normals { normals: self.normals.len(), vertices: n });
         }
+        if !self.single_sided.is_empty() && self.single_sided.len() != n {
+            return Err(MeshError::Sides { flags: self.single_sided.len(), vertices: n });
+        }
         Ok(())
     }
 
@@ -214,6 +223,9 @@ impl Mesh {
                 if let Some(n) = self.normals.get(i as usize) {
                     out.normals.push(*n);
                 }
+                if let Some(&s) = self.single_sided.get(i as usize) {
+                    out.single_sided.push(s);
+                }
                 out.positions.len() as u32 - 1
             });
             out.indices.push(slot);
@@ -229,6 +241,12 @@ impl Mesh {
         self.indices.extend(o.indices.iter().map(|i| i + base));
         append_attribute(&mut self.colors, &o.colors, before, self.positions.len(), NO_COLOR);
         append_attribute(&mut self.normals, &o.normals, before, self.positions.len(), crate::normal::NO_NORMAL);
+        append_attribute(&mut self.single_sided, &o.single_sided, before, self.positions.len(), false);
+    }
+
+    /// Whether triangle `t` is single-sided: all its corners are (see [`Mesh::single_sided`]).
+    pub fn is_single_sided(&self, t: &[u32]) -> bool {
+        !self.single_sided.is_empty() && t.iter().all(|&v| self.single_sided[v as usize])
     }
 
     /// Gives every vertex the colour `c`; an alpha of 0 is made 1 (see [`alpha`]).
@@ -261,15 +279,16 @@ impl Mesh {
         crate::normal::transform(&mut self.normals, glam::Mat3::from(m.matrix3).as_dmat3());
     }
 
-    /// Merges vertices with bit-identical positions, colours and normals (meshoptimizer's
-    /// remap), so that the simplifier sees a connected surface in inputs that repeat corners
-    /// per triangle.
+    /// Merges vertices with bit-identical positions, colours, normals and sides
+    /// (meshoptimizer's remap), so that the simplifier sees a connected surface in inputs that
+    /// repeat corners per triangle.
     pub fn welded(&self) -> Mesh {
-        let keys: Vec<[u32; 5]> = (0..self.positions.len())
+        let keys: Vec<[u32; 6]> = (0..self.positions.len())
             .map(|i| {
                 let p = self.positions[i].map(f32::to_bits);
                 let c = self.colors.get(i).map_or(0, |c| u32::from_le_bytes(*c));
-                [p[0], p[1], p[2], c, self.normals.get(i).copied().unwrap_or(0)]
+                let n = self.normals.get(i).copied().unwrap_or(0);
+                [p[0], p[1], p[2], c, n, u32::from(self.single_sided.get(i).copied().unwrap_or(false))]
             })
             .collect();
         let (unique, remap) = meshopt::generate_vertex_remap(&keys, Some(&self.indices));
@@ -279,6 +298,7 @@ impl Mesh {
         Mesh {
             colors: remapped(&self.colors, unique, &remap),
             normals: remapped(&self.normals, unique, &remap),
+            single_sided: remapped(&self.single_sided, unique, &remap),
             positions: meshopt::remap_vertex_buffer(&self.positions, unique, &remap),
             indices: meshopt::remap_index_buffer(Some(&self.indices), self.indices.len(), &remap),
         }
@@ -339,6 +359,7 @@ mod tests {
             indices: vec![0, 1, 2, 0, 2, 3],
             colors: Vec::new(),
             normals: Vec::new(),
+            single_sided: Vec::new(),
         }
     }
 

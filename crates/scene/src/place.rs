@@ -104,6 +104,12 @@ pub fn to_local(objects: &mut [Object], origin: DVec3) {
                 *p = (local + shift).as_vec3().to_array();
             }
             crate::normal::transform(&mut o.mesh.normals, o.placement.matrix3);
+            // A mirroring placement turns counter-clockwise into clockwise: the front faces of
+            // a glTF node whose world matrix has a negative determinant wind clockwise (glTF
+            // 2.0 sec. 3.7.4), so its triangles are turned back to counter-clockwise.
+            if o.placement.matrix3.determinant() < 0.0 {
+                o.mesh.indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
+            }
         }
         (o.placement, o.anchor) = (DAffine3::IDENTITY, DVec3::ZERO);
     });
@@ -122,6 +128,27 @@ mod tests {
 
     fn object(points: &[[f32; 3]], anchor: DVec3, placement: DAffine3) -> Object {
         Object::placed("o", Mesh { positions: points.to_vec(), indices: vec![0, 1, 2], ..Default::default() }, anchor, placement)
+    }
+
+    /// A mirroring placement keeps front faces in front: the triangle turned back to
+    /// counter-clockwise, and its normals outward.
+    #[test]
+    fn a_mirror_keeps_front_faces_in_front() {
+        let pts = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let face = |o: &Object| {
+            let p = |k: usize| Vec3::from(o.mesh.positions[o.mesh.indices[k] as usize]);
+            (p(1) - p(0)).cross(p(2) - p(0)).normalize()
+        };
+        let mirrors = DAffine3::from_scale(DVec3::new(-1.0, 0.5, 2.0)) * DAffine3::from_rotation_y(0.4);
+        for placement in [mirrors, DAffine3::from_rotation_x(3.0)] {
+            let mut o = object(&pts, DVec3::ZERO, placement);
+            o.mesh.normals = vec![crate::normal::encode(Vec3::Z); 3];
+            // The front face's normal (+z) under the placement, by its inverse transpose.
+            let want = (placement.matrix3.inverse().transpose() * DVec3::Z).as_vec3().normalize();
+            to_local(std::slice::from_mut(&mut o), DVec3::ZERO);
+            assert!(face(&o).dot(want) > 0.999, "{placement:?}: the face turns {}", face(&o));
+            assert!(crate::normal::decode(o.mesh.normals[0]).dot(want) > 0.999);
+        }
     }
 
     #[test]

@@ -101,12 +101,18 @@ fn computed(mesh: Mesh, crease_cos: f32) -> Mesh {
     }
     let flat = normals.iter().all(|&n| n == NO_NORMAL);
     Mesh {
-        positions: mesh.indices.iter().map(|&i| mesh.positions[i as usize]).collect(),
-        colors: if mesh.colors.is_empty() { Vec::new() } else { mesh.indices.iter().map(|&i| mesh.colors[i as usize]).collect() },
+        positions: per_corner(&mesh.positions, &mesh.indices),
+        colors: per_corner(&mesh.colors, &mesh.indices),
         normals: if flat { Vec::new() } else { normals },
+        single_sided: per_corner(&mesh.single_sided, &mesh.indices),
         indices: (0..mesh.indices.len() as u32).collect(),
     }
     .welded()
+}
+
+/// A vertex attribute per corner of `indices` (none where the mesh has none).
+fn per_corner<T: Copy>(attribute: &[T], indices: &[u32]) -> Vec<T> {
+    if attribute.is_empty() { Vec::new() } else { indices.iter().map(|&i| attribute[i as usize]).collect() }
 }
 
 /// A mesh's corners by position: vertices split by colour or normal still meet there.

@@ -18,6 +18,7 @@ pub struct SpillRef {
     indices: u32,
     colored: bool,
     normals: bool,
+    single_sided: bool,
     /// Cuts of the piece; each triangle's cut is stored when there is more than one.
     cuts: u32,
 }
@@ -30,7 +31,8 @@ impl SpillRef {
     }
 
     fn mesh_bytes(&self) -> usize {
-        self.vertices as usize * (12 + 4 * self.colored as usize + 4 * self.normals as usize) + self.indices as usize * self.index_bytes()
+        let attributes = 12 + 4 * self.colored as usize + 4 * self.normals as usize + self.single_sided as usize;
+        self.vertices as usize * attributes + self.indices as usize * self.index_bytes()
     }
 
     fn bytes(&self) -> usize {
@@ -70,6 +72,7 @@ impl Spill {
             indices: m.indices.len() as u32,
             colored: !m.colors.is_empty(),
             normals: !m.normals.is_empty(),
+            single_sided: !m.single_sided.is_empty(),
             cuts: p.cuts.len() as u32,
         };
         let mut bytes = Vec::with_capacity(r.bytes());
@@ -81,6 +84,7 @@ impl Spill {
         } else {
             bytes.extend_from_slice(bytemuck::cast_slice(&m.indices));
         }
+        bytes.extend(m.single_sided.iter().map(|&s| u8::from(s)));
         bytes.resize(bytes.len().next_multiple_of(4), 0);
         bytes.extend_from_slice(bytemuck::cast_slice(&p.cuts));
         if p.cuts.len() > 1 {
@@ -138,8 +142,10 @@ impl Sealed {
     fn mesh(r: &SpillRef, buf: &[u8]) -> Mesh {
         let (pos, rest) = buf.split_at(r.vertices as usize * 12);
         let (colors, rest) = rest.split_at(if r.colored { r.vertices as usize * 4 } else { 0 });
-        let (normals, idx) = rest.split_at(if r.normals { r.vertices as usize * 4 } else { 0 });
+        let (normals, rest) = rest.split_at(if r.normals { r.vertices as usize * 4 } else { 0 });
+        let (idx, sides) = rest.split_at(r.indices as usize * r.index_bytes());
         Mesh {
+            single_sided: sides.iter().map(|&s| s != 0).collect(),
             positions: bytemuck::pod_collect_to_vec(pos),
             colors: bytemuck::pod_collect_to_vec(colors),
             normals: bytemuck::pod_collect_to_vec(normals),
@@ -167,7 +173,13 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let mut s = Spill::create(&d.path().join("s.osw")).unwrap();
         let a = Mesh { positions: vec![[0.0; 3], [1.0, 2.0, 3.0], [4.0, 5.0, 6.5]], indices: vec![0, 1, 2], ..Default::default() };
-        let b = Mesh { colors: vec![[1, 2, 3, 255]; 3], normals: vec![7, 8, 9], indices: vec![2, 1, 0, 0, 1, 2], ..a.clone() };
+        let b = Mesh {
+            colors: vec![[1, 2, 3, 255]; 3],
+            normals: vec![7, 8, 9],
+            single_sided: vec![true, false, true],
+            indices: vec![2, 1, 0, 0, 1, 2],
+            ..a.clone()
+        };
         let (a, mut b) = (Piece::always(a), Piece::always(b));
         b.cuts.push(Cut { hi: crate::format::ErrorBound { center: [1.0, 2.0, 3.0], radius: 4.0, error: 0.5 }, ..Cut::ALWAYS });
         b.cut_of = vec![0, 1];

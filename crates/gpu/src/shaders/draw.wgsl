@@ -99,10 +99,12 @@ fn octahedral(e: u32) -> vec3<f32> {
 }
 
 // A normal under the linear map of rows a, b, c: by its inverse transpose, as the rows' cofactors
-// (osw_scene::normal::transform), signed so that a mirror keeps it outward.
+// (osw_scene::normal::transform), signed so that a mirror keeps it outward; zero (shaded flat)
+// under a map that flattens the surface.
 fn turned(r: array<vec3<f32>, 3>, n: vec3<f32>) -> vec3<f32> {
     let c = vec3<f32>(dot(cross(r[1], r[2]), n), dot(cross(r[2], r[0]), n), dot(cross(r[0], r[1]), n));
-    return normalize(c) * sign(dot(r[0], cross(r[1], r[2])));
+    let l = length(c);
+    return select(vec3<f32>(0.0), c / l * sign(dot(r[0], cross(r[1], r[2]))), l > 0.0);
 }
 
 // PCG hash: a stable colour per object.

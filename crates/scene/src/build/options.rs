@@ -12,6 +12,9 @@ pub struct BuildOptions {
     pub model_colors: bool,
     /// Normals stored for shading: the model's and computed ones, or none.
     pub normals: crate::smooth::Normals,
+    /// Keep the model's single-sided surfaces (false: every surface double-sided, for a model
+    /// whose winding is not to be trusted).
+    pub model_sides: bool,
     /// Most input triangles built in memory at once (see [`crate::limits::BUCKET_TRIANGLES`]).
     pub bucket_triangles: u64,
     /// Static LOD chains per chunk, or a cluster hierarchy per object.
@@ -82,6 +85,7 @@ impl Default for BuildOptions {
             loose_split: crate::limits::LOOSE_SPLIT,
             model_colors: true,
             normals: crate::smooth::Normals::default(),
+            model_sides: true,
             bucket_triangles: crate::limits::BUCKET_TRIANGLES,
             lod: Lod::Chains,
             instances: Instances::Keep,

@@ -35,6 +35,9 @@ pub struct BuildReport {
     /// stores).
     #[serde(default)]
     pub normal_bytes: u64,
+    /// Triangles of single-sided surfaces (glTF `doubleSided` false): never drawn from behind.
+    #[serde(default)]
+    pub single_sided_triangles: u64,
     pub nodes: u64,
     pub leaves: u64,
     pub groups: u64,

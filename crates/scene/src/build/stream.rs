@@ -117,6 +117,7 @@ pub fn stream(
         empty: Vec::new(),
         objects_seen: 0,
         colors_dropped: 0,
+        sides_dropped: 0,
     };
     progress.stage("input", source.triangles_hint());
     loop {
@@ -155,6 +156,10 @@ impl Stream<'_> {
             batch.iter_mut().for_each(|o| o.mesh.colors = Vec::new());
         }
         self.report.objects_with_model_normals += batch.iter().filter(|o| !o.mesh.normals.is_empty()).count() as u64;
+        if !self.opts.model_sides {
+            self.sides_dropped += batch.iter().filter(|o| !o.mesh.single_sided.is_empty()).count();
+            batch.iter_mut().for_each(|o| o.mesh.single_sided = Vec::new());
+        }
         let first = self.objects_seen;
         self.objects_seen += batch.len();
         let instancing = self.instancing;
@@ -219,6 +224,7 @@ impl Stream<'_> {
             clean_stats,
             empty,
             colors_dropped,
+            sides_dropped,
             ..
         } = self;
         report.objects = closed_objects.len() as u64;
@@ -228,6 +234,11 @@ impl Stream<'_> {
         if opts.normals == Normals::Flat && report.objects_with_model_normals > 0 {
             let n = report.objects_with_model_normals;
             report.left_out.push(format!("the model's normals of {n} objects (--normals flat: every surface shaded flat)"));
+        }
+        if sides_dropped > 0 {
+            report.left_out.push(format!(
+                "the back-face culling of {sides_dropped} objects' single-sided surfaces (--sides both: drawn from both sides)"
+            ));
         }
         if colors_dropped > 0 {
             report.left_out.push(format!(
@@ -313,6 +324,8 @@ struct Stream<'a> {
     /// Input objects seen so far, and those whose colours were dropped (`--colors hashed`).
     objects_seen: usize,
     colors_dropped: usize,
+    /// Objects whose single-sided surfaces were made double-sided (`--sides both`).
+    sides_dropped: usize,
 }
 
 /// A prototype while the input streams: what each of its uses needs.
@@ -333,6 +346,7 @@ struct Kept {
     triangles: u64,
     translucent: u64,
     cut_out: u64,
+    single_sided: u64,
     uncolored: bool,
 }
 
@@ -342,6 +356,7 @@ impl Kept {
             triangles: mesh.triangle_count() as u64,
             translucent: mesh.translucent_triangles() as u64,
             cut_out: mesh.cut_out_triangles() as u64,
+            single_sided: mesh.indices.chunks_exact(3).filter(|t| mesh.is_single_sided(t)).count() as u64,
             uncolored: mesh.colors.is_empty(),
         }
     }
@@ -355,6 +370,7 @@ impl Stream<'_> {
         self.report.translucent_objects += u64::from(kept.translucent > 0);
         self.report.cut_out_triangles += kept.cut_out;
         self.report.cut_out_objects += u64::from(kept.cut_out > 0);
+        self.report.single_sided_triangles += kept.single_sided;
         self.closed_objects.push(closed);
         self.closed_objects.len() as u32 - 1
     }

@@ -233,10 +233,12 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
     let mut indices = triangle_list(prim.mode(), &order);
     let mut notes = Vec::new();
     let normals = normals(prim, buffers, positions.len(), &mut notes)?;
-    let Some(rgba) = colors(prim, buffers, positions.len())? else {
-        return Ok((Mesh { positions, indices, normals, ..Mesh::default() }, notes));
-    };
     let material = prim.material();
+    // Back faces culled unless doubleSided (glTF 2.0 sec. 3.9.5; also without a material).
+    let single_sided = if material.double_sided() { Vec::new() } else { vec![true; positions.len()] };
+    let Some(rgba) = colors(prim, buffers, positions.len())? else {
+        return Ok((Mesh { positions, indices, normals, single_sided, ..Mesh::default() }, notes));
+    };
     let name = || material_name(&material);
     let encode = |c: [f32; 4], a: u8| [srgb8(c[0]), srgb8(c[1]), srgb8(c[2]), a];
     let colors = match material.alpha_mode() {
@@ -261,7 +263,7 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
             colors
         }
     };
-    Ok((Mesh { positions, indices, colors, normals }, notes))
+    Ok((Mesh { positions, indices, colors, normals, single_sided }, notes))
 }
 
 /// The primitive's NORMAL, encoded; empty without one. A normal of zero length or not finite

@@ -235,7 +235,7 @@ fn read_body(elements: &[Element], mut src: Body<'_>, bytes: usize) -> Result<Ob
         }
     }
     let anchor = crate::place::anchor(positions.iter().map(|p| glam::DVec3::from_array(*p)));
-    let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices, colors, normals };
+    let mesh = Mesh { positions: crate::place::relative(&positions, anchor), indices, colors, normals, ..Mesh::default() };
     Ok(Object::placed("", mesh, anchor, glam::DAffine3::IDENTITY))
 }
 
