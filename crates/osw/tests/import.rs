@@ -548,11 +548,12 @@ fn glb_json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&b[20..20 + len]).unwrap()
 }
 
-/// The build names the base colour textures it does not read and the MASK and BLEND materials
+/// The build names the base colour textures it does not sample and the MASK and BLEND materials
 /// whose alpha comes from one, in the report's `left_out`, counted against the file's own JSON:
 /// a fixture of four quads (a textured opaque material, a textured cut-out, a plain colour, a
 /// specular-glossiness material's diffuse texture), and forza where it is (129 textures, 35
-/// cut-out materials).
+/// cut-out materials). The one texture beside the fixture is drawn as its mean colour (taken
+/// here in linear light from its texels), the two missing ones are named as unread.
 #[test]
 fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
     let d = tempfile::tempdir().unwrap();
@@ -579,11 +580,24 @@ fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
         "images": [{"uri": "grass.png"}, {"uri": "fence.png"}, {"uri": "marble.jpg"}],
         "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"], "accessors": accessors, "bufferViews": views});
     write_glb(&glb, doc, &bin);
+    let grass = [[40u8, 160, 40, 255], [90, 120, 30, 255], [40, 160, 40, 255], [10, 200, 60, 255]];
+    image::RgbaImage::from_raw(2, 2, grass.concat()).unwrap().save(d.path().join("grass.png")).unwrap();
+    let linear = |c: u8| ((c as f64 / 255.0 + 0.055) / 1.055).powf(2.4);
+    let mean = |k: usize| grass.iter().map(|t| linear(t[k])).sum::<f64>() / 4.0;
+    let want = [0, 1, 2].map(|k| ((1.055 * mean(k).powf(1.0 / 2.4) - 0.055) * 255.0).round() as u8);
     let left_out =
         |glb: &Path| build(glb).1["left_out"].as_array().unwrap().iter().map(|l| l.as_str().unwrap().to_owned()).collect::<Vec<_>>();
     let has = |lines: &[String], needle: &str| lines.iter().any(|l| l.contains(needle));
     let lines = left_out(&glb);
     assert!(has(&lines, "3 base colour textures of 3 materials") && has(&lines, "'grass.png', 'fence.png', 'marble.jpg'"), "{lines:?}");
+    assert!(
+        has(&lines, "2 base colour textures that cannot be read") && has(&lines, "'fence.png' (") && !has(&lines, "'grass.png' ("),
+        "{lines:?}"
+    );
+    let scene = SceneFile::open(&glb.with_extension("osw")).unwrap();
+    let colours: Vec<[u8; 4]> =
+        (scene.bvh_count()..scene.nodes().len() as u32).flat_map(|l| scene.geometry(l).unwrap().colors.to_vec()).collect();
+    assert!(colours.iter().any(|c| c[..3] == want), "the grass quad in its texture's mean {want:?}: {colours:?}");
     assert!(has(&lines, "the texture alpha of 1 MASK or BLEND materials") && has(&lines, "): 'fence'"), "{lines:?}");
     let Some(forza) = real_model("unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out", "torcs-forza.glb") else { return };
     let copy = d.path().join("forza.glb");
@@ -629,4 +643,13 @@ fn an_objs_textures_are_named_and_its_alpha_textured_surfaces_are_cut_outs() {
         left_out.contains("2 alpha textures (map_d) of 2 materials") && left_out.contains("'grate.png', 'hedge_alpha.png'"),
         "{left_out}"
     );
+    assert!(left_out.contains("2 diffuse textures that cannot be read (drawn in their Kd): 'bricks.jpg' ("), "{left_out}");
+    // With the hedge's texture beside it (one colour): Kd times that colour, as displayed.
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255])).save(d.path().join("hedge.png")).unwrap();
+    let (scene, report) = build(&obj);
+    let left_out = report["left_out"].to_string();
+    assert!(left_out.contains("1 diffuse textures that cannot be read") && !left_out.contains("'hedge.png' ("), "{left_out}");
+    let colours: Vec<[u8; 4]> =
+        (scene.bvh_count()..scene.nodes().len() as u32).flat_map(|l| scene.geometry(l).unwrap().colors.to_vec()).collect();
+    assert!(colours.contains(&[20, 50, 5, osw_scene::mesh::CUT_OUT]), "the hedge in Kd times its texture: {colours:?}");
 }

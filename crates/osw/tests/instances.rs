@@ -45,8 +45,10 @@ fn every_mode_draws_the_instanced_plant_like_vfc_and_like_its_copies() {
     render(&expand, &path, ("prev", "hybrid"), "0", &copies);
     let read = |r: &Path, f: &str| std::fs::read(r.join(f)).unwrap();
     assert!(read(&run.join("prev-hybrid"), "pvs.txt") == read(&copies, "pvs.txt"), "visible sets differ from the copies'");
-    let differ = differing(&run.join("prev-hybrid"), &copies, 16);
-    assert!(differ == 0.0, "{differ} of the pixels differ from the copies'");
+    // A use's normals turn on the GPU in f32, a copy's on the CPU, stored rounded: a level
+    // apart at a few pixels where the light rounds between them.
+    let (differ, far) = (differing(&run.join("prev-hybrid"), &copies, 16), differing_by(&run.join("prev-hybrid"), &copies, 16, 1));
+    assert!(differ <= 1e-3 && far == 0.0, "{differ} of the pixels differ from the copies', {far} by more than a level");
     // The same nodes drawn: the copies upload each node's vertices, the stored-once plant each
     // mesh once, and its nodes draw the rest from meshes already on the GPU.
     let summary = |r: &Path| -> serde_json::Value { serde_json::from_slice(&read(r, "summary.json")).unwrap() };

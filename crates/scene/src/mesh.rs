@@ -33,7 +33,7 @@ pub struct Mesh {
 pub const NO_COLOR: [u8; 4] = [0; 4];
 
 /// The alpha byte of a cut-out (glTF alphaMode MASK): opaque where drawn, but holed where its
-/// texture's alpha, which the build does not read, falls below the cutoff. It is drawn opaque
+/// texture's alpha, which the build does not sample, falls below the cutoff. It is drawn opaque
 /// and never an occluder (nothing it hides is known to be hidden).
 pub const CUT_OUT: u8 = 254;
 

@@ -100,8 +100,12 @@ fn octahedral(e: u32) -> vec3<f32> {
 
 // A normal under the linear map of rows a, b, c: by its inverse transpose, as the rows' cofactors
 // (osw_scene::normal::transform), signed so that a mirror keeps it outward; zero (shaded flat)
-// under a map that flattens the surface.
+// under a map that flattens the surface. Under a translation alone it is the normal itself, bit
+// for bit, as a placed copy's is.
 fn turned(r: array<vec3<f32>, 3>, n: vec3<f32>) -> vec3<f32> {
+    if (all(r[0] == vec3<f32>(1.0, 0.0, 0.0)) && all(r[1] == vec3<f32>(0.0, 1.0, 0.0)) && all(r[2] == vec3<f32>(0.0, 0.0, 1.0))) {
+        return n;
+    }
     let c = vec3<f32>(dot(cross(r[1], r[2]), n), dot(cross(r[2], r[0]), n), dot(cross(r[0], r[1]), n));
     let l = length(c);
     return select(vec3<f32>(0.0), c / l * sign(dot(r[0], cross(r[1], r[2]))), l > 0.0);

@@ -7,14 +7,15 @@
 //! material's alpha makes its triangles translucent, a MASK material's discards those below
 //! its cutoff and makes cut-outs of those it may hole (see [`crate::mesh::Mesh::colors`]).
 //! Points and lines are skipped with a warning; Draco is
-//! refused with how to re-export. Images are never decoded. Every accessor is checked against
-//! its buffer before it is read.
+//! refused with how to re-export. A base colour texture is decoded for its mean colour alone
+//! ([`super::texture_mean`]). Every accessor is checked against its buffer before it is read.
 //!
 //! The `gltf` crate validates `extensionsRequired` against the extensions it implements, which
 //! excludes the ones above: the document is validated here in every other respect, and the
 //! required extensions are checked by [`gltf_raw::Raw::check_extensions`].
 
 use super::gltf_raw::{self, Raw};
+use super::texture_mean::{self, Mean};
 use super::{ImportError, Imported, ParseError, first_few};
 use crate::mesh::{Mesh, Object};
 use crate::normal::{NO_NORMAL, Normal};
@@ -46,6 +47,7 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
     let doc = gltf::Document::from_json_without_validation(root);
     let buffers = load_buffers(&doc, &raw, base, blob)?;
     let buffers: Vec<&[u8]> = buffers.iter().map(Vec::as_slice).collect();
+    let means = texture_mean::of_images(&doc, &buffers, base);
 
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
@@ -67,7 +69,7 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
             return Err(ParseError::new(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(mesh) = node.mesh() {
-            let m = mesh_of(&mesh, &buffers, &mut out.skipped).map_err(|e| e.at(format!("mesh {}", mesh.index())))?;
+            let m = mesh_of(&mesh, &buffers, &means, &mut out.skipped).map_err(|e| e.at(format!("mesh {}", mesh.index())))?;
             let name = node.name().or(mesh.name()).map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
             let prototype = Some(mesh.index() as u32);
             match &raw_node.extensions.instancing {
@@ -91,15 +93,16 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
     // A mesh's notes once, however many nodes use it.
     let mut seen = std::collections::HashSet::new();
     out.skipped.retain(|s| seen.insert(s.clone()));
-    out.left_out = texture_notes(&doc);
+    out.left_out = texture_notes(&doc, &means);
     Ok(out)
 }
 
 /// What the build leaves out of the materials' base colour textures (or the diffuse ones of
-/// KHR_materials_pbrSpecularGlossiness), which it does not read: the textures, and the alpha
-/// of MASK and BLEND materials that comes from them (a cut-out is drawn whole and occludes
-/// nothing). Each names its first few.
-fn texture_notes(doc: &gltf::Document) -> Vec<String> {
+/// KHR_materials_pbrSpecularGlossiness), which it does not sample: the textures (drawn as
+/// their mean colour), those it cannot read at all, and the alpha of MASK and BLEND materials
+/// that comes from them (a cut-out is drawn whole and occludes nothing). Each names its first
+/// few.
+fn texture_notes(doc: &gltf::Document, means: &[Result<Mean, String>]) -> Vec<String> {
     let textured: Vec<(gltf::Material, gltf::Texture)> =
         doc.materials().filter_map(|m| Some((m.clone(), base_texture(&m)?.texture()))).collect();
     let textures: std::collections::BTreeSet<usize> = textured.iter().map(|(_, t)| t.index()).collect();
@@ -108,11 +111,23 @@ fn texture_notes(doc: &gltf::Document) -> Vec<String> {
     if !textures.is_empty() {
         let names: Vec<String> = textures.iter().filter_map(|&k| doc.textures().nth(k)).map(|t| texture_name(&t)).collect();
         notes.push(format!(
-            "{} base colour textures of {} materials (textures are not read: those surfaces are drawn in their factor and COLOR_0): {}",
+            "{} base colour textures of {} materials (textures are not sampled: those surfaces are drawn in their factor and COLOR_0 times the texture's mean colour): {}",
             textures.len(),
             textured.len(),
             first_few(&names)
         ));
+        let unread: Vec<String> = textures
+            .iter()
+            .filter_map(|&k| doc.textures().nth(k))
+            .filter_map(|t| Some(format!("{} ({})", texture_name(&t), means.get(t.source().index())?.as_ref().err()?)))
+            .collect();
+        if !unread.is_empty() {
+            notes.push(format!(
+                "{} base colour textures that cannot be read (drawn in their factor): {}",
+                unread.len(),
+                first_few(&unread)
+            ));
+        }
     }
     if !alpha.is_empty() {
         notes.push(format!(
@@ -193,14 +208,14 @@ fn load_buffers(doc: &gltf::Document, raw: &Raw, base: &Path, mut blob: Option<V
 }
 
 /// The triangles of every primitive of `mesh`, in the mesh's frame.
-fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], skipped: &mut Vec<String>) -> Result<Mesh, ParseError> {
+fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], means: &[Result<Mean, String>], skipped: &mut Vec<String>) -> Result<Mesh, ParseError> {
     let mut m = Mesh::default();
     for prim in mesh.primitives() {
         if matches!(prim.mode(), Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
             skipped.push(format!("mesh {} primitive {}: mode {:?} has no triangles", mesh.index(), prim.index(), prim.mode()));
             continue;
         }
-        let (p, notes) = primitive(&prim, buffers).map_err(|e| e.at(format!("primitive {}", prim.index())))?;
+        let (p, notes) = primitive(&prim, buffers, means).map_err(|e| e.at(format!("primitive {}", prim.index())))?;
         skipped.extend(notes.into_iter().map(|n| format!("mesh {} primitive {}: {n}", mesh.index(), prim.index())));
         m.append(&p);
     }
@@ -208,7 +223,7 @@ fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], skipped: &mut Vec<String>) -> R
 }
 
 /// A primitive's triangles and colours, and what of its material was left out.
-fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<String>), ParseError> {
+fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]], means: &[Result<Mean, String>]) -> Result<(Mesh, Vec<String>), ParseError> {
     let pos = prim.get(&gltf::Semantic::Positions).ok_or_else(|| ParseError::new("no POSITION attribute"))?;
     if pos.dimensions() != Dimensions::Vec3 {
         return Err(ParseError::new(format!("POSITION is {:?}, expected VEC3", pos.dimensions())));
@@ -236,7 +251,7 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]]) -> Result<(Mesh, Vec<Str
     let material = prim.material();
     // Back faces culled unless doubleSided (glTF 2.0 sec. 3.9.5; also without a material).
     let single_sided = if material.double_sided() { Vec::new() } else { vec![true; positions.len()] };
-    let Some(rgba) = colors(prim, buffers, positions.len())? else {
+    let Some(rgba) = colors(prim, buffers, means, positions.len())? else {
         return Ok((Mesh { positions, indices, normals, single_sided, ..Mesh::default() }, notes));
     };
     let name = || material_name(&material);
@@ -286,15 +301,27 @@ fn normals(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize, notes: &m
 }
 
 /// The primitive's linear colour per vertex: COLOR_0 times the material's baseColorFactor
-/// (glTF 2.0 sec. 3.9.2). None for a primitive with neither a material nor COLOR_0 (glTF's
-/// default material is plain white, which would hide the objects from each other).
-fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<Option<Vec<[f32; 4]>>, ParseError> {
+/// (glTF 2.0 sec. 3.9.2) times its base colour texture's mean where that can be read (of a
+/// MASK material the colour alone: its alpha is tested against the cutoff). None for a
+/// primitive with neither a material nor COLOR_0 (glTF's default material is plain white,
+/// which would hide the objects from each other).
+fn colors(
+    prim: &gltf::Primitive,
+    buffers: &[&[u8]],
+    means: &[Result<Mean, String>],
+    vertices: usize,
+) -> Result<Option<Vec<[f32; 4]>>, ParseError> {
     let material = prim.material();
     let color0 = prim.get(&gltf::Semantic::Colors(0));
     if material.index().is_none() && color0.is_none() {
         return Ok(None);
     }
-    let base = material.pbr_metallic_roughness().base_color_factor();
+    let mut base = material.pbr_metallic_roughness().base_color_factor();
+    let mean = base_texture(&material).and_then(|t| means.get(t.texture().source().index())?.as_ref().ok().copied());
+    if let Some(mean) = mean {
+        let channels = if material.alpha_mode() == AlphaMode::Mask { 3 } else { 4 };
+        (0..channels).for_each(|k| base[k] *= mean[k]);
+    }
     let per_vertex: Vec<[f32; 4]> = match color0 {
         None => vec![[1.0; 4]; vertices],
         Some(acc) => {
@@ -315,9 +342,7 @@ fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize) -> Result<
 
 /// A linear colour channel as an sRGB byte.
 fn srgb8(linear: f32) -> u8 {
-    let c = linear.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0).round() as u8
+    (texture_mean::linear_to_srgb(linear) * 255.0).round() as u8
 }
 
 /// A triangle list from the vertex order of a list, strip or fan (glTF 2.0 sec. 3.7.2.1).

@@ -7,6 +7,7 @@ mod gltf_raw;
 mod meshopt_views;
 pub mod obj;
 pub mod ply;
+mod texture_mean;
 
 use crate::mesh::Object;
 use std::path::{Path, PathBuf};

@@ -3,7 +3,8 @@
 //! resolved; points and lines are skipped. The material libraries it names (`mtllib`, beside
 //! the file) must be readable; an object's material gives its colour (Kd) and, with d below 1,
 //! its translucency; one with an alpha texture (map_d) is a cut-out ([`crate::mesh::CUT_OUT`]).
-//! Textures are not read: `left_out` names them. All objects of a file share one f32 anchor
+//! Textures are not sampled: a diffuse texture (map_Kd) multiplies Kd by its mean colour, and
+//! `left_out` names them. All objects of a file share one f32 anchor
 //! (see [`crate::place`]).
 
 use super::{ImportError, Imported, ParseError, first_few};
@@ -42,6 +43,16 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
     }
     let materials = materials.map_err(|e| ParseError::caused("material library", e))?;
 
+    // Each diffuse texture's mean colour, as displayed, or why it cannot be read.
+    let means: Vec<Option<Result<[f32; 3], String>>> = materials
+        .iter()
+        .map(|m| {
+            let mean = |t: &String| {
+                super::texture_mean::of_file(&base.join(t)).map(|c| [0, 1, 2].map(|k| super::texture_mean::linear_to_srgb(c[k])))
+            };
+            m.diffuse_texture.as_ref().map(mean)
+        })
+        .collect();
     let points = models.iter().flat_map(|m| m.mesh.positions.chunks_exact(3)).map(|p| DVec3::new(p[0], p[1], p[2]));
     let anchor = crate::place::anchor(points);
     let objects = models
@@ -54,13 +65,16 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
                 let given = m.mesh.normals.chunks_exact(3).map(|n| DVec3::new(n[0], n[1], n[2]).as_vec3());
                 mesh.normals = given.map(crate::normal::given).collect();
             }
-            // Kd, the diffuse colour, as display values (what OBJ viewers show); d below 1 is
-            // translucent.
+            // Kd, the diffuse colour, as display values (what OBJ viewers show), times its
+            // texture's mean where it has one; d below 1 is translucent.
             let material = m.mesh.material_id.and_then(|id| materials.get(id));
+            let mean = m.mesh.material_id.and_then(|id| means.get(id)?.as_ref()?.as_ref().ok());
             // A cut-out without Kd takes MTL's default, 0.8: its alpha must be stored.
             let cut_out = material.is_some_and(|mat| mat.dissolve_texture.is_some());
-            if let Some(kd) = material.and_then(|mat| mat.diffuse.or(cut_out.then_some([0.8; 3]))) {
-                let c = |k: usize| (kd[k].clamp(0.0, 1.0) * 255.0).round() as u8;
+            let default = (cut_out || mean.is_some()).then_some([0.8; 3]);
+            if let Some(kd) = material.and_then(|mat| mat.diffuse.or(default)) {
+                let texel = |k: usize| mean.map_or(1.0, |m| m[k]);
+                let c = |k: usize| ((kd[k] as f32 * texel(k)).clamp(0.0, 1.0) * 255.0).round() as u8;
                 let d = material.and_then(|mat| mat.dissolve).unwrap_or(1.0);
                 let a = match crate::mesh::alpha(d as f32) {
                     255 if cut_out => crate::mesh::CUT_OUT,
@@ -72,15 +86,16 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
             Object::placed(name, mesh, anchor, DAffine3::IDENTITY)
         })
         .collect();
-    Ok(Imported { objects, left_out: texture_notes(&materials), ..Imported::default() })
+    Ok(Imported { objects, left_out: texture_notes(&materials, &means), ..Imported::default() })
 }
 
 /// One of a material's texture maps.
 type Map = fn(&tobj::Material) -> Option<&String>;
 
-/// The textures of `materials`, which the build does not read: the diffuse ones (map_Kd), and
-/// the alpha ones (map_d) of cut-outs, each note naming its first few.
-fn texture_notes(materials: &[tobj::Material]) -> Vec<String> {
+/// The textures of `materials`, which the build does not sample: the diffuse ones (map_Kd),
+/// drawn as their mean colour where `means` could read them, and the alpha ones (map_d) of
+/// cut-outs, each note naming its first few.
+fn texture_notes(materials: &[tobj::Material], means: &[Option<Result<[f32; 3], String>>]) -> Vec<String> {
     let named = |texture: Map| {
         let mut names: Vec<String> = materials.iter().filter_map(texture).map(|t| format!("'{t}'")).collect();
         names.sort();
@@ -88,14 +103,27 @@ fn texture_notes(materials: &[tobj::Material]) -> Vec<String> {
         (materials.iter().filter(|m| texture(m).is_some()).count(), names)
     };
     let kinds: [(Map, &str, &str); 2] = [
-        (|m| m.diffuse_texture.as_ref(), "diffuse textures (map_Kd)", "textures are not read: those surfaces are drawn in their Kd"),
+        (
+            |m| m.diffuse_texture.as_ref(),
+            "diffuse textures (map_Kd)",
+            "textures are not sampled: those surfaces are drawn in their Kd times the texture's mean colour",
+        ),
         (|m| m.dissolve_texture.as_ref(), "alpha textures (map_d)", "their surfaces are cut-outs, drawn whole, occluding nothing"),
     ];
     let notes = kinds.into_iter().map(|(texture, what, why)| {
         let (uses, names) = named(texture);
         (uses > 0).then(|| format!("{} {what} of {uses} materials ({why}): {}", names.len(), first_few(&names)))
     });
-    notes.flatten().collect()
+    let mut unread: Vec<String> = materials
+        .iter()
+        .zip(means)
+        .filter_map(|(m, mean)| Some(format!("'{}' ({})", m.diffuse_texture.as_ref()?, mean.as_ref()?.as_ref().err()?)))
+        .collect();
+    unread.sort();
+    unread.dedup();
+    let unread = (!unread.is_empty())
+        .then(|| format!("{} diffuse textures that cannot be read (drawn in their Kd): {}", unread.len(), first_few(&unread)));
+    notes.flatten().chain(unread).collect()
 }
 
 fn describe(e: tobj::LoadError) -> ParseError {
