@@ -246,6 +246,10 @@ fn bad_command_lines_are_refused() {
         let arg = format!("--loose-split={f}");
         osw_err(&["build", "--gen", "city", &arg, "-o", o.to_str().unwrap()], "--loose-split must be a fraction");
     }
+    for angle in ["181", "-1", "NaN"] {
+        let arg = format!("--crease-angle={angle}");
+        osw_err(&["build", "--gen", "city", &arg, "-o", o.to_str().unwrap()], "--crease-angle must be from 0 to 180 degrees");
+    }
     osw_err(&["path", "--scene", "/nonexistent.osw", "--kind", "walk", "-o", "p.csv"], "/nonexistent.osw");
     for tests in ["frustrum", "none,cone", ""] {
         let args = ["render", "--scene", "s.osw", "--path", "p.csv", "--mode", "vfc", "--cluster-tests", tests, "--out", "o"];
