@@ -43,6 +43,8 @@ struct Resident {
     /// First vertex in the arena.
     base: u32,
     vertices: u32,
+    /// Bytes uploaded: its vertices, and its normals where the renderer shades.
+    uploaded: u64,
     last_used: u64,
 }
 
@@ -133,10 +135,9 @@ impl Residency {
     /// The first vertex in the arena of LOD node `id`'s mesh, whose geometry block lies at
     /// `block` in the scene's blob, if it is resident, marking it used in this epoch.
     pub fn resident(&mut self, id: NodeId, block: u64) -> Option<u32> {
-        let vertex_bytes = self.vertex_bytes();
         let r = self.map.get_mut(&block)?;
         r.last_used = self.frame;
-        let (base, bytes) = (r.base, r.vertices as u64 * vertex_bytes);
+        let (base, bytes) = (r.base, r.uploaded);
         if self.first_draw(id) {
             self.stats.shared_bytes += bytes;
         }
@@ -158,28 +159,22 @@ impl Residency {
         {
             gpu.queue.write_buffer(arena, base as u64 * VERTEX_BYTES, bytemuck::cast_slice(&vertices));
         }
-        if let Some(normals) = &self.normals
-            && n > 0
-        {
-            let flat;
-            let stored: &[u32] = if g.normals.is_empty() {
-                flat = vec![osw_scene::normal::NO_NORMAL; n as usize];
-                &flat
-            } else {
-                &g.normals
-            };
-            gpu.queue.write_buffer(normals, base as u64 * NORMAL_BYTES, bytemuck::cast_slice(stored));
+        // A mesh without normals leaves its range of the normal arena as it was: its uses say
+        // so (crate::uses::Use::normals), and the shader reads none of it.
+        let with_normals = self.shade && !g.normals.is_empty();
+        if let Some(normals) = self.normals.as_ref().filter(|_| with_normals) {
+            gpu.queue.write_buffer(normals, base as u64 * NORMAL_BYTES, bytemuck::cast_slice(&g.normals));
         }
-        let bytes = n as u64 * self.vertex_bytes();
-        self.bytes += bytes;
+        let uploaded = n as u64 * (VERTEX_BYTES + if with_normals { NORMAL_BYTES } else { 0 });
+        self.bytes += n as u64 * self.vertex_bytes();
         self.stats.uploads += 1;
-        self.stats.upload_bytes += bytes;
+        self.stats.upload_bytes += uploaded;
         self.first_draw(id);
         if self.read.insert(block) {
-            let normal_bytes = if self.shade { std::mem::size_of_val(g.normals.as_ref()) as u64 } else { 0 };
+            let normal_bytes = if with_normals { std::mem::size_of_val(g.normals.as_ref()) as u64 } else { 0 };
             self.stats.distinct_bytes += g.positions.len() as u64 * 12 + normal_bytes + g.indices.bytes().len() as u64;
         }
-        self.map.insert(block, Resident { base, vertices: n, last_used: self.frame });
+        self.map.insert(block, Resident { base, vertices: n, uploaded, last_used: self.frame });
         Ok(base)
     }
 

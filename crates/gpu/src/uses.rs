@@ -22,7 +22,10 @@ pub struct Use {
     pub placed: u32,
     /// The node's object, whose hash colours it.
     pub object: u32,
-    pub pad: [u32; 4],
+    /// 1 where its mesh has normals in the normal arena; 0 where it is shaded flat (nothing of
+    /// it is uploaded there).
+    pub normals: u32,
+    pub pad: [u32; 3],
     /// The placement's three rows, linear part and translation ([`Rows`]).
     pub rows: [u32; 24],
 }
@@ -85,7 +88,8 @@ impl Uses {
         }
         let node = scene.node(id);
         let instance = node.instance;
-        let mut u = Use { node: id, base, placed: 0, object: node.object, pad: [0; 4], rows: [0; 24] };
+        let normals = u32::from(scene.has_normals(id));
+        let mut u = Use { node: id, base, placed: 0, object: node.object, normals, pad: [0; 3], rows: [0; 24] };
         if instance != NONE {
             let a = scene.instances()[instance as usize].affine();
             u.placed = 1;

@@ -101,6 +101,11 @@ impl SceneFile {
         self.blocks().get(block as usize)
     }
 
+    /// Whether LOD node `lod`'s block stores normals (false for other nodes).
+    pub fn has_normals(&self, lod: NodeId) -> bool {
+        self.block_record(lod).is_some_and(|b| b.normal_bytes > 0)
+    }
+
     /// The opaque clusters of LOD node `lod`'s block (0 for other nodes).
     pub fn opaque_clusters(&self, lod: NodeId) -> u32 {
         self.block_record(lod).map_or(0, |b| b.opaque_clusters)

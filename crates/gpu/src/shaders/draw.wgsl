@@ -21,7 +21,10 @@ struct Use {
     placed: u32,
     // The node's object, for its colour.
     object: u32,
-    pad: vec4<u32>,
+    // 1 where its mesh has normals in the normal arena, else 0 (shaded flat).
+    normals: u32,
+    // Not a vec3 (aligned to 16): rows start at byte 32, as uses.rs writes them.
+    pad: array<u32, 3>,
     rows: Rows,
 }
 
@@ -78,6 +81,9 @@ fn vertex(index: u32) -> VertexOut {
 fn vs_shade(@builtin(vertex_index) index: u32) -> VertexOut {
     var out = vertex(index);
     let slot = index >> view.draw.y;
+    if (uses[slot].normals == 0u) {
+        return out;
+    }
     let e = normals[uses[slot].base + (index & ((1u << view.draw.y) - 1u))];
     if (e != NO_NORMAL) {
         out.normal = octahedral(e);
