@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Long fuzz runs of every decoder with cargo fuzz (libFuzzer): protocol frames, scene file
-# header and tables, camera path CSV, cluster config, and the glTF (with its meshopt decoders),
+# header and tables, its texture table, camera path CSV, cluster config, and the glTF (with its meshopt decoders),
 # OBJ and PLY readers. The targets are crates/fuzz/src; the seeds crates/fuzz/libfuzzer/seeds;
 # each run's corpus grows in out/fuzz/corpus/TARGET.
 #
@@ -20,7 +20,7 @@ while (($#)); do
     *) targets+=("$1"); shift ;;
   esac
 done
-((${#targets[@]})) || targets=(wire_frame scene_tables path_csv config gltf_import obj_import ply_import)
+((${#targets[@]})) || targets=(wire_frame scene_tables texture_table path_csv config gltf_import obj_import ply_import)
 command -v cargo-fuzz >/dev/null || cargo install --locked cargo-fuzz@0.13.2
 rustc --version | grep -q nightly || export RUSTC_BOOTSTRAP=1
 dir=crates/fuzz/libfuzzer

@@ -2,7 +2,7 @@
 # Makes the glTF fixtures of the import tests with the real tools, from the npm registry and run
 # under node: gltfpack (quantized by default, -cc meshopt-compressed, -mi instanced, -vpn and
 # -vpf other position encodings) and gltf-transform (Draco). The source model is written by
-# scripts/fixtures/source-model.js. Writes into crates/osw/tests/fixtures/gltf/ (committed; run
+# scripts/fixtures/source-model.js; a small textured model by scripts/fixtures/textured-model.py. Writes into crates/osw/tests/fixtures/gltf/ (committed; run
 # this again after changing the source or the tools' versions). With --meshes, also packs the
 # real meshes scripts/fetch-meshes.sh put in the mesh cache (bunny, teapot, dragon: larger,
 # for benchmarks and trying by hand) into out/fixtures/, which git ignores.
@@ -30,6 +30,7 @@ node scripts/fixtures/source-model.js "$out/source.gltf"
 "$pack" -i "$out/source.gltf" -o "$out/packed-vpn-cc.glb" -vpn -cc >/dev/null
 "$pack" -i "$out/source.gltf" -o "$out/packed-vpf-cc.glb" -vpf -cc >/dev/null
 "$transform" draco "$out/source.gltf" "$out/draco.glb" >/dev/null
+python3 scripts/fixtures/textured-model.py "$out/textured.glb"
 ls -l "$out"
 if ((meshes)); then
   cache="${OSW_MESH_CACHE:-$HOME/.cache/osw/meshes}"

@@ -22,25 +22,30 @@ fi
 command -v cargo >/dev/null || { echo "setup: cargo not found: install Rust (rustup) first" >&2; exit 1; }
 # Real models made by others for the tests, where ../shared/models/ (our machines and CI) is
 # not beside the clone: Debian's assimp-testmodels holds glTF 2.0 models (a two-cylinder engine
-# of repeated parts; a textured box, kept aside in models/textured/ as it has nothing to cull)
-# and a corpus of malformed glTF that the tests use as bad input. Into models/ (git-ignored),
-# once; skipped where apt-get is not there.
-if [[ ! -e models/.filled ]] && command -v apt-get >/dev/null; then
+# of repeated parts; textured boxes and texture transforms, kept aside in models/textured/ as
+# they have nothing to cull) and a corpus of malformed or unsupported glTF that the tests use
+# as bad input. Into models/ (git-ignored), once per version of this list; skipped where
+# apt-get is not there.
+if [[ ! -e models/.filled-2 ]] && command -v apt-get >/dev/null; then
   tmp=$(mktemp -d)
   trap 'rm -rf "$tmp"' EXIT
   if (cd "$tmp" && apt-get download -qq assimp-testmodels 2>/dev/null) ||
     { $sudo_cmd apt-get update -qq && (cd "$tmp" && apt-get download -qq assimp-testmodels 2>/dev/null); }; then
     dpkg-deb -x "$tmp"/assimp-testmodels_*.deb "$tmp/x"
     src="$tmp/x/usr/share/assimp/models/glTF2"
+    rm -rf models/bad models/textured
     mkdir -p models/bad models/textured
     cp "$src/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" models/
-    cp "$src/BoxTextured-glTF-Binary/BoxTextured.glb" models/textured/
+    for d in BoxTextured-glTF BoxTextured-glTF-Binary BoxTextured-glTF-Embedded BoxTexcoords-glTF textureTransform issue_3269 \
+      BoxTextured-glTF-pbrSpecularGlossiness; do
+      cp -r "$src/$d" models/textured/
+    done
     for d in IndexOutOfRange IncorrectVertexArrays MissingBin SchemaFailures TestNoRootNode RecursiveNodes wrongTypes \
-      BoxWithInfinites-glTF-Binary; do
+      BoxWithInfinites-glTF-Binary BoxTextured-glTF-techniqueWebGL draco; do
       cp -r "$src/$d" models/bad/
     done
-    touch models/.filled
-    echo "setup: real models for the tests in models/ ($(ls models/*.glb | wc -l) models, $(find models/bad -name '*.gl*' | wc -l) malformed)" >&2
+    touch models/.filled-2
+    echo "setup: real models for the tests in models/ ($(ls models/*.glb | wc -l) models, $(ls models/textured | wc -l) textured, $(find models/bad -name '*.gl*' | wc -l) malformed)" >&2
   else
     echo "setup: Debian's assimp-testmodels not found: the tests that need real models will say so" >&2
   fi

@@ -203,6 +203,7 @@ mod tests {
                 positions: Cow::Borrowed(b.0),
                 colors: &[],
                 normals: Cow::Borrowed(&[]),
+                texcoords: &[],
                 indices: Indices::U32(Cow::Borrowed(b.1)),
                 clusters: Cow::Borrowed(b.2),
                 cuts: &[],

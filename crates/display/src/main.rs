@@ -70,6 +70,9 @@ struct Args {
     /// Time RVG's draw on the GPU with timestamps (`rvg_gpu_ms` in stats.csv).
     #[arg(long)]
     gpu_times: bool,
+    /// Draw textured surfaces in each texture's mean colour instead of sampling it.
+    #[arg(long)]
+    no_textures: bool,
     /// Longest wait for one frame, seconds (a first frame at full detail of a huge scene may
     /// need more than the default).
     #[arg(long, default_value_t = osw_wire::limits::FRAME_WAIT.as_secs_f64(), value_name = "SECS")]
@@ -288,7 +291,13 @@ fn run(a: &Args) -> anyhow::Result<()> {
     // The next frame's gather overlaps this frame's draw (measured in
     // docs/measurements/2026-12-07-constants.md, "The display's overlap"). RVG's stage time then
     // ends when its draw is submitted, the previous one done.
-    let options = RenderOptions { cluster_tests: agreed.cluster_tests, time_gpu: a.gpu_times, overlap: true, ..RenderOptions::default() };
+    let options = RenderOptions {
+        cluster_tests: agreed.cluster_tests,
+        time_gpu: a.gpu_times,
+        overlap: true,
+        textures: !a.no_textures,
+        ..RenderOptions::default()
+    };
     let mut r = osw_gpu::Renderer::new(gpu, &scene, w, h, options)?;
     if a.gpu_times && !r.times_gpu() {
         anyhow::bail!("--gpu-times: adapter {} has no timestamp queries", r.gpu().info.name);

@@ -8,12 +8,15 @@ use bytemuck::pod_read_unaligned;
 use osw_cull::hc::frustum_cull;
 use osw_cull::view::View;
 use osw_scene::Camera;
-use osw_scene::format::{BLOCK_BYTES, BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, NODE_BYTES, NodeKind, NodeRecord};
+use osw_scene::format::{
+    BLOCK_BYTES, BlockRecord, Header, IMAGE_BYTES, INSTANCE_BYTES, ImageRecord, InstanceRecord, NODE_BYTES, NodeKind, NodeRecord,
+    TEXTURE_BYTES, Tables, TextureRecord,
+};
 use osw_scene::format::{content_hash, header_hash};
 use std::path::Path;
 
 /// Recomputes the header's content and header hashes in place, where the tables fit.
-fn rehash(bytes: &mut [u8]) {
+pub(crate) fn rehash(bytes: &mut [u8]) {
     let hs = std::mem::size_of::<Header>();
     let Some(head) = bytes.get(..hs) else { return };
     let mut h: Header = pod_read_unaligned(head);
@@ -24,11 +27,16 @@ fn rehash(bytes: &mut [u8]) {
     let n = table(h.nodes_offset, h.node_count, NODE_BYTES);
     let b = table(h.blocks_offset, h.block_count, BLOCK_BYTES);
     let i = table(h.instances_offset, h.instance_count, INSTANCE_BYTES);
-    if let (Some(n), Some(b), Some(i)) = (n, b, i) {
+    let m = table(h.images_offset, h.image_count, IMAGE_BYTES);
+    let t = h.images_offset.checked_add(h.image_count as u64 * IMAGE_BYTES).and_then(|at| table(at, h.texture_count, TEXTURE_BYTES));
+    if let (Some(n), Some(b), Some(i), Some(m), Some(t)) = (n, b, i, m, t) {
         let nodes: Vec<NodeRecord> = bytemuck::pod_collect_to_vec(n);
         let blocks: Vec<BlockRecord> = bytemuck::pod_collect_to_vec(b);
         let instances: Vec<InstanceRecord> = bytemuck::pod_collect_to_vec(i);
-        h.content_hash = content_hash(&h, &nodes, &blocks, &instances);
+        let images: Vec<ImageRecord> = bytemuck::pod_collect_to_vec(m);
+        let textures: Vec<TextureRecord> = bytemuck::pod_collect_to_vec(t);
+        h.content_hash =
+            content_hash(&h, &Tables { nodes: &nodes, blocks: &blocks, instances: &instances, images: &images, textures: &textures });
     }
     h.header_hash = header_hash(&h);
     bytes[..hs].copy_from_slice(bytemuck::bytes_of(&h));

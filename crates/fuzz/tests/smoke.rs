@@ -86,9 +86,11 @@ fn every_seed_is_accepted_by_its_decoder() {
     for s in nonempty("wire_frame") {
         assert!(matches!(osw_wire::decode_frame(&s), Ok(Some(_))), "{s:?}");
     }
-    for s in nonempty("scene_tables") {
+    for s in nonempty("scene_tables").into_iter().chain(nonempty("texture_table")) {
         osw_scene::file::validate(Path::new("seed.osw"), &s).unwrap();
     }
+    let textured = |s: &Vec<u8>| osw_scene::file::validate(Path::new("seed.osw"), s).is_ok_and(|h| h.texture_count > 0);
+    assert!(nonempty("texture_table").iter().all(textured), "a texture_table seed without textures");
     for s in nonempty("path_csv") {
         osw_scene::path::parse_csv(std::str::from_utf8(&s).unwrap(), "seed.csv").unwrap();
     }

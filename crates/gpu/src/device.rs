@@ -119,6 +119,8 @@ impl Gpu {
             max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size,
             // The vertex arena and a pass's indices are one buffer each.
             max_buffer_size: adapter.limits().max_buffer_size,
+            // The texture atlas's pages are one array (crate::atlas).
+            max_texture_array_layers: adapter.limits().max_texture_array_layers,
             ..wgpu::Limits::default()
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

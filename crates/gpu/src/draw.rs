@@ -55,7 +55,9 @@ pub struct ViewUniform {
     pub view_proj: [[f32; 4]; 4],
     pub offset: [f32; 4],
     /// x: the pass's tint, RGB in the low three bytes and 255 in the high one, or 0: each
-    /// object in its own colour; y: the pass's [`crate::uses::Uses::shift`].
+    /// object in its own colour; y: the pass's [`crate::uses::Uses::shift`]; z: the texture
+    /// level forced (f32 bits); w: bit 0 where textures are sampled (else drawn in their mean
+    /// colour), bit 1 where z forces the level.
     pub draw: [u32; 4],
 }
 
@@ -130,7 +132,8 @@ impl DrawPipelines {
         };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("draw"),
-            // The view, the pass's use table, the vertex arena, the normal arena.
+            // The view, the pass's use table, the vertex, normal and texcoord arenas, the texture
+            // table, its rectangles and the atlas (crate::atlas).
             entries: &[
                 entry(
                     0,
@@ -140,6 +143,18 @@ impl DrawPipelines {
                 entry(1, read, wgpu::ShaderStages::VERTEX),
                 entry(2, read, wgpu::ShaderStages::VERTEX),
                 entry(3, read, wgpu::ShaderStages::VERTEX),
+                entry(4, read, wgpu::ShaderStages::VERTEX),
+                entry(5, read, vf),
+                entry(6, read, wgpu::ShaderStages::FRAGMENT),
+                entry(
+                    7,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    wgpu::ShaderStages::FRAGMENT,
+                ),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

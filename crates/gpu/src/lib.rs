@@ -3,6 +3,8 @@
 //! - [`device`]: adapter choice and device set-up, with a clear error when there is no driver.
 //! - [`residency`]: geometry uploaded on first use from the mapped scene into one vertex arena,
 //!   each mesh once however many nodes use it, under an LRU budget.
+//! - [`atlas`]: the scene's textures, every level of every image packed into one texture
+//!   array, and where each texture's levels lie.
 //! - [`uses`]: a pass's nodes, each with its mesh in the arena and its instance's placement.
 //! - [`target`]: the offscreen colour, depth and item-buffer attachments and their readback.
 //! - [`draw`]: drawing a set of LOD nodes (colour for RVG, depth only for OR, item ids for
@@ -15,6 +17,7 @@
 //! - [`gather`]: a pass's index list from its nodes' clusters, less what their tests drop.
 //! - [`testers`]: the renderer as HC's visibility tester.
 
+pub mod atlas;
 pub mod boxtest;
 pub mod device;
 pub mod draw;

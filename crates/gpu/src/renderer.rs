@@ -136,9 +136,16 @@ pub struct RenderOptions {
     /// Place instances with f32 rows ([`Rows::Single`]) also where the adapter has 64-bit
     /// floats: what an adapter without them draws.
     pub single_rows: bool,
-    /// Colour passes shade with the scene's normals, uploaded beside the vertices; without,
-    /// every surface is shaded flat and no normal is uploaded (OR and HC draw no colour).
+    /// Colour passes shade with the scene's normals and textures, uploaded beside the
+    /// vertices; without, every surface is shaded flat in its colour and nothing but positions
+    /// and colours is uploaded (OR and HC draw no colour).
     pub shade: bool,
+    /// Textured surfaces sample their textures; without, they are drawn in each texture's
+    /// mean colour (the textures are uploaded all the same).
+    pub textures: bool,
+    /// Every texture sampled at this level of its mip chain, whatever a pixel's footprint
+    /// (tests compare a level with a reference sampler).
+    pub texture_level: Option<f32>,
     /// Geometry residency budget, bytes ([`crate::residency`]).
     pub residency_bytes: u64,
     /// Largest vertex arena, bytes: the device's largest buffer, or less (tests make a frame's
@@ -158,6 +165,8 @@ impl Default for RenderOptions {
             overlap: false,
             single_rows: false,
             shade: true,
+            textures: true,
+            texture_level: None,
             residency_bytes: crate::limits::RESIDENCY_BYTES,
             max_arena_bytes: u64::MAX,
             max_nodes: usize::MAX,
@@ -185,10 +194,14 @@ pub struct Renderer {
     view_buf: wgpu::Buffer,
     /// The pass's use table on the GPU ([`crate::uses`]).
     uses_buf: wgpu::Buffer,
-    /// The draw pipelines' bind group, and the arena, use table and normal arena it binds.
-    draw_group: Option<(wgpu::BindGroup, [wgpu::Buffer; 3])>,
-    /// What the draw pipelines bind as normals where none are uploaded.
+    /// The draw pipelines' bind group, and the arena, use table, normal and texcoord arenas it
+    /// binds.
+    draw_group: Option<(wgpu::BindGroup, [wgpu::Buffer; 4])>,
+    /// What the draw pipelines bind as normals and texture coordinates where none are uploaded.
     no_normals: wgpu::Buffer,
+    no_texcoords: wgpu::Buffer,
+    /// The scene's textures, where the renderer shades (else none).
+    atlas: crate::atlas::Atlas,
     /// The pass's indices into the vertex arena, gathered from the nodes' (see `draw`).
     index_buf: wgpu::Buffer,
     boxes_buf: wgpu::Buffer,
@@ -249,6 +262,9 @@ impl Renderer {
         let results_staging = crate::readback::staging(&gpu, "box results readback", n * 4);
         let uses_buf = storage(&gpu, "pass uses", 64, U::STORAGE | U::COPY_DST);
         let no_normals = storage(&gpu, "no normals", 4, U::STORAGE);
+        let no_texcoords = storage(&gpu, "no texcoords", 12, U::STORAGE);
+        let atlas = crate::atlas::Atlas::new(&gpu, scene, options.shade);
+        atlas.left_out.iter().for_each(|l| tracing::warn!("{l}"));
         let box_group = bind(&gpu, &boxtest.layout, &[&view_buf, &boxes_buf, &results_buf]);
         let target = Target::new(&gpu, width, height);
         let pyramid = Pyramid::new(&gpu, &target, &view_buf, &boxes_buf, &results_buf);
@@ -277,6 +293,8 @@ impl Renderer {
             uses_buf,
             draw_group: None,
             no_normals,
+            no_texcoords,
+            atlas,
             index_buf,
             boxes_buf,
             results_buf,
@@ -393,7 +411,9 @@ impl Renderer {
             self.indices.chunks_exact_mut(3).for_each(<[u32]>::reverse);
         }
         let q = &self.gpu.queue;
-        let draw = [pass.tint(), self.uses.shift, 0, 0];
+        let level = self.options.texture_level;
+        let flags = u32::from(self.options.textures) | u32::from(level.is_some()) << 1;
+        let draw = [pass.tint(), self.uses.shift, level.unwrap_or(0.0).to_bits(), flags];
         q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform { draw, ..ViewUniform::new(view) }));
         if bytes > 0 {
             q.write_buffer(&self.index_buf, 0, bytemuck::cast_slice(&self.indices));
@@ -406,9 +426,21 @@ impl Renderer {
     /// draw; false while there is no arena (nothing resident to draw).
     fn bind_arena(&mut self) -> bool {
         let Some(arena) = self.residency.arena() else { return false };
-        let bound = [arena, &self.uses_buf, self.residency.normals().unwrap_or(&self.no_normals)];
+        let normals = self.residency.normals().unwrap_or(&self.no_normals);
+        let bound = [arena, &self.uses_buf, normals, self.residency.texcoords().unwrap_or(&self.no_texcoords)];
         if self.draw_group.as_ref().is_none_or(|(_, b)| b.iter().zip(bound).any(|(was, is)| was != is)) {
-            let group = bind(&self.gpu, &self.draw.layout, &[&self.view_buf, bound[1], bound[0], bound[2]]);
+            let buffers = [&self.view_buf, bound[1], bound[0], bound[2], bound[3], &self.atlas.textures, &self.atlas.rects];
+            let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+                .iter()
+                .enumerate()
+                .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+                .collect();
+            entries.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&self.atlas.pages) });
+            let group = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("draw"),
+                layout: &self.draw.layout,
+                entries: &entries,
+            });
             self.draw_group = Some((group, bound.map(Clone::clone)));
         }
         true

@@ -5,9 +5,9 @@
 //! differ only in their rows of the pass's use table ([`crate::uses`]). Geometry never drawn is
 //! never read from the file or uploaded.
 //!
-//! Normals lie in an arena of their own, beside the vertex arena (the same vertex at the same
-//! index), filled only by a renderer that shades: OR's and HC's depth and item passes read
-//! positions alone, and upload nothing else.
+//! Normals and texture coordinates lie in arenas of their own, beside the vertex arena (the
+//! same vertex at the same index), filled only by a renderer that shades: OR's and HC's depth
+//! and item passes read positions alone, and upload nothing else.
 //!
 //! One arena, so that a pass is one draw call over all its nodes: a draw call costs lavapipe
 //! more than most nodes' triangles do (docs/measurements/2026-12-01-scene-and-renderer.md).
@@ -35,6 +35,8 @@ const _: () = assert!(std::mem::size_of::<ArenaVertex>() == 16);
 const VERTEX_BYTES: u64 = std::mem::size_of::<ArenaVertex>() as u64;
 /// A vertex's normal in the normal arena (octahedral, see [`osw_scene::normal`]).
 const NORMAL_BYTES: u64 = 4;
+/// A vertex's texture coordinates and texture in the texcoord arena.
+const TEXCOORD_BYTES: u64 = std::mem::size_of::<osw_scene::texture::Texcoord>() as u64;
 
 /// Smallest arena, vertices.
 const MIN_CAPACITY: u32 = 1 << 16;
@@ -80,6 +82,8 @@ pub struct Residency {
     arena: Option<wgpu::Buffer>,
     /// A normal per arena vertex, where the renderer shades.
     normals: Option<wgpu::Buffer>,
+    /// Texture coordinates per arena vertex, likewise.
+    texcoords: Option<wgpu::Buffer>,
     shade: bool,
     /// Arena size in vertices, and its free ranges.
     capacity: u32,
@@ -101,6 +105,7 @@ impl Residency {
             read: Default::default(),
             arena: None,
             normals: None,
+            texcoords: None,
             shade,
             capacity: 0,
             free: FreeRanges::default(),
@@ -122,9 +127,15 @@ impl Residency {
         self.normals.as_ref()
     }
 
-    /// Bytes a resident vertex takes: its position and colour, and its normal where shaded.
+    /// The texcoord arena, likewise.
+    pub fn texcoords(&self) -> Option<&wgpu::Buffer> {
+        self.texcoords.as_ref()
+    }
+
+    /// Bytes a resident vertex takes: its position and colour, and its normal and texture
+    /// coordinates where shaded.
     fn vertex_bytes(&self) -> u64 {
-        VERTEX_BYTES + if self.shade { NORMAL_BYTES } else { 0 }
+        VERTEX_BYTES + if self.shade { NORMAL_BYTES + TEXCOORD_BYTES } else { 0 }
     }
 
     /// Starts a new use epoch: nodes used in the current epoch are never evicted.
@@ -165,14 +176,20 @@ impl Residency {
         if let Some(normals) = self.normals.as_ref().filter(|_| with_normals) {
             gpu.queue.write_buffer(normals, base as u64 * NORMAL_BYTES, bytemuck::cast_slice(&g.normals));
         }
-        let uploaded = n as u64 * (VERTEX_BYTES + if with_normals { NORMAL_BYTES } else { 0 });
+        // Likewise texture coordinates (crate::uses::Use::textured).
+        let with_texcoords = self.shade && !g.texcoords.is_empty();
+        if let Some(texcoords) = self.texcoords.as_ref().filter(|_| with_texcoords) {
+            gpu.queue.write_buffer(texcoords, base as u64 * TEXCOORD_BYTES, bytemuck::cast_slice(g.texcoords));
+        }
+        let attributes = if with_normals { NORMAL_BYTES } else { 0 } + if with_texcoords { TEXCOORD_BYTES } else { 0 };
+        let uploaded = n as u64 * (VERTEX_BYTES + attributes);
         self.bytes += n as u64 * self.vertex_bytes();
         self.stats.uploads += 1;
         self.stats.upload_bytes += uploaded;
         self.first_draw(id);
         if self.read.insert(block) {
-            let normal_bytes = if with_normals { std::mem::size_of_val(g.normals.as_ref()) as u64 } else { 0 };
-            self.stats.distinct_bytes += g.positions.len() as u64 * 12 + normal_bytes + g.indices.bytes().len() as u64;
+            let attributes = g.positions.len() as u64 * attributes;
+            self.stats.distinct_bytes += g.positions.len() as u64 * 12 + attributes + g.indices.bytes().len() as u64;
         }
         self.map.insert(block, Resident { base, vertices: n, uploaded, last_used: self.frame });
         Ok(base)
@@ -208,8 +225,8 @@ impl Residency {
         }
     }
 
-    /// Doubles the arena and the normal arena (at least by `n` vertices), copying what they
-    /// hold.
+    /// Doubles the arena and the attribute arenas (at least by `n` vertices), copying what
+    /// they hold.
     fn grow(&mut self, gpu: &Gpu, n: u32) -> Result<(), ResidencyError> {
         let limits = gpu.device.limits();
         let max = limits.max_buffer_size.min(limits.max_storage_buffer_binding_size).min(self.max_arena_bytes) / VERTEX_BYTES;
@@ -221,6 +238,7 @@ impl Residency {
         self.arena = Some(grown(gpu, self.arena.take(), "vertex arena", capacity * VERTEX_BYTES));
         if self.shade {
             self.normals = Some(grown(gpu, self.normals.take(), "normal arena", capacity * NORMAL_BYTES));
+            self.texcoords = Some(grown(gpu, self.texcoords.take(), "texcoord arena", capacity * TEXCOORD_BYTES));
         }
         self.free.give(self.capacity, capacity as u32 - self.capacity);
         self.capacity = capacity as u32;

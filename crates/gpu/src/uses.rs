@@ -25,7 +25,10 @@ pub struct Use {
     /// 1 where its mesh has normals in the normal arena; 0 where it is shaded flat (nothing of
     /// it is uploaded there).
     pub normals: u32,
-    pub pad: [u32; 3],
+    /// 1 where its mesh has texture coordinates in the texcoord arena; 0 where it samples no
+    /// texture (nothing of it is uploaded there).
+    pub textured: u32,
+    pub pad: [u32; 2],
     /// The placement's three rows, linear part and translation ([`Rows`]).
     pub rows: [u32; 24],
 }
@@ -88,8 +91,8 @@ impl Uses {
         }
         let node = scene.node(id);
         let instance = node.instance;
-        let normals = u32::from(scene.has_normals(id));
-        let mut u = Use { node: id, base, placed: 0, object: node.object, normals, pad: [0; 3], rows: [0; 24] };
+        let (normals, textured) = (u32::from(scene.has_normals(id)), u32::from(scene.has_texcoords(id)));
+        let mut u = Use { node: id, base, placed: 0, object: node.object, normals, textured, pad: [0; 2], rows: [0; 24] };
         if instance != NONE {
             let a = scene.instances()[instance as usize].affine();
             u.placed = 1;

@@ -182,7 +182,7 @@ fn input(a: &Args) -> anyhow::Result<Input> {
                 tracing::warn!("{}: skipped {s}", path.display());
             }
             let name = path.display().to_string();
-            Input { source: Box::new(InMemory::new(imported.objects)), name, notes, left_out: imported.left_out }
+            Input { source: Box::new(InMemory::textured(imported.objects, imported.textures)), name, notes, left_out: imported.left_out }
         }
         (None, Some(kind)) => {
             if a.instanced && kind != GenKind::Plant {

@@ -114,6 +114,7 @@ fn popping_of(dir: &Path, s: &Summary, frames: usize) -> anyhow::Result<Vec<Opti
         adapter: None,
         residency_mib: crate::walk_args::RESIDENCY_MIB,
         cluster_tests: Default::default(),
+        no_textures: false,
     };
     let (cams, scene, mut r) = walk.open(Default::default()).with_context(|| format!("drawing {} again", dir.display()))?;
     if cams.len() < frames {

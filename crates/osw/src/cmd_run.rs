@@ -45,6 +45,10 @@ pub struct Args {
     /// Do not write frame PNGs.
     #[arg(long)]
     no_frames: bool,
+    /// The display draws textured surfaces in each texture's mean colour instead of sampling
+    /// it (the nodes never read textures).
+    #[arg(long)]
+    no_textures: bool,
     /// Time OR's and RVG's draws on the GPU with timestamps (`or_gpu_ms` in the node CSVs,
     /// `rvg_gpu_ms` in stats.csv, their medians in summary.json): a read-back a draw.
     #[arg(long)]
@@ -234,8 +238,14 @@ fn start(a: &Args, config: &Path) -> anyhow::Result<[Proc; 3]> {
     if let Some(t) = a.frame_timeout {
         args_d.extend(["--frame-timeout".into(), t.to_string()]);
     }
-    for (on, flag) in [(a.no_frames, "--no-frames"), (a.window, "--window"), (a.interactive, "--interactive"), (a.gpu_times, "--gpu-times")]
-    {
+    let flags = [
+        (a.no_frames, "--no-frames"),
+        (a.window, "--window"),
+        (a.interactive, "--interactive"),
+        (a.gpu_times, "--gpu-times"),
+        (a.no_textures, "--no-textures"),
+    ];
+    for (on, flag) in flags {
         if on {
             args_d.push(flag.into());
         }

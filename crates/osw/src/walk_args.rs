@@ -32,6 +32,9 @@ pub struct WalkArgs {
     /// visibility's item pass always draws every triangle).
     #[arg(long, default_value_t = osw_cull::cluster::ClusterTests::default(), value_name = "LIST")]
     pub cluster_tests: osw_cull::cluster::ClusterTests,
+    /// Draw textured surfaces in each texture's mean colour instead of sampling it.
+    #[arg(long)]
+    pub no_textures: bool,
 }
 
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -53,7 +56,12 @@ impl WalkArgs {
         let scene = SceneFile::open(&self.scene)?;
         let gpu = osw_gpu::Gpu::new(self.adapter.as_deref())?;
         tracing::info!("adapter: {} ({:?})", gpu.info.name, gpu.info.device_type);
-        let options = RenderOptions { cluster_tests: self.cluster_tests, residency_bytes: self.residency_mib << 20, ..options };
+        let options = RenderOptions {
+            cluster_tests: self.cluster_tests,
+            residency_bytes: self.residency_mib << 20,
+            textures: !self.no_textures,
+            ..options
+        };
         let r = Renderer::new(gpu, &scene, self.size.0, self.size.1, options)?;
         Ok((cams, scene, r))
     }

@@ -201,8 +201,8 @@ fn corrupted_or_truncated_scene_files_are_refused_by_name() {
     let mut v = bytes.clone();
     v[8] = 99; // version
     info(&v, "version");
-    v[8] = 8; // a file of version 8 (no normals): refused with how to rebuild it
-    info(&v, "scene format version 8, this build reads version 9; rebuild the scene with `osw build`");
+    v[8] = 9; // a file of version 9 (no textures): refused with how to rebuild it
+    info(&v, "scene format version 9, this build reads version 10; rebuild the scene with `osw build`");
     let h = *osw_scene::SceneFile::open(&good).unwrap().header();
     let mut v = bytes.clone();
     v[h.nodes_offset as usize + 100] ^= 0x40; // inside the node table

@@ -548,24 +548,28 @@ fn glb_json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&b[20..20 + len]).unwrap()
 }
 
-/// The build names the base colour textures it does not sample and the MASK and BLEND materials
-/// whose alpha comes from one, in the report's `left_out`, counted against the file's own JSON:
-/// a fixture of four quads (a textured opaque material, a textured cut-out, a plain colour, a
-/// specular-glossiness material's diffuse texture), and forza where it is (129 textures, 35
-/// cut-out materials). The one texture beside the fixture is drawn as its mean colour (taken
-/// here in linear light from its texels), the two missing ones are named as unread.
+/// The build stores the base colour textures its primitives sample, each image once, and names
+/// in the report's `left_out` those it cannot read, counted against the file's own JSON: a
+/// fixture of five quads (a textured quad with texture coordinates, a textured one without, a
+/// cut-out and a specular-glossiness material whose textures are missing, a plain colour), and
+/// forza where it is (129 textures, every one read). The quad without coordinates is drawn in
+/// its texture's mean colour (taken here in linear light from its texels).
 #[test]
-fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
+fn textures_are_stored_once_and_unread_ones_are_named_in_left_out() {
     let d = tempfile::tempdir().unwrap();
     let glb = d.path().join("textured.glb");
     let (mut bin, mut views, mut accessors, mut meshes, mut nodes) = (Vec::<u8>::new(), vec![], vec![], vec![], vec![]);
-    for k in 0..4 {
+    for k in 0..5 {
         let mut m = osw_scene::mesh::Mesh::default();
         let x = 2.0 * k as f32;
         m.positions = vec![[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x + 1.0, 1.0, 0.0], [x, 1.0, 0.0]];
         m.indices = vec![0, 1, 2, 0, 2, 3];
+        if k == 4 {
+            let uv = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+            m.texcoords = uv.iter().map(|&uv| osw_scene::texture::Texcoord { uv, texture: 0 }).collect();
+        }
         let mut prim = push_mesh(&mut bin, &mut views, &mut accessors, &m);
-        prim["material"] = json!(k);
+        prim["material"] = json!(k % 4);
         meshes.push(json!({"primitives": [prim]}));
         nodes.push(json!({"mesh": k}));
     }
@@ -575,7 +579,7 @@ fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
         {"name": "paint", "pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.0, 0.0, 1.0]}},
         {"name": "gloss", "extensions": {"KHR_materials_pbrSpecularGlossiness": {"diffuseTexture": {"index": 2}}}},
     ]);
-    let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2, 3]}], "nodes": nodes, "meshes": meshes,
+    let doc = json!({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2, 3, 4]}], "nodes": nodes, "meshes": meshes,
         "materials": materials, "textures": [{"source": 0}, {"source": 1}, {"source": 2}],
         "images": [{"uri": "grass.png"}, {"uri": "fence.png"}, {"uri": "marble.jpg"}],
         "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"], "accessors": accessors, "bufferViews": views});
@@ -585,71 +589,80 @@ fn unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out() {
     let linear = |c: u8| ((c as f64 / 255.0 + 0.055) / 1.055).powf(2.4);
     let mean = |k: usize| grass.iter().map(|t| linear(t[k])).sum::<f64>() / 4.0;
     let want = [0, 1, 2].map(|k| ((1.055 * mean(k).powf(1.0 / 2.4) - 0.055) * 255.0).round() as u8);
-    let left_out =
-        |glb: &Path| build(glb).1["left_out"].as_array().unwrap().iter().map(|l| l.as_str().unwrap().to_owned()).collect::<Vec<_>>();
+    let (_, report) = build(&glb);
+    let lines: Vec<String> = report["left_out"].as_array().unwrap().iter().map(|l| l.as_str().unwrap().to_owned()).collect();
     let has = |lines: &[String], needle: &str| lines.iter().any(|l| l.contains(needle));
-    let lines = left_out(&glb);
-    assert!(has(&lines, "3 base colour textures of 3 materials") && has(&lines, "'grass.png', 'fence.png', 'marble.jpg'"), "{lines:?}");
     assert!(
-        has(&lines, "2 base colour textures that cannot be read") && has(&lines, "'fence.png' (") && !has(&lines, "'grass.png' ("),
+        has(&lines, "2 base colour textures that cannot be read") && has(&lines, "'fence.png' (") && has(&lines, "'marble.jpg' ("),
         "{lines:?}"
     );
+    assert!(!has(&lines, "'grass.png'"), "{lines:?}");
+    assert!(report["notes"].to_string().contains("no TEXCOORD_0 for its base colour texture"), "{report}");
+    // One image of 2x2 texels: 16 bytes, and its levels of 1x1, 4.
+    assert_eq!([&report["images"], &report["textures"], &report["texel_bytes"]].map(|v| v.as_u64()), [Some(1), Some(1), Some(20)]);
     let scene = SceneFile::open(&glb.with_extension("osw")).unwrap();
-    let colours: Vec<[u8; 4]> =
-        (scene.bvh_count()..scene.nodes().len() as u32).flat_map(|l| scene.geometry(l).unwrap().colors.to_vec()).collect();
+    assert_eq!(scene.texels(0).unwrap()[..16], grass.concat()[..], "level 0 is the image as it is");
+    let geometry: Vec<_> = (scene.bvh_count()..scene.nodes().len() as u32).map(|l| scene.geometry(l).unwrap()).collect();
+    let colours: Vec<[u8; 4]> = geometry.iter().flat_map(|g| g.colors.to_vec()).collect();
     assert!(colours.iter().any(|c| c[..3] == want), "the grass quad in its texture's mean {want:?}: {colours:?}");
-    assert!(has(&lines, "the texture alpha of 1 MASK or BLEND materials") && has(&lines, "): 'fence'"), "{lines:?}");
-    let Some(forza) = real_model("unread_textures_and_the_cut_outs_they_hold_are_named_in_left_out", "torcs-forza.glb") else { return };
+    let sampled: Vec<[f32; 2]> = geometry.iter().flat_map(|g| g.texcoords.iter().map(|t| t.uv)).collect();
+    assert!(sampled.len() >= 4 && sampled.contains(&[1.0, 0.0]), "the tiles quad samples its texture: {sampled:?}");
+    let Some(forza) = real_model("textures_are_stored_once_and_unread_ones_are_named_in_left_out", "torcs-forza.glb") else { return };
     let copy = d.path().join("forza.glb");
     std::fs::copy(&forza, &copy).unwrap();
     // The reference: the file's materials, read as plain JSON.
     let j = glb_json(&copy);
-    let textured: Vec<&serde_json::Value> =
-        j["materials"].as_array().unwrap().iter().filter(|m| m["pbrMetallicRoughness"]["baseColorTexture"].is_object()).collect();
-    let textures: std::collections::BTreeSet<u64> =
-        textured.iter().map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64().unwrap()).collect();
-    let cut_outs = textured.iter().filter(|m| m["alphaMode"].as_str().is_some_and(|a| a != "OPAQUE")).count();
-    let lines = left_out(&copy);
-    assert!(has(&lines, &format!("{} base colour textures of {} materials", textures.len(), textured.len())), "{lines:?}");
-    assert!(has(&lines, &format!("the texture alpha of {cut_outs} MASK or BLEND materials")), "{lines:?}");
-    assert!(textures.len() > 100 && cut_outs > 30, "forza has {} textures and {cut_outs} cut-outs", textures.len());
+    let sources: std::collections::BTreeSet<u64> = j["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64())
+        .map(|t| j["textures"][t as usize]["source"].as_u64().unwrap())
+        .collect();
+    let (_, report) = build(&copy);
+    assert_eq!(report["images"].as_u64(), Some(sources.len() as u64), "{report}");
+    assert!(sources.len() > 100 && !report["left_out"].to_string().contains("cannot be read"), "{report}");
 }
 
-/// An OBJ's textures are named in `left_out`, and a material with an alpha texture (map_d)
-/// makes cut-outs, with a Kd or without: a hedge of two triangles before a wall of two, and a
-/// grate of one.
+/// An OBJ's diffuse textures are sampled at its `vt` (v flipped to glTF's, down the image),
+/// its surfaces without `vt` drawn in Kd times the texture's mean; those it cannot read and its
+/// alpha textures (map_d) are named in `left_out`, and a material with one makes cut-outs, with
+/// a Kd or without: a hedge of two triangles before a wall of two, a grate of one, and a tile of
+/// one with texture coordinates.
 #[test]
-fn an_objs_textures_are_named_and_its_alpha_textured_surfaces_are_cut_outs() {
+fn an_objs_textures_are_sampled_or_named_and_its_alpha_textured_surfaces_are_cut_outs() {
     let d = tempfile::tempdir().unwrap();
     let obj = d.path().join("garden.obj");
     std::fs::write(
         d.path().join("garden.mtl"),
-        "newmtl hedge\nKd 0.1 0.5 0.1\nmap_Kd hedge.png\nmap_d hedge_alpha.png\nnewmtl wall\nKd 0.6 0.6 0.6\nmap_Kd bricks.jpg\nnewmtl plaster\nKd 0.9 0.9 0.9\nnewmtl grate\nmap_d grate.png\n",
+        "newmtl hedge\nKd 0.1 0.5 0.1\nmap_Kd hedge.png\nmap_d hedge_alpha.png\nnewmtl wall\nKd 0.6 0.6 0.6\nmap_Kd bricks.jpg\nnewmtl plaster\nKd 0.9 0.9 0.9\nnewmtl grate\nmap_d grate.png\nnewmtl tile\nmap_Kd hedge.png\n",
     )
     .unwrap();
     std::fs::write(
         &obj,
-        "mtllib garden.mtl\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 0 0 -1\nv 2 0 -1\nv 2 1 -1\nv 0 1 -1\no hedge\nusemtl hedge\nf 1 2 3 4\no wall\nusemtl wall\nf 5 6 7 8\no post\nusemtl plaster\nf 1 5 8\no grate\nusemtl grate\nf 2 6 7\n",
+        "mtllib garden.mtl\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 0 0 -1\nv 2 0 -1\nv 2 1 -1\nv 0 1 -1\nvt 0 0\nvt 1 0\nvt 1 1\no hedge\nusemtl hedge\nf 1 2 3 4\no wall\nusemtl wall\nf 5 6 7 8\no post\nusemtl plaster\nf 1 5 8\no grate\nusemtl grate\nf 2 6 7\no tile\nusemtl tile\nf 5/1 6/2 7/3\n",
     )
     .unwrap();
     let (_, report) = build(&obj);
     assert_eq!((report["cut_out_triangles"].as_u64(), report["cut_out_objects"].as_u64()), (Some(3), Some(2)), "{report}");
     let left_out = report["left_out"].to_string();
     assert!(
-        left_out.contains("2 diffuse textures (map_Kd) of 2 materials") && left_out.contains("'bricks.jpg', 'hedge.png'"),
-        "{left_out}"
-    );
-    assert!(
-        left_out.contains("2 alpha textures (map_d) of 2 materials") && left_out.contains("'grate.png', 'hedge_alpha.png'"),
+        left_out.contains("2 alpha textures (map_d) apart from their diffuse texture")
+            && left_out.contains("'grate.png', 'hedge_alpha.png'"),
         "{left_out}"
     );
     assert!(left_out.contains("2 diffuse textures that cannot be read (drawn in their Kd): 'bricks.jpg' ("), "{left_out}");
-    // With the hedge's texture beside it (one colour): Kd times that colour, as displayed.
+    // With the hedge's texture beside it (one colour): the hedge in Kd times that colour, as
+    // displayed; the tile samples it.
     image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255])).save(d.path().join("hedge.png")).unwrap();
     let (scene, report) = build(&obj);
     let left_out = report["left_out"].to_string();
     assert!(left_out.contains("1 diffuse textures that cannot be read") && !left_out.contains("'hedge.png' ("), "{left_out}");
-    let colours: Vec<[u8; 4]> =
-        (scene.bvh_count()..scene.nodes().len() as u32).flat_map(|l| scene.geometry(l).unwrap().colors.to_vec()).collect();
+    assert_eq!(report["images"].as_u64(), Some(1), "{report}");
+    let geometry: Vec<_> = (scene.bvh_count()..scene.nodes().len() as u32).map(|l| scene.geometry(l).unwrap()).collect();
+    let colours: Vec<[u8; 4]> = geometry.iter().flat_map(|g| g.colors.to_vec()).collect();
     assert!(colours.contains(&[20, 50, 5, osw_scene::mesh::CUT_OUT]), "the hedge in Kd times its texture: {colours:?}");
+    let mut uv: Vec<[f32; 2]> = geometry.iter().flat_map(|g| g.texcoords.iter().map(|t| t.uv)).collect();
+    uv.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    assert_eq!(uv, [[0.0, 1.0], [1.0, 0.0], [1.0, 1.0]], "the tile's vt 0 0, 1 0 and 1 1, v flipped");
 }

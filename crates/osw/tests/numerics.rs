@@ -137,6 +137,7 @@ fn write_chain_scene(path: &Path, tris: &[[DVec3; 3]]) {
         leaf_count: n,
         leaf_triangles: n as u64,
         closed_objects: Vec::new(),
+        textures: Default::default(),
     };
     osw_scene::writer::write_scene(path, &data).unwrap();
 }

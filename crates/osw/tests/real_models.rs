@@ -1,7 +1,8 @@
 //! The conservative guarantee on models nobody on the project made (`../shared/models/`: game
 //! levels, an IFC house with glass and translucent room volumes, the Khronos engine): on a
-//! walk (through the house's rooms), an orbit and a flyover of each, prev
-//! and the switch at tau 0 draw frames identical to frustum culling's and cull no leaf that
+//! walk (through the house's rooms), an orbit and a flyover of each, prev, CHC
+//! and the switch at tau 0 draw frames identical to frustum culling's (textures, cut-outs'
+//! holes and all) and cull no leaf that
 //! exact visibility (the item buffer, which shares no test or traversal with them) finds
 //! visible. OpenArena's recorded walk is where HC once culled a visible floor 2.6 km off, a
 //! fraction of a pixel tall, behind its own geometry (frames 58 and 59 at 512x512; see
@@ -11,25 +12,36 @@ mod common;
 use common::*;
 use std::path::Path;
 
-/// Checks prev and the switch (culling every frame), prev with RVG's cluster occlusion test
+/// Checks prev, CHC and the switch (culling every frame), prev with RVG's cluster occlusion test
 /// (its OR drawing only the clusters visible in the last frame) and prev as it runs by default
 /// (culling where it pays) against vfc and exact visibility on `path` at `size`, tau 0.
 /// Returns the frames the default prev skipped.
 fn check(scene: &Path, path: &Path, size: &str, out: &Path, label: &str) -> u64 {
     let frames = osw_scene::path::read(path).unwrap().len();
-    let [exact, vfc, prev, occ, switch, paying] = ["exact", "vfc", "prev", "prev-occ", "switch", "prev-paying"].map(|n| out.join(n));
+    let [exact, vfc, prev, occ, switch, paying, chc] =
+        ["exact", "vfc", "prev", "prev-occ", "switch", "prev-paying", "chc"].map(|n| out.join(n));
     let walk = ["--scene", s(scene), "--path", s(path), "--size", size];
     osw_ok(&[&["exact"], &walk[..], &["--out", s(&exact)]].concat());
     let occlusion: &[&str] = &["--always-cull", "--cluster-tests", "frustum,cone,backface,small,occlusion"];
-    for (mode, dir, extra) in
-        [("vfc", &vfc, &[][..]), ("prev", &prev, &["--always-cull"]), ("prev", &occ, occlusion), ("prev", &paying, &[])]
-    {
+    let runs = [
+        ("vfc", &vfc, &[][..]),
+        ("prev", &prev, &["--always-cull"]),
+        ("prev", &occ, occlusion),
+        ("prev", &paying, &[]),
+        ("chc", &chc, &["--always-cull"]),
+    ];
+    for (mode, dir, extra) in runs {
         osw_ok(&[&["render", "--mode", mode, "--tau", "0"], &walk[..], &["--out", s(dir)], extra].concat());
     }
     osw_ok(&[&["run", "--tau", "0", "--always-cull"], &walk[..], &["--out", s(&switch)]].concat());
-    for (name, run) in
-        [("prev", &prev), ("prev with the cluster occlusion test", &occ), ("switch", &switch), ("prev where culling pays", &paying)]
-    {
+    let checked = [
+        ("prev", &prev),
+        ("prev with the cluster occlusion test", &occ),
+        ("switch", &switch),
+        ("prev where culling pays", &paying),
+        ("chc", &chc),
+    ];
+    for (name, run) in checked {
         let c = compare(run, &vfc, &exact, &out.join(format!("cmp-{name}")));
         assert_eq!(c["culling_a"]["false_culled_leaves_total"], 0, "{label} {name}: false culling: {c}");
         assert_same_frames(&c, frames, &format!("{label} {name} against vfc"));

@@ -1,9 +1,10 @@
 //! One geometry block's bytes, encoded by the build and decoded in place by every reader:
-//! positions, colours and normals if any, the indices in cluster order (u16 when every index fits, else
+//! positions, colours, normals and texture coordinates if any, the indices in cluster order (u16 when every index fits, else
 //! u32), padding to 4 bytes and the clusters ([`crate::format`] lays out the file around them).
 
 use crate::format::{BlockRecord, CUT_BYTES, ClusterRecord, Cut};
 use crate::mesh::Mesh;
+use crate::texture::{NO_TEXTURE, Texcoord};
 use std::borrow::Cow;
 use xxhash_rust::xxh3::xxh3_64;
 
@@ -16,10 +17,8 @@ pub struct Encoded {
 /// The bytes of one block. `object`: the box of
 /// the block's object when that is closed (see [`crate::cluster::clusterize`]).
 ///
-/// Vertices of bit-identical position, colour and normal are stored once: osw draws no
-/// texture coordinates, so the seams a model splits its vertices at for them are not needed,
-/// and a cluster hierarchy's node gathers pieces that share their borders and the original corners
-/// of simplified triangles (docs/measurements/2026-12-07-constants.md, "encode"). Connected
+/// Vertices of bit-identical attributes are stored once: a cluster hierarchy's node gathers
+/// pieces that share their borders and the original corners of simplified triangles (docs/measurements/2026-12-07-constants.md, "encode"). Connected
 /// parts are joined by position already ([`crate::cluster`]).
 pub fn encode(mesh: &Mesh, object: Option<crate::Aabb>) -> Encoded {
     let mesh = mesh.welded();
@@ -52,6 +51,9 @@ pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecor
     // A block of flat triangles alone stores no normals (see crate::normal).
     let normals: &[crate::normal::Normal] = if mesh.normals.iter().all(|&n| n == crate::normal::NO_NORMAL) { &[] } else { &mesh.normals };
     bytes.extend_from_slice(bytemuck::cast_slice(normals));
+    // Likewise a block whose surfaces sample no texture.
+    let texcoords: &[Texcoord] = if mesh.texcoords.iter().all(|t| t.texture == NO_TEXTURE) { &[] } else { &mesh.texcoords };
+    bytes.extend_from_slice(bytemuck::cast_slice(texcoords));
     let index_bytes = if mesh.positions.len() <= 1 << 16 {
         bytes.extend(indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
         2
@@ -74,7 +76,7 @@ pub(crate) fn encode_with(mesh: &Mesh, indices: &[u32], clusters: &[ClusterRecor
         cut_bytes: if cuts.is_empty() { 0 } else { CUT_BYTES },
         cut_out_clusters: layers.opaque - layers.occluders,
         normal_bytes: if normals.is_empty() { 0 } else { 4 },
-        reserved: 0,
+        texcoord_bytes: if texcoords.is_empty() { 0 } else { std::mem::size_of::<Texcoord>() as u32 },
     };
     debug_assert_eq!(record.byte_len(), bytes.len() as u64);
     Encoded { bytes, record }
@@ -89,6 +91,8 @@ pub struct Geometry<'a> {
     pub colors: &'a [[u8; 4]],
     /// One per vertex, or empty when the block has no normals; an instance's turned.
     pub normals: Cow<'a, [crate::normal::Normal]>,
+    /// One per vertex, or empty when the block samples no texture.
+    pub texcoords: &'a [Texcoord],
     /// In cluster order: `clusters` cover `indices` in turn (see [`ClusterRecord`]).
     pub indices: Indices<'a>,
     pub clusters: Cow<'a, [ClusterRecord]>,
@@ -160,7 +164,8 @@ pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
     let (clusters, cuts) = clusters.split_at(rec.cluster_count as usize * crate::format::CLUSTER_BYTES as usize);
     let (pos, rest) = front.split_at(rec.vertex_count as usize * 12);
     let (colors, rest) = rest.split_at(rec.vertex_count as usize * rec.color_bytes as usize);
-    let (normals, idx) = rest.split_at(rec.vertex_count as usize * rec.normal_bytes as usize);
+    let (normals, rest) = rest.split_at(rec.vertex_count as usize * rec.normal_bytes as usize);
+    let (texcoords, idx) = rest.split_at(rec.vertex_count as usize * rec.texcoord_bytes as usize);
     let idx = &idx[..rec.index_count as usize * rec.index_bytes as usize];
     let indices = if rec.index_bytes == 2 {
         Indices::U16(Cow::Borrowed(bytemuck::cast_slice(idx)))
@@ -171,6 +176,7 @@ pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
         positions: Cow::Borrowed(bytemuck::cast_slice(pos)),
         colors: bytemuck::cast_slice(colors),
         normals: Cow::Borrowed(bytemuck::cast_slice(normals)),
+        texcoords: bytemuck::cast_slice(texcoords),
         indices,
         clusters: Cow::Borrowed(bytemuck::cast_slice(clusters)),
         cuts: bytemuck::cast_slice(&cuts[..rec.cluster_count as usize * rec.cut_bytes as usize]),
@@ -179,8 +185,9 @@ pub fn geometry_of<'a>(bytes: &'a [u8], rec: &BlockRecord) -> Geometry<'a> {
     }
 }
 
-/// Every index names a vertex of the block, and the clusters cover the indices in turn.
-pub fn ranges_ok(bytes: &[u8], rec: &BlockRecord) -> bool {
+/// Every index names a vertex of the block, the clusters cover the indices in turn, and every
+/// texture coordinate names one of `textures` or none.
+pub fn ranges_ok(bytes: &[u8], rec: &BlockRecord, textures: u32) -> bool {
     let g = geometry_of(bytes, rec);
     let mut next = 0u32;
     let clusters_ok = g.clusters.iter().all(|c| {
@@ -188,5 +195,6 @@ pub fn ranges_ok(bytes: &[u8], rec: &BlockRecord) -> bool {
         next = next.saturating_add(c.index_count);
         ok
     });
-    clusters_ok && next == rec.index_count && g.indices.iter().all(|i| i < rec.vertex_count)
+    let texcoords_ok = g.texcoords.iter().all(|t| t.texture < textures || t.texture == NO_TEXTURE);
+    clusters_ok && texcoords_ok && next == rec.index_count && g.indices.iter().all(|i| i < rec.vertex_count)
 }

@@ -7,8 +7,8 @@
 
 use crate::block::{Geometry, geometry_of, ranges_ok};
 use crate::format::{
-    BLOCK_BYTES, BlockRecord, CUT_BYTES, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId, NodeKind, NodeRecord,
-    VERSION, content_hash, header_hash,
+    BLOCK_BYTES, BlockRecord, CUT_BYTES, Header, IMAGE_BYTES, INSTANCE_BYTES, ImageRecord, InstanceRecord, MAGIC, NODE_BYTES, NONE, NodeId,
+    NodeKind, NodeRecord, TEXTURE_BYTES, Tables, TextureRecord, VERSION, content_hash, header_hash,
 };
 use crate::instance::Placement;
 use crate::limits::{BLOCK_ALIGN, MAX_BLOCK_VERTICES};
@@ -37,6 +37,8 @@ pub struct SceneFile {
     header: Header,
     /// Per block: 0 = not yet checked, 1 = good, 2 = bad.
     checked: Vec<AtomicU8>,
+    /// Per image, likewise.
+    checked_images: Vec<AtomicU8>,
 }
 
 impl SceneFile {
@@ -49,7 +51,8 @@ impl SceneFile {
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
         let header = validate(path, &map)?;
         let checked = (0..header.block_count).map(|_| AtomicU8::new(0)).collect();
-        Ok(SceneFile { path: path.to_owned(), map, header, checked })
+        let checked_images = (0..header.image_count).map(|_| AtomicU8::new(0)).collect();
+        Ok(SceneFile { path: path.to_owned(), map, header, checked, checked_images })
     }
 
     pub fn path(&self) -> &Path {
@@ -70,7 +73,7 @@ impl SceneFile {
     }
 
     pub fn nodes(&self) -> &[NodeRecord] {
-        nodes_of(&self.map, &self.header)
+        tables_of(&self.map, &self.header).nodes
     }
 
     pub fn node(&self, id: NodeId) -> &NodeRecord {
@@ -87,12 +90,39 @@ impl SceneFile {
     }
 
     pub fn blocks(&self) -> &[BlockRecord] {
-        blocks_of(&self.map, &self.header)
+        tables_of(&self.map, &self.header).blocks
     }
 
     /// The uses of meshes stored once ([`InstanceRecord`]).
     pub fn instances(&self) -> &[InstanceRecord] {
-        instances_of(&self.map, &self.header)
+        tables_of(&self.map, &self.header).instances
+    }
+
+    /// The images whose mip chains the file stores.
+    pub fn images(&self) -> &[ImageRecord] {
+        tables_of(&self.map, &self.header).images
+    }
+
+    /// The textures the blocks' texture coordinates name.
+    pub fn textures(&self) -> &[TextureRecord] {
+        tables_of(&self.map, &self.header).textures
+    }
+
+    /// Image `k`'s mip chain ([`ImageRecord::level`] says where each level lies), checked on
+    /// first read.
+    pub fn texels(&self, k: u32) -> Result<&[u8], SceneError> {
+        let rec = self.images().get(k as usize).ok_or_else(|| self.corrupt(format!("image {k} of {}", self.header.image_count)))?;
+        let start = (self.header.blob_offset + self.header.blob_bytes + rec.offset) as usize;
+        let bytes = &self.map[start..start + rec.byte_len() as usize];
+        if once_ok(&self.checked_images[k as usize], || xxhash_rust::xxh3::xxh3_64(bytes) == rec.hash) {
+            Ok(bytes)
+        } else {
+            Err(self.corrupt(format!("image {k} fails its hash check")))
+        }
+    }
+
+    fn corrupt(&self, what: String) -> SceneError {
+        SceneError::Corrupt { path: self.path.clone(), what }
     }
 
     /// The block record of LOD node `lod` (None for other nodes).
@@ -104,6 +134,11 @@ impl SceneFile {
     /// Whether LOD node `lod`'s block stores normals (false for other nodes).
     pub fn has_normals(&self, lod: NodeId) -> bool {
         self.block_record(lod).is_some_and(|b| b.normal_bytes > 0)
+    }
+
+    /// Whether LOD node `lod`'s block stores texture coordinates (false for other nodes).
+    pub fn has_texcoords(&self, lod: NodeId) -> bool {
+        self.block_record(lod).is_some_and(|b| b.texcoord_bytes > 0)
     }
 
     /// The opaque clusters of LOD node `lod`'s block (0 for other nodes).
@@ -161,34 +196,33 @@ impl SceneFile {
         let rec = self.blocks()[b];
         let start = (self.header.blob_offset + rec.offset) as usize;
         let bytes = &self.map[start..start + rec.byte_len() as usize];
-        let state = &self.checked[b];
-        if state.load(Ordering::Acquire) == 0 {
-            let ok = xxhash_rust::xxh3::xxh3_64(bytes) == rec.hash && ranges_ok(bytes, &rec);
-            state.store(if ok { 1 } else { 2 }, Ordering::Release);
-        }
-        if state.load(Ordering::Acquire) == 2 {
-            return Err(SceneError::Corrupt {
-                path: self.path.clone(),
-                what: format!("geometry block {b} of node {lod} fails its hash or index check"),
-            });
+        let textures = self.header.texture_count;
+        if !once_ok(&self.checked[b], || xxhash_rust::xxh3::xxh3_64(bytes) == rec.hash && ranges_ok(bytes, &rec, textures)) {
+            return Err(self.corrupt(format!("geometry block {b} of node {lod} fails its hash or index check")));
         }
         Ok(geometry_of(bytes, &rec))
     }
 }
 
-fn nodes_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [NodeRecord] {
-    let s = h.nodes_offset as usize;
-    bytemuck::cast_slice(&bytes[s..s + h.node_count as usize * NODE_BYTES as usize])
+/// Runs `check` the first time `state` is asked (0 not yet, 1 good, 2 bad); its answer.
+fn once_ok(state: &AtomicU8, check: impl FnOnce() -> bool) -> bool {
+    if state.load(Ordering::Acquire) == 0 {
+        state.store(if check() { 1 } else { 2 }, Ordering::Release);
+    }
+    state.load(Ordering::Acquire) == 1
 }
 
-fn blocks_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [BlockRecord] {
-    let s = h.blocks_offset as usize;
-    bytemuck::cast_slice(&bytes[s..s + h.block_count as usize * BLOCK_BYTES as usize])
-}
-
-fn instances_of<'a>(bytes: &'a [u8], h: &Header) -> &'a [InstanceRecord] {
-    let s = h.instances_offset as usize;
-    bytemuck::cast_slice(&bytes[s..s + h.instance_count as usize * INSTANCE_BYTES as usize])
+/// The tables of a file whose layout [`validate`] has checked.
+fn tables_of<'a>(bytes: &'a [u8], h: &Header) -> Tables<'a> {
+    let table = |at: u64, count: u32, size: u64| &bytes[at as usize..(at + count as u64 * size) as usize];
+    let textures_offset = h.images_offset + h.image_count as u64 * IMAGE_BYTES;
+    Tables {
+        nodes: bytemuck::cast_slice(table(h.nodes_offset, h.node_count, NODE_BYTES)),
+        blocks: bytemuck::cast_slice(table(h.blocks_offset, h.block_count, BLOCK_BYTES)),
+        instances: bytemuck::cast_slice(table(h.instances_offset, h.instance_count, INSTANCE_BYTES)),
+        images: bytemuck::cast_slice(table(h.images_offset, h.image_count, IMAGE_BYTES)),
+        textures: bytemuck::cast_slice(table(textures_offset, h.texture_count, TEXTURE_BYTES)),
+    }
 }
 
 /// Checks everything but the geometry bytes; returns the header.
@@ -211,14 +245,16 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     if h.file_bytes != bytes.len() as u64 {
         return Err(SceneError::Truncated { path: path.to_owned(), expected: h.file_bytes, found: bytes.len() as u64 });
     }
-    let instances_end = h.instances_offset.checked_add(h.instance_count as u64 * INSTANCE_BYTES);
+    let tables_end = h.images_offset.checked_add(h.image_count as u64 * IMAGE_BYTES + h.texture_count as u64 * TEXTURE_BYTES);
     let layout_ok = h.header_bytes as usize == hsize
         && h.blob_offset == hsize as u64
         && h.blob_bytes.is_multiple_of(BLOCK_ALIGN)
-        && h.blob_offset.checked_add(h.blob_bytes) == Some(h.nodes_offset)
+        && h.texels_bytes.is_multiple_of(BLOCK_ALIGN)
+        && h.blob_offset.checked_add(h.blob_bytes).and_then(|e| e.checked_add(h.texels_bytes)) == Some(h.nodes_offset)
         && crate::format::blocks_offset(h.nodes_offset, h.node_count) == Some(h.blocks_offset)
         && crate::format::instances_offset(h.blocks_offset, h.block_count) == Some(h.instances_offset)
-        && instances_end == Some(h.file_bytes);
+        && h.instances_offset.checked_add(h.instance_count as u64 * INSTANCE_BYTES) == Some(h.images_offset)
+        && tables_end == Some(h.file_bytes);
     if !layout_ok {
         return Err(corrupt("section offsets do not match the counts".into()));
     }
@@ -228,17 +264,32 @@ pub fn validate(path: &Path, bytes: &[u8]) -> Result<Header, SceneError> {
     if !h.origin.iter().all(|c| c.is_finite()) {
         return Err(corrupt(format!("non-finite origin {:?}", h.origin)));
     }
-    let nodes = nodes_of(bytes, &h);
-    let blocks = blocks_of(bytes, &h);
-    let instances = instances_of(bytes, &h);
-    if content_hash(&h, nodes, blocks, instances) != h.content_hash {
+    let tables = tables_of(bytes, &h);
+    let (nodes, blocks, instances) = (tables.nodes, tables.blocks, tables.instances);
+    if content_hash(&h, &tables) != h.content_hash {
         return Err(corrupt("content hash mismatch in the node or block table".into()));
+    }
+    for (i, m) in tables.images.iter().enumerate() {
+        let sides_ok = [m.width, m.height].iter().all(|s| s.is_power_of_two() && *s <= crate::mip::MAX_SIDE);
+        let ok = sides_ok
+            && m.levels == crate::mip::level_count(m.width, m.height)
+            && m.offset.is_multiple_of(BLOCK_ALIGN)
+            && m.offset.checked_add(m.byte_len()).is_some_and(|e| e <= h.texels_bytes);
+        if !ok {
+            return Err(corrupt(format!("image {i} record is out of range: {m:?}")));
+        }
+    }
+    for (i, t) in tables.textures.iter().enumerate() {
+        if t.image >= h.image_count || crate::texture::Sampler::unpacked(t.sampler).is_none() || !t.cutoff.is_finite() {
+            return Err(corrupt(format!("texture {i} record is out of range: {t:?}")));
+        }
     }
     for (i, b) in blocks.iter().enumerate() {
         let ok = b.offset.is_multiple_of(BLOCK_ALIGN)
             && (b.index_bytes == 2 || b.index_bytes == 4)
             && (b.color_bytes == 0 || b.color_bytes == 4)
             && (b.normal_bytes == 0 || b.normal_bytes == 4)
+            && (b.texcoord_bytes == 0 || b.texcoord_bytes as usize == std::mem::size_of::<crate::texture::Texcoord>())
             && (b.cut_bytes == 0 || b.cut_bytes == CUT_BYTES)
             && b.opaque_clusters <= b.cluster_count
             && b.cut_out_clusters <= b.opaque_clusters

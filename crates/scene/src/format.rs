@@ -1,4 +1,4 @@
-//! The scene file format, version 9: one file that the three processes of the cluster map into
+//! The scene file format, version 10: one file that the three processes of the cluster map into
 //! memory and read in place (occlusion switch, sec. 3.5: every process holds the same scene and refers
 //! to nodes by the same integer id).
 //!
@@ -7,12 +7,17 @@
 //! header.blob_offset    geometry blocks (256), each BLOCK_ALIGN-aligned and padded to it:
 //!                       [[f32; 3]; vertex_count], [[u8; 4]; vertex_count] when the
 //!                       block has colours, [u32; vertex_count] octahedral normals when
-//!                       it has normals, [u16 or u32; index_count] in cluster order,
+//!                       it has normals, [Texcoord; vertex_count] when it is textured,
+//!                       [u16 or u32; index_count] in cluster order,
 //!                       padding to 4 bytes, [ClusterRecord; cluster_count], then in a
 //!                       cluster hierarchy's block [Cut; cluster_count]
-//! header.nodes_offset   [NodeRecord; node_count]       104 bytes each, right after the blob
+//! blob end              texels: each image's mip chain, RGBA8 sRGB, finest level first,
+//!                       each chain BLOCK_ALIGN-aligned (header.texels_bytes in all)
+//! header.nodes_offset   [NodeRecord; node_count]       104 bytes each, right after the texels
 //! header.blocks_offset  [BlockRecord; block_count]     56 bytes each, 8-aligned
-//! header.instances_offset [InstanceRecord; instance_count] 104 bytes each, to the end
+//! header.instances_offset [InstanceRecord; instance_count] 104 bytes each
+//! header.images_offset  [ImageRecord; image_count]     40 bytes each
+//!                       [TextureRecord; texture_count] 16 bytes each, to the end
 //! ```
 //! The tables follow the blob because the build streams: blocks are written as each part of the
 //! model is built, and the tables are complete only at the end (see [`crate::build`]). Blocks
@@ -54,7 +59,10 @@ pub const MAGIC: [u8; 8] = *b"OSWSCENE";
 /// 9: a block may store a normal per vertex ([`BlockRecord::normal_bytes`]), after the
 /// colours: the depth passes read positions alone, and a scene built flat stores none; a
 /// cluster of single-sided triangles has an empty closed box ([`ClusterRecord::single_sided`]).
-pub const VERSION: u32 = 9;
+/// 10: textures: a block may store a [`crate::texture::Texcoord`] per vertex
+/// ([`BlockRecord::texcoord_bytes`]), and the file the images' mip chains and a table of
+/// textures ([`ImageRecord`], [`TextureRecord`]) that only the display reads.
+pub const VERSION: u32 = 10;
 
 /// The fixed-size file header.
 #[repr(C)]
@@ -83,7 +91,12 @@ pub struct Header {
     pub instances_offset: u64,
     /// Triangles of the full-detail scene (all level-0 LODs, each use of a mesh counted).
     pub leaf_triangles: u64,
-    pub reserved: [u64; 14],
+    /// Bytes of the texel region, between the blob and the node table.
+    pub texels_bytes: u64,
+    pub images_offset: u64,
+    pub image_count: u32,
+    pub texture_count: u32,
+    pub reserved: [u64; 11],
 }
 
 /// A content hash as the reports and the handshake print it: 32 hex digits, high word first.
@@ -249,13 +262,14 @@ pub struct BlockRecord {
     /// 4 when the block stores a normal per vertex (octahedral, see [`crate::normal`]), else 0:
     /// shaded flat.
     pub normal_bytes: u32,
-    pub reserved: u32,
+    /// 12 when the block stores a [`crate::texture::Texcoord`] per vertex, else 0.
+    pub texcoord_bytes: u32,
 }
 
 impl BlockRecord {
-    /// Bytes of a vertex's attributes: position, colour and normal.
+    /// Bytes of a vertex's attributes: position, colour, normal and texture coordinates.
     pub fn vertex_bytes(&self) -> u64 {
-        12 + self.color_bytes as u64 + self.normal_bytes as u64
+        12 + self.color_bytes as u64 + self.normal_bytes as u64 + self.texcoord_bytes as u64
     }
 
     /// Bytes of the vertices and indices (every vertex stream is a multiple of 4 bytes, so
@@ -342,7 +356,55 @@ impl InstanceRecord {
     }
 }
 
+/// One image's mip chain in the texel region ([`crate::mip`]): 40 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct ImageRecord {
+    /// From the start of the texel region; a multiple of BLOCK_ALIGN.
+    pub offset: u64,
+    /// xxh3-64 of the chain's bytes.
+    pub hash: u64,
+    /// Level 0, powers of two; the chain halves both sides down to 1x1.
+    pub width: u32,
+    pub height: u32,
+    pub levels: u32,
+    /// The image's own size, before level 0 was made of it.
+    pub source_width: u32,
+    pub source_height: u32,
+    /// 1 when the chain's alpha keeps a cut-out's coverage ([`crate::mip`]), else 0.
+    pub coverage_kept: u32,
+}
+
+impl ImageRecord {
+    pub fn byte_len(&self) -> u64 {
+        crate::mip::chain_bytes(self.width, self.height)
+    }
+
+    /// Level `k`'s size and where it starts within the chain.
+    pub fn level(&self, k: u32) -> (u32, u32, u64) {
+        let at =
+            crate::mip::chain_bytes(self.width, self.height) - crate::mip::chain_bytes((self.width >> k).max(1), (self.height >> k).max(1));
+        ((self.width >> k).max(1), (self.height >> k).max(1), at)
+    }
+}
+
+/// A texture as a material uses it: 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct TextureRecord {
+    pub image: u32,
+    /// [`crate::texture::Sampler::packed`].
+    pub sampler: u32,
+    /// A cut-out's alpha cutoff, or a negative value for a surface that is not one.
+    pub cutoff: f32,
+    /// The image's mean colour (sRGB, alpha its coverage): what a display that samples no
+    /// textures draws.
+    pub mean: [u8; 4],
+}
+
 pub const NODE_BYTES: u64 = std::mem::size_of::<NodeRecord>() as u64;
+pub const IMAGE_BYTES: u64 = std::mem::size_of::<ImageRecord>() as u64;
+pub const TEXTURE_BYTES: u64 = std::mem::size_of::<TextureRecord>() as u64;
 pub const BLOCK_BYTES: u64 = std::mem::size_of::<BlockRecord>() as u64;
 
 /// Where the block table starts after `node_count` nodes at `nodes_offset`: padded to 8 bytes,
@@ -361,12 +423,24 @@ pub fn instances_offset(blocks_offset: u64, block_count: u32) -> Option<u64> {
 }
 
 /// Hash that names the scene's content (see the header's `content_hash`).
-pub fn content_hash(header: &Header, nodes: &[NodeRecord], blocks: &[BlockRecord], instances: &[InstanceRecord]) -> [u64; 2] {
+pub fn content_hash(header: &Header, tables: &Tables) -> [u64; 2] {
     hash_tables(header, |s| {
-        s.update(bytemuck::cast_slice(nodes));
-        s.update(bytemuck::cast_slice(blocks));
-        s.update(bytemuck::cast_slice(instances));
+        s.update(bytemuck::cast_slice(tables.nodes));
+        s.update(bytemuck::cast_slice(tables.blocks));
+        s.update(bytemuck::cast_slice(tables.instances));
+        s.update(bytemuck::cast_slice(tables.images));
+        s.update(bytemuck::cast_slice(tables.textures));
     })
+}
+
+/// The file's tables, as [`content_hash`] covers them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Tables<'a> {
+    pub nodes: &'a [NodeRecord],
+    pub blocks: &'a [BlockRecord],
+    pub instances: &'a [InstanceRecord],
+    pub images: &'a [ImageRecord],
+    pub textures: &'a [TextureRecord],
 }
 
 /// [`content_hash`] of the header and the tables that `tables` feeds in file order.
@@ -399,6 +473,8 @@ mod tests {
         assert_eq!(std::mem::size_of::<InstanceRecord>(), 104);
         assert_eq!(std::mem::size_of::<BlockRecord>(), 56);
         assert_eq!(std::mem::size_of::<ClusterRecord>(), 100);
+        assert_eq!(IMAGE_BYTES, 40);
+        assert_eq!(TEXTURE_BYTES, 16);
         assert_eq!(CUT_BYTES, 40);
     }
 }

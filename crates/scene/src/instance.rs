@@ -95,8 +95,8 @@ impl Placement {
     /// mirrors.
     pub fn mesh(&self, mesh: &Mesh) -> Mesh {
         let indices = if self.flips { flipped(&mesh.indices) } else { mesh.indices.clone() };
-        let (colors, single_sided) = (mesh.colors.clone(), mesh.single_sided.clone());
-        Mesh { positions: self.points(&mesh.positions), indices, colors, normals: self.normals(&mesh.normals), single_sided }
+        let (colors, single_sided, texcoords) = (mesh.colors.clone(), mesh.single_sided.clone(), mesh.texcoords.clone());
+        Mesh { positions: self.points(&mesh.positions), indices, colors, normals: self.normals(&mesh.normals), single_sided, texcoords }
     }
 
     fn normals(&self, normals: &[crate::normal::Normal]) -> Vec<crate::normal::Normal> {
@@ -119,6 +119,7 @@ impl Placement {
             positions: Cow::Owned(positions),
             colors: g.colors,
             normals: Cow::Owned(self.normals(&g.normals)),
+            texcoords: g.texcoords,
             indices,
             clusters: Cow::Owned(clusters),
             cuts: g.cuts,
@@ -173,6 +174,7 @@ pub fn place_block(e: &Encoded, place: &Placement) -> Encoded {
         indices: indices.clone(),
         colors: g.colors.to_vec(),
         normals: g.normals.to_vec(),
+        texcoords: g.texcoords.to_vec(),
         ..Mesh::default()
     };
     let layers = Layers { occluders: e.record.occluder_clusters(), opaque: e.record.opaque_clusters };

@@ -41,6 +41,7 @@ pub mod instance;
 pub mod limits;
 pub mod lod;
 pub mod mesh;
+pub mod mip;
 pub mod nav;
 pub mod normal;
 pub mod path;
@@ -51,6 +52,7 @@ pub mod repeat;
 pub mod smooth;
 pub mod source;
 pub mod spill;
+pub mod texture;
 pub mod writer;
 
 pub use aabb::Aabb;

@@ -27,14 +27,17 @@ pub struct Mesh {
     /// drawn from behind. Empty when every surface is double-sided (OBJ, PLY, generators). A
     /// triangle is single-sided when its three corners are ([`Mesh::is_single_sided`]).
     pub single_sided: Vec<bool>,
+    /// Where each vertex samples its surface's texture, or empty when no surface has one;
+    /// [`crate::texture::Texcoord::NONE`] at a vertex of a mesh merged with one without.
+    pub texcoords: Vec<crate::texture::Texcoord>,
 }
 
 /// A vertex without a colour from the model, in a mesh whose other vertices have one.
 pub const NO_COLOR: [u8; 4] = [0; 4];
 
 /// The alpha byte of a cut-out (glTF alphaMode MASK): opaque where drawn, but holed where its
-/// texture's alpha, which the build does not sample, falls below the cutoff. It is drawn opaque
-/// and never an occluder (nothing it hides is known to be hidden).
+/// texture's alpha falls below the cutoff, which the display tests per pixel. It is never an
+/// occluder (nothing it hides is known to be hidden).
 pub const CUT_OUT: u8 = 254;
 
 /// The alpha byte of a colour of coverage `a` (0 to 1): 255 when opaque, else 1 to 253, so that
@@ -123,6 +126,8 @@ pub enum MeshError {
     Normals { normals: usize, vertices: usize },
     #[error("{flags} single-sided flags for {vertices} vertices")]
     Sides { flags: usize, vertices: usize },
+    #[error("{texcoords} texture coordinates for {vertices} vertices")]
+    Texcoords { texcoords: usize, vertices: usize },
 }
 
 /// Counts of what [`Mesh::clean`] removed.
@@ -177,6 +182,9 @@ impl Mesh {
         if !self.single_sided.is_empty() && self.single_sided.len() != n {
             return Err(MeshError::Sides { flags: self.single_sided.len(), vertices: n });
         }
+        if !self.texcoords.is_empty() && self.texcoords.len() != n {
+            return Err(MeshError::Texcoords { texcoords: self.texcoords.len(), vertices: n });
+        }
         Ok(())
     }
 
@@ -226,6 +234,9 @@ impl Mesh {
                 if let Some(&s) = self.single_sided.get(i as usize) {
                     out.single_sided.push(s);
                 }
+                if let Some(&t) = self.texcoords.get(i as usize) {
+                    out.texcoords.push(t);
+                }
                 out.positions.len() as u32 - 1
             });
             out.indices.push(slot);
@@ -242,6 +253,7 @@ impl Mesh {
         append_attribute(&mut self.colors, &o.colors, before, self.positions.len(), NO_COLOR);
         append_attribute(&mut self.normals, &o.normals, before, self.positions.len(), crate::normal::NO_NORMAL);
         append_attribute(&mut self.single_sided, &o.single_sided, before, self.positions.len(), false);
+        append_attribute(&mut self.texcoords, &o.texcoords, before, self.positions.len(), crate::texture::Texcoord::NONE);
     }
 
     /// Whether triangle `t` is single-sided: all its corners are (see [`Mesh::single_sided`]).
@@ -279,16 +291,18 @@ impl Mesh {
         crate::normal::transform(&mut self.normals, glam::Mat3::from(m.matrix3).as_dmat3());
     }
 
-    /// Merges vertices with bit-identical positions, colours, normals and sides
-    /// (meshoptimizer's remap), so that the simplifier sees a connected surface in inputs that
-    /// repeat corners per triangle.
+    /// Merges vertices with bit-identical positions, colours, normals, sides and texture
+    /// coordinates (meshoptimizer's remap), so that the simplifier sees a connected surface in
+    /// inputs that repeat corners per triangle.
     pub fn welded(&self) -> Mesh {
-        let keys: Vec<[u32; 6]> = (0..self.positions.len())
+        let keys: Vec<[u32; 9]> = (0..self.positions.len())
             .map(|i| {
                 let p = self.positions[i].map(f32::to_bits);
                 let c = self.colors.get(i).map_or(0, |c| u32::from_le_bytes(*c));
                 let n = self.normals.get(i).copied().unwrap_or(0);
-                [p[0], p[1], p[2], c, n, u32::from(self.single_sided.get(i).copied().unwrap_or(false))]
+                let t = self.texcoords.get(i).copied().unwrap_or(crate::texture::Texcoord::NONE);
+                let s = u32::from(self.single_sided.get(i).copied().unwrap_or(false));
+                [p[0], p[1], p[2], c, n, s, t.uv[0].to_bits(), t.uv[1].to_bits(), t.texture]
             })
             .collect();
         let (unique, remap) = meshopt::generate_vertex_remap(&keys, Some(&self.indices));
@@ -299,6 +313,7 @@ impl Mesh {
             colors: remapped(&self.colors, unique, &remap),
             normals: remapped(&self.normals, unique, &remap),
             single_sided: remapped(&self.single_sided, unique, &remap),
+            texcoords: remapped(&self.texcoords, unique, &remap),
             positions: meshopt::remap_vertex_buffer(&self.positions, unique, &remap),
             indices: meshopt::remap_index_buffer(Some(&self.indices), self.indices.len(), &remap),
         }
@@ -357,9 +372,7 @@ mod tests {
         Mesh {
             positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
             indices: vec![0, 1, 2, 0, 2, 3],
-            colors: Vec::new(),
-            normals: Vec::new(),
-            single_sided: Vec::new(),
+            ..Mesh::default()
         }
     }
 

@@ -42,6 +42,7 @@ pub fn translated(o: &Object) -> Option<Translated> {
     h.update(bytemuck::cast_slice(&o.mesh.indices));
     h.update(o.mesh.colors.as_flattened());
     h.update(bytemuck::cast_slice(&o.mesh.normals));
+    h.update(bytemuck::cast_slice(&o.mesh.texcoords));
     let positions = relative.iter().map(|&p| DVec3::from(p).as_vec3().to_array()).collect();
     Some(Translated { content: h.digest128(), corner, positions })
 }

@@ -105,6 +105,7 @@ fn computed(mesh: Mesh, crease_cos: f32) -> Mesh {
         colors: per_corner(&mesh.colors, &mesh.indices),
         normals: if flat { Vec::new() } else { normals },
         single_sided: per_corner(&mesh.single_sided, &mesh.indices),
+        texcoords: per_corner(&mesh.texcoords, &mesh.indices),
         indices: (0..mesh.indices.len() as u32).collect(),
     }
     .welded()

@@ -17,6 +17,10 @@ pub trait Source: Send {
     fn triangles_hint(&self) -> u64;
     /// The next batch, None at the end. Batches come in the same order for the same input.
     fn next_batch(&mut self) -> Option<Vec<Object>>;
+    /// The textures the objects' texture coordinates name, taken once the objects are.
+    fn textures(&mut self) -> crate::texture::Textures {
+        crate::texture::Textures::default()
+    }
 }
 
 /// Triangles a batch aims at: large enough to keep both cores busy, small next to memory.
@@ -25,21 +29,31 @@ pub const BATCH_TRIANGLES: u64 = 1 << 20;
 /// Objects already in memory (an imported file, a small generated scene), streamed in batches.
 pub struct InMemory {
     objects: std::vec::IntoIter<Object>,
+    textures: crate::texture::Textures,
     bounds: Bounds,
     triangles: u64,
 }
 
 impl InMemory {
     pub fn new(objects: Vec<Object>) -> InMemory {
+        InMemory::textured(objects, crate::texture::Textures::default())
+    }
+
+    pub fn textured(objects: Vec<Object>, textures: crate::texture::Textures) -> InMemory {
         InMemory {
             bounds: crate::place::world_bounds(&objects),
             triangles: objects.iter().map(|o| o.mesh.triangle_count() as u64).sum(),
             objects: objects.into_iter(),
+            textures,
         }
     }
 }
 
 impl Source for InMemory {
+    fn textures(&mut self) -> crate::texture::Textures {
+        std::mem::take(&mut self.textures)
+    }
+
     fn world_bounds(&self) -> Bounds {
         self.bounds
     }
@@ -68,6 +82,10 @@ pub struct Shifted<S> {
 }
 
 impl<S: Source> Source for Shifted<S> {
+    fn textures(&mut self) -> crate::texture::Textures {
+        self.inner.textures()
+    }
+
     fn world_bounds(&self) -> Bounds {
         let (whole, rest) = (self.by.round(), self.by - self.by.round());
         let b = self.inner.world_bounds();
@@ -87,6 +105,10 @@ impl<S: Source> Source for Shifted<S> {
 }
 
 impl<S: Source + ?Sized> Source for Box<S> {
+    fn textures(&mut self) -> crate::texture::Textures {
+        (**self).textures()
+    }
+
     fn world_bounds(&self) -> Bounds {
         (**self).world_bounds()
     }

@@ -18,6 +18,7 @@ pub struct SpillRef {
     indices: u32,
     colored: bool,
     normals: bool,
+    texcoords: bool,
     single_sided: bool,
     /// Cuts of the piece; each triangle's cut is stored when there is more than one.
     cuts: u32,
@@ -31,7 +32,8 @@ impl SpillRef {
     }
 
     fn mesh_bytes(&self) -> usize {
-        let attributes = 12 + 4 * self.colored as usize + 4 * self.normals as usize + self.single_sided as usize;
+        let texcoords = std::mem::size_of::<crate::texture::Texcoord>() * self.texcoords as usize;
+        let attributes = 12 + 4 * self.colored as usize + 4 * self.normals as usize + texcoords + self.single_sided as usize;
         self.vertices as usize * attributes + self.indices as usize * self.index_bytes()
     }
 
@@ -72,6 +74,7 @@ impl Spill {
             indices: m.indices.len() as u32,
             colored: !m.colors.is_empty(),
             normals: !m.normals.is_empty(),
+            texcoords: !m.texcoords.is_empty(),
             single_sided: !m.single_sided.is_empty(),
             cuts: p.cuts.len() as u32,
         };
@@ -79,6 +82,7 @@ impl Spill {
         bytes.extend_from_slice(bytemuck::cast_slice(&m.positions));
         bytes.extend_from_slice(m.colors.as_flattened());
         bytes.extend_from_slice(bytemuck::cast_slice(&m.normals));
+        bytes.extend_from_slice(bytemuck::cast_slice(&m.texcoords));
         if r.index_bytes() == 2 {
             bytes.extend(m.indices.iter().flat_map(|&i| (i as u16).to_le_bytes()));
         } else {
@@ -143,12 +147,15 @@ impl Sealed {
         let (pos, rest) = buf.split_at(r.vertices as usize * 12);
         let (colors, rest) = rest.split_at(if r.colored { r.vertices as usize * 4 } else { 0 });
         let (normals, rest) = rest.split_at(if r.normals { r.vertices as usize * 4 } else { 0 });
+        let (texcoords, rest) =
+            rest.split_at(if r.texcoords { r.vertices as usize * std::mem::size_of::<crate::texture::Texcoord>() } else { 0 });
         let (idx, sides) = rest.split_at(r.indices as usize * r.index_bytes());
         Mesh {
             single_sided: sides.iter().map(|&s| s != 0).collect(),
             positions: bytemuck::pod_collect_to_vec(pos),
             colors: bytemuck::pod_collect_to_vec(colors),
             normals: bytemuck::pod_collect_to_vec(normals),
+            texcoords: bytemuck::pod_collect_to_vec(texcoords),
             indices: if r.index_bytes() == 2 {
                 idx.chunks_exact(2).map(|b| u16::from_le_bytes([b[0], b[1]]) as u32).collect()
             } else {

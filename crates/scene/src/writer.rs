@@ -5,7 +5,8 @@
 use crate::append::Appender;
 use crate::block::{Encoded, encode};
 use crate::format::{
-    BlockRecord, Header, INSTANCE_BYTES, InstanceRecord, MAGIC, NONE, NodeKind, NodeRecord, VERSION, hash_tables, header_hash,
+    BlockRecord, Header, IMAGE_BYTES, INSTANCE_BYTES, ImageRecord, InstanceRecord, MAGIC, NONE, NodeKind, NodeRecord, TEXTURE_BYTES,
+    TextureRecord, VERSION, hash_tables, header_hash,
 };
 use crate::limits::BLOCK_ALIGN;
 use crate::mesh::Mesh;
@@ -60,22 +61,27 @@ impl SceneWriter {
         &self.partial
     }
 
-    /// Writes the tables and the header, and renames the file into place: the BVH nodes
-    /// `bvh`, then the LOD nodes of `lods` (each naming its block by its index in `lods`) and
-    /// their blocks, then the instances. Returns the file's size and its content hash.
+    /// Writes the texels, the tables and the header, and renames the file into place: the
+    /// mip chains of `textures`' images, the BVH nodes `bvh`, then the LOD nodes of `lods`
+    /// (each naming its block by its index in `lods`) and their blocks, the instances, and the
+    /// image and texture tables. Returns the file's size and its content hash.
     pub fn finish(
         mut self,
         fields: SceneFields,
         bvh: &[NodeRecord],
         lods: &[(NodeRecord, BlockRecord)],
         instances: &[InstanceRecord],
+        textures: &crate::texture::Textures,
     ) -> std::io::Result<(u64, [u64; 2])> {
+        let (images, texels_bytes) = self.texels(textures)?;
+        let texture_table = texture_records(textures);
         let node_count = bvh.len() + lods.len();
         let blob_offset = HEADER_BYTES;
-        let nodes_offset = blob_offset + self.blob_bytes;
+        let nodes_offset = blob_offset + self.blob_bytes + texels_bytes;
         let blocks_offset = crate::format::blocks_offset(nodes_offset, node_count as u32).expect("offsets fit in u64");
         let instances_offset = crate::format::instances_offset(blocks_offset, lods.len() as u32).expect("offsets fit in u64");
-        let file_bytes = instances_offset + instances.len() as u64 * INSTANCE_BYTES;
+        let images_offset = instances_offset + instances.len() as u64 * INSTANCE_BYTES;
+        let file_bytes = images_offset + images.len() as u64 * IMAGE_BYTES + texture_table.len() as u64 * TEXTURE_BYTES;
         let mut header = Header {
             magic: MAGIC,
             version: VERSION,
@@ -96,13 +102,19 @@ impl SceneWriter {
             header_hash: 0,
             instances_offset,
             leaf_triangles: fields.leaf_triangles,
-            reserved: [0; 14],
+            texels_bytes,
+            images_offset,
+            image_count: images.len() as u32,
+            texture_count: texture_table.len() as u32,
+            reserved: [0; 11],
         };
         header.content_hash = hash_tables(&header, |s| {
             s.update(bytemuck::cast_slice(bvh));
             lods.iter().for_each(|(n, _)| s.update(bytemuck::bytes_of(n)));
             lods.iter().for_each(|(_, b)| s.update(bytemuck::bytes_of(b)));
             s.update(bytemuck::cast_slice(instances));
+            s.update(bytemuck::cast_slice(&images));
+            s.update(bytemuck::cast_slice(&texture_table));
         });
         header.header_hash = header_hash(&header);
         let mut file = self.file.take().expect("writer open until finish").finish()?;
@@ -112,6 +124,8 @@ impl SceneWriter {
         tables.write_all(&[0; 8][..(blocks_offset - nodes_offset - node_count as u64 * crate::format::NODE_BYTES) as usize])?;
         lods.iter().try_for_each(|(_, b)| tables.write_all(bytemuck::bytes_of(b)))?;
         tables.write_all(bytemuck::cast_slice(instances))?;
+        tables.write_all(bytemuck::cast_slice(&images))?;
+        tables.write_all(bytemuck::cast_slice(&texture_table))?;
         tables.flush()?;
         drop(tables);
         file.seek(std::io::SeekFrom::Start(0))?;
@@ -121,6 +135,56 @@ impl SceneWriter {
         std::fs::rename(&self.partial, &self.path)?;
         Ok((file_bytes, header.content_hash))
     }
+}
+
+impl SceneWriter {
+    /// Appends each image's mip chain after the blob, made in parallel a few at a time;
+    /// returns their records and the region's bytes. An image a cut-out uses keeps that
+    /// cut-out's coverage down its chain (the first cut-out's cutoff, where several use it).
+    fn texels(&mut self, textures: &crate::texture::Textures) -> std::io::Result<(Vec<ImageRecord>, u64)> {
+        let cutoff = |k: usize| textures.textures.iter().find(|t| t.image as usize == k).and_then(|t| t.cutoff);
+        let mut records = Vec::with_capacity(textures.images.len());
+        let mut bytes_so_far = 0u64;
+        let file = self.file.as_mut().expect("writer open until finish");
+        for batch in (0..textures.images.len()).collect::<Vec<_>>().chunks(8) {
+            let chains: Vec<Vec<crate::mip::Level>> =
+                batch.par_iter().map(|&k| crate::mip::chain(&textures.images[k], cutoff(k))).collect();
+            for (&k, chain) in batch.iter().zip(chains) {
+                let image = &textures.images[k];
+                let mut bytes: Vec<u8> = chain.iter().flat_map(|l| l.texels.as_flattened().iter().copied()).collect();
+                let record = ImageRecord {
+                    offset: bytes_so_far,
+                    hash: xxhash_rust::xxh3::xxh3_64(&bytes),
+                    width: chain[0].width,
+                    height: chain[0].height,
+                    levels: chain.len() as u32,
+                    source_width: image.width,
+                    source_height: image.height,
+                    coverage_kept: cutoff(k).is_some() as u32,
+                };
+                bytes.resize(bytes.len().next_multiple_of(BLOCK_ALIGN as usize), 0);
+                bytes_so_far += bytes.len() as u64;
+                file.append(bytes)?;
+                records.push(record);
+            }
+        }
+        Ok((records, bytes_so_far))
+    }
+}
+
+/// The texture table of `textures`, each with its image's mean colour.
+fn texture_records(textures: &crate::texture::Textures) -> Vec<TextureRecord> {
+    let means: Vec<[u8; 4]> = textures.images.iter().map(crate::texture::mean_srgb).collect();
+    textures
+        .textures
+        .iter()
+        .map(|t| TextureRecord {
+            image: t.image,
+            sampler: t.sampler.packed(),
+            cutoff: t.cutoff.unwrap_or(-1.0),
+            mean: means[t.image as usize],
+        })
+        .collect()
 }
 
 impl Drop for SceneWriter {
@@ -144,6 +208,7 @@ pub struct SceneData {
     pub leaf_triangles: u64,
     /// Per object: its box when it is closed and wound outwards (see [`crate::cluster`]).
     pub closed_objects: Vec<Option<crate::Aabb>>,
+    pub textures: crate::texture::Textures,
 }
 
 /// Writes `scene` to `path`. Returns the file's size in bytes and its content hash.
@@ -176,5 +241,5 @@ pub fn write_scene(path: &Path, scene: &SceneData) -> std::io::Result<(u64, [u64
         leaf_count: scene.leaf_count,
         leaf_triangles: scene.leaf_triangles,
     };
-    w.finish(fields, bvh, &lods, &[])
+    w.finish(fields, bvh, &lods, &[], &scene.textures)
 }

@@ -354,8 +354,9 @@ pub fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) ->
     run
 }
 
-/// Appends `mesh`'s positions and indices to the GLB buffer `bin`, with a view and an accessor
-/// each; returns the primitive's attributes (`{"POSITION": .., "indices": ..}`).
+/// Appends `mesh`'s positions and indices (and texture coordinates, where it has them) to the
+/// GLB buffer `bin`, with a view and an accessor each; returns the primitive's attributes
+/// (`{"POSITION": .., "indices": ..}`, and TEXCOORD_0).
 pub fn push_mesh(
     bin: &mut Vec<u8>,
     views: &mut Vec<serde_json::Value>,
@@ -372,7 +373,15 @@ pub fn push_mesh(
         "min": b.min.to_array(), "max": b.max.to_array()}));
     accessors
         .push(serde_json::json!({"bufferView": views.len() - 1, "componentType": 5125, "count": mesh.indices.len(), "type": "SCALAR"}));
-    serde_json::json!({"attributes": {"POSITION": k}, "indices": k + 1})
+    let mut prim = serde_json::json!({"attributes": {"POSITION": k}, "indices": k + 1});
+    if !mesh.texcoords.is_empty() {
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": mesh.texcoords.len() * 8}));
+        mesh.texcoords.iter().flat_map(|t| t.uv).for_each(|c| bin.extend(c.to_le_bytes()));
+        accessors
+            .push(serde_json::json!({"bufferView": views.len() - 1, "componentType": 5126, "count": mesh.texcoords.len(), "type": "VEC2"}));
+        prim["attributes"]["TEXCOORD_0"] = serde_json::json!(k + 2);
+    }
+    prim
 }
 
 /// Writes a GLB of the glTF document `doc` (its one buffer's length is set) and buffer `bin`.

@@ -26,7 +26,7 @@ pub use report::{BuildReport, Times};
 
 use crate::aabb::Aabb;
 use crate::bvh::BvhNode;
-use crate::format::NodeRecord;
+use crate::format::{BlockRecord, NodeRecord};
 use crate::mesh::Object;
 use crate::progress::Progress;
 use crate::source::{InMemory, Source};
@@ -89,10 +89,17 @@ pub fn build(
     };
     let mut stored = rustc_hash::FxHashSet::default();
     let distinct = lods.iter().filter(|(_, b)| stored.insert(b.offset));
-    report.normal_bytes = distinct.map(|(_, b)| b.vertex_count as u64 * b.normal_bytes as u64).sum();
+    let distinct: Vec<&BlockRecord> = distinct.map(|(_, b)| b).collect();
+    report.normal_bytes = distinct.iter().map(|b| b.vertex_count as u64 * b.normal_bytes as u64).sum();
+    report.texcoord_bytes = distinct.iter().map(|b| b.vertex_count as u64 * b.texcoord_bytes as u64).sum();
+    let textures = source.textures();
+    (report.images, report.textures) = (textures.images.len() as u64, textures.textures.len() as u64);
+    let instances = if opts.instances == Instances::Keep { &c.instances[..] } else { &[] };
     let (bytes, hash) = times
-        .run("write", || writer.finish(fields, &bvh, &lods, if opts.instances == Instances::Keep { &c.instances } else { &[] }))
+        .run("write", || writer.finish(fields, &bvh, &lods, instances, &textures))
         .map_err(|e| BuildError::Write { path: out.display().to_string(), source: e })?;
+    report.texel_bytes =
+        textures.images.iter().map(|i| crate::mip::base_size(i.width, i.height)).map(|(w, h)| crate::mip::chain_bytes(w, h)).sum();
     report.output_bytes = bytes;
     report.content_hash = crate::format::hash_hex(hash);
     report.stage_seconds = times.0;

@@ -38,6 +38,18 @@ pub struct BuildReport {
     /// Triangles of single-sided surfaces (glTF `doubleSided` false): never drawn from behind.
     #[serde(default)]
     pub single_sided_triangles: u64,
+    /// Images and the textures that sample them (an image under two samplers or cutoffs is
+    /// one image, two textures).
+    #[serde(default)]
+    pub images: u64,
+    #[serde(default)]
+    pub textures: u64,
+    /// Bytes of the images' mip chains, RGBA8, and of the blocks' texture coordinates (once
+    /// per block): what only the display reads.
+    #[serde(default)]
+    pub texel_bytes: u64,
+    #[serde(default)]
+    pub texcoord_bytes: u64,
     pub nodes: u64,
     pub leaves: u64,
     pub groups: u64,

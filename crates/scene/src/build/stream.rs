@@ -519,7 +519,7 @@ impl Stream<'_> {
     }
 }
 
-/// Names a mesh's content (positions, indices, colours and normals): 128 bits of xxh3, so that two
+/// Names a mesh's content (positions, indices and attributes): 128 bits of xxh3, so that two
 /// meshes of one name differ in fewer than one of 2^64 models of 2^32 meshes.
 fn mesh_hash(m: &Mesh) -> u128 {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
@@ -527,6 +527,7 @@ fn mesh_hash(m: &Mesh) -> u128 {
     h.update(bytemuck::cast_slice(&m.indices));
     h.update(m.colors.as_flattened());
     h.update(bytemuck::cast_slice(&m.normals));
+    h.update(bytemuck::cast_slice(&m.texcoords));
     h.digest128()
 }
 

@@ -7,18 +7,21 @@
 //! material's alpha makes its triangles translucent, a MASK material's discards those below
 //! its cutoff and makes cut-outs of those it may hole (see [`crate::mesh::Mesh::colors`]).
 //! Points and lines are skipped with a warning; Draco is
-//! refused with how to re-export. A base colour texture is decoded for its mean colour alone
-//! ([`super::texture_mean`]). Every accessor is checked against its buffer before it is read.
+//! refused with how to re-export. A base colour texture (PNG or JPEG: embedded, a data URI or
+//! a file beside the model) is decoded and stored with its sampler, and sampled at the
+//! primitive's texture coordinates (`KHR_texture_transform` applied here); a primitive without
+//! them is drawn in the texture's mean colour. Every accessor is checked against its buffer
+//! before it is read.
 //!
 //! The `gltf` crate validates `extensionsRequired` against the extensions it implements, which
 //! excludes the ones above: the document is validated here in every other respect, and the
 //! required extensions are checked by [`gltf_raw::Raw::check_extensions`].
 
 use super::gltf_raw::{self, Raw};
-use super::texture_mean::{self, Mean};
 use super::{ImportError, Imported, ParseError, first_few};
 use crate::mesh::{Mesh, Object};
 use crate::normal::{NO_NORMAL, Normal};
+use crate::texture::{Filter, Image, Sampler, Texcoord, Texture, Textures, Wrap, srgb8};
 use glam::{DAffine3, DMat4, DQuat, DVec3, Vec3};
 use gltf::accessor::{Accessor, DataType, Dimensions, Item};
 use gltf::material::AlphaMode;
@@ -47,7 +50,7 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
     let doc = gltf::Document::from_json_without_validation(root);
     let buffers = load_buffers(&doc, &raw, base, blob)?;
     let buffers: Vec<&[u8]> = buffers.iter().map(Vec::as_slice).collect();
-    let means = texture_mean::of_images(&doc, &buffers, base);
+    let mut table = TextureTable::new(super::images::of_images(&doc, &buffers, base));
 
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
@@ -69,7 +72,7 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
             return Err(ParseError::new(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(mesh) = node.mesh() {
-            let m = mesh_of(&mesh, &buffers, &means, &mut out.skipped).map_err(|e| e.at(format!("mesh {}", mesh.index())))?;
+            let m = mesh_of(&mesh, &buffers, &mut table, &mut out.skipped).map_err(|e| e.at(format!("mesh {}", mesh.index())))?;
             let name = node.name().or(mesh.name()).map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
             let prototype = Some(mesh.index() as u32);
             match &raw_node.extensions.instancing {
@@ -93,47 +96,116 @@ pub fn parse(bytes: &[u8], base: &Path) -> Result<Imported, ParseError> {
     // A mesh's notes once, however many nodes use it.
     let mut seen = std::collections::HashSet::new();
     out.skipped.retain(|s| seen.insert(s.clone()));
-    out.left_out = texture_notes(&doc, &means);
+    out.left_out = texture_notes(&doc, &table);
+    out.textures = table.stored;
     Ok(out)
 }
 
-/// What the build leaves out of the materials' base colour textures (or the diffuse ones of
-/// KHR_materials_pbrSpecularGlossiness), which it does not sample: the textures (drawn as
-/// their mean colour), those it cannot read at all, and the alpha of MASK and BLEND materials
-/// that comes from them (a cut-out is drawn whole and occludes nothing). Each names its first
-/// few.
-fn texture_notes(doc: &gltf::Document, means: &[Result<Mean, String>]) -> Vec<String> {
-    let textured: Vec<(gltf::Material, gltf::Texture)> =
-        doc.materials().filter_map(|m| Some((m.clone(), base_texture(&m)?.texture()))).collect();
-    let textures: std::collections::BTreeSet<usize> = textured.iter().map(|(_, t)| t.index()).collect();
-    let alpha: Vec<String> = textured.iter().filter(|(m, _)| m.alpha_mode() != AlphaMode::Opaque).map(|(m, _)| material_name(m)).collect();
-    let mut notes = Vec::new();
-    if !textures.is_empty() {
-        let names: Vec<String> = textures.iter().filter_map(|&k| doc.textures().nth(k)).map(|t| texture_name(&t)).collect();
-        notes.push(format!(
-            "{} base colour textures of {} materials (textures are not sampled: those surfaces are drawn in their factor and COLOR_0 times the texture's mean colour): {}",
-            textures.len(),
-            textured.len(),
-            first_few(&names)
-        ));
-        let unread: Vec<String> = textures
-            .iter()
-            .filter_map(|&k| doc.textures().nth(k))
-            .filter_map(|t| Some(format!("{} ({})", texture_name(&t), means.get(t.source().index())?.as_ref().err()?)))
-            .collect();
-        if !unread.is_empty() {
-            notes.push(format!(
-                "{} base colour textures that cannot be read (drawn in their factor): {}",
-                unread.len(),
-                first_few(&unread)
-            ));
-        }
+/// The model's images, decoded once, and the textures its primitives sample, stored once.
+struct TextureTable {
+    /// Per image of the document: decoded (taken once stored), or why it cannot be.
+    images: Vec<Result<Image, String>>,
+    /// Per image of the document: its linear mean, where it can be read.
+    means: Vec<Option<[f32; 4]>>,
+    /// Per image of the document: its index in `stored`, once a primitive samples it.
+    at: Vec<Option<u32>>,
+    stored: Textures,
+}
+
+impl TextureTable {
+    fn new(images: Vec<Result<Image, String>>) -> TextureTable {
+        let means = images.iter().map(|i| i.as_ref().ok().map(crate::texture::mean)).collect();
+        TextureTable { at: vec![None; images.len()], images, means, stored: Textures::default() }
     }
-    if !alpha.is_empty() {
+
+    fn mean(&self, info: &gltf::texture::Info) -> Option<[f32; 4]> {
+        self.means.get(info.texture().source().index()).copied().flatten()
+    }
+
+    /// The texture `info` names, sampled under `material`, stored on first use; None where its
+    /// image cannot be read.
+    fn texture(&mut self, info: &gltf::texture::Info, material: &gltf::Material) -> Option<u32> {
+        let k = info.texture().source().index();
+        let image = match self.at.get(k).copied().flatten() {
+            Some(image) => image,
+            None => {
+                let decoded = std::mem::take(self.images.get_mut(k)?.as_mut().ok()?);
+                self.stored.images.push(decoded);
+                self.at[k] = Some(self.stored.images.len() as u32 - 1);
+                self.stored.images.len() as u32 - 1
+            }
+        };
+        // glTF 2.0 sec. 3.9.4: alpha is the factor times COLOR_0 times the texel against the cutoff; the
+        // factor is folded into the cutoff (COLOR_0's alpha is tested per triangle, above).
+        let factor = material.pbr_metallic_roughness().base_color_factor()[3];
+        let cutoff = (material.alpha_mode() == AlphaMode::Mask).then(|| material.alpha_cutoff().unwrap_or(0.5) / factor.max(1e-6));
+        Some(self.stored.add(Texture { image, sampler: sampler_of(&info.texture().sampler()), cutoff }))
+    }
+
+    fn unread(&self, k: usize) -> Option<&str> {
+        self.images.get(k)?.as_ref().err().map(String::as_str)
+    }
+}
+
+/// A glTF sampler as osw's: wrap modes, and the filters (glTF 2.0 sec. 3.8.4; without filters,
+/// trilinear).
+fn sampler_of(s: &gltf::texture::Sampler) -> Sampler {
+    use gltf::texture::{MagFilter, MinFilter, WrappingMode};
+    let wrap = |w: WrappingMode| match w {
+        WrappingMode::Repeat => Wrap::Repeat,
+        WrappingMode::ClampToEdge => Wrap::Clamp,
+        WrappingMode::MirroredRepeat => Wrap::Mirror,
+    };
+    let mag = match s.mag_filter() {
+        Some(MagFilter::Nearest) => Filter::Nearest,
+        _ => Filter::Linear,
+    };
+    let (min, mip) = match s.min_filter() {
+        Some(MinFilter::Nearest) => (Filter::Nearest, None),
+        Some(MinFilter::Linear) => (Filter::Linear, None),
+        Some(MinFilter::NearestMipmapNearest) => (Filter::Nearest, Some(Filter::Nearest)),
+        Some(MinFilter::LinearMipmapNearest) => (Filter::Linear, Some(Filter::Nearest)),
+        Some(MinFilter::NearestMipmapLinear) => (Filter::Nearest, Some(Filter::Linear)),
+        Some(MinFilter::LinearMipmapLinear) | None => (Filter::Linear, Some(Filter::Linear)),
+    };
+    Sampler { wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())], mag, min, mip }
+}
+
+/// What the build leaves out of the materials' textures: base colour textures it cannot read
+/// (drawn in their factor) or that a primitive samples without texture coordinates (drawn in
+/// their mean colour), and the other textures of a material, which osw does not draw (normal,
+/// occlusion, emissive, metallic-roughness). Each names its first few.
+fn texture_notes(doc: &gltf::Document, table: &TextureTable) -> Vec<String> {
+    let base: std::collections::BTreeSet<usize> = doc.materials().filter_map(|m| Some(base_texture(&m)?.texture().index())).collect();
+    let mut notes = Vec::new();
+    let unread: Vec<String> = base
+        .iter()
+        .filter_map(|&k| doc.textures().nth(k))
+        .filter_map(|t| Some(format!("{} ({})", texture_name(doc, &t), table.unread(t.source().index())?)))
+        .collect();
+    if !unread.is_empty() {
+        notes.push(format!("{} base colour textures that cannot be read (drawn in their factor): {}", unread.len(), first_few(&unread)));
+    }
+    let other: std::collections::BTreeSet<usize> = doc
+        .materials()
+        .flat_map(|m| {
+            let pbr = m.pbr_metallic_roughness();
+            [
+                m.normal_texture().map(|t| t.texture().index()),
+                m.occlusion_texture().map(|t| t.texture().index()),
+                m.emissive_texture().map(|t| t.texture().index()),
+                pbr.metallic_roughness_texture().map(|t| t.texture().index()),
+            ]
+        })
+        .flatten()
+        .filter(|k| !base.contains(k))
+        .collect();
+    if !other.is_empty() {
+        let names: Vec<String> = other.iter().filter_map(|&k| doc.textures().nth(k)).map(|t| texture_name(doc, &t)).collect();
         notes.push(format!(
-            "the texture alpha of {} MASK or BLEND materials (a MASK one is drawn opaque and occludes nothing, a BLEND one blends by its factor and COLOR_0): {}",
-            alpha.len(),
-            first_few(&alpha)
+            "{} normal, occlusion, emissive or metallic-roughness textures (osw draws the base colour and its own light): {}",
+            other.len(),
+            first_few(&names)
         ));
     }
     notes
@@ -149,13 +221,12 @@ fn material_name(m: &gltf::Material) -> String {
 }
 
 /// A texture's name, else its image's name or file, else its index.
-fn texture_name(t: &gltf::Texture) -> String {
+fn texture_name(doc: &gltf::Document, t: &gltf::Texture) -> String {
     let image = t.source();
-    let file = match image.source() {
-        gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => Some(uri),
-        _ => None,
-    };
-    t.name().or(image.name()).or(file).map_or_else(|| format!("texture {}", t.index()), |n| format!("'{n}'"))
+    t.name()
+        .or(image.name())
+        .or(super::images::file_name(doc, image.index()))
+        .map_or_else(|| format!("texture {}", t.index()), |n| format!("'{n}'"))
 }
 
 /// The `gltf` crate's validation (indices in range, so that its accessors cannot panic),
@@ -208,14 +279,14 @@ fn load_buffers(doc: &gltf::Document, raw: &Raw, base: &Path, mut blob: Option<V
 }
 
 /// The triangles of every primitive of `mesh`, in the mesh's frame.
-fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], means: &[Result<Mean, String>], skipped: &mut Vec<String>) -> Result<Mesh, ParseError> {
+fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], table: &mut TextureTable, skipped: &mut Vec<String>) -> Result<Mesh, ParseError> {
     let mut m = Mesh::default();
     for prim in mesh.primitives() {
         if matches!(prim.mode(), Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
             skipped.push(format!("mesh {} primitive {}: mode {:?} has no triangles", mesh.index(), prim.index(), prim.mode()));
             continue;
         }
-        let (p, notes) = primitive(&prim, buffers, means).map_err(|e| e.at(format!("primitive {}", prim.index())))?;
+        let (p, notes) = primitive(&prim, buffers, table).map_err(|e| e.at(format!("primitive {}", prim.index())))?;
         skipped.extend(notes.into_iter().map(|n| format!("mesh {} primitive {}: {n}", mesh.index(), prim.index())));
         m.append(&p);
     }
@@ -223,7 +294,7 @@ fn mesh_of(mesh: &gltf::Mesh, buffers: &[&[u8]], means: &[Result<Mean, String>],
 }
 
 /// A primitive's triangles and colours, and what of its material was left out.
-fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]], means: &[Result<Mean, String>]) -> Result<(Mesh, Vec<String>), ParseError> {
+fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]], table: &mut TextureTable) -> Result<(Mesh, Vec<String>), ParseError> {
     let pos = prim.get(&gltf::Semantic::Positions).ok_or_else(|| ParseError::new("no POSITION attribute"))?;
     if pos.dimensions() != Dimensions::Vec3 {
         return Err(ParseError::new(format!("POSITION is {:?}, expected VEC3", pos.dimensions())));
@@ -251,18 +322,20 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]], means: &[Result<Mean, St
     let material = prim.material();
     // Back faces culled unless doubleSided (glTF 2.0 sec. 3.9.5; also without a material).
     let single_sided = if material.double_sided() { Vec::new() } else { vec![true; positions.len()] };
-    let Some(rgba) = colors(prim, buffers, means, positions.len())? else {
-        return Ok((Mesh { positions, indices, normals, single_sided, ..Mesh::default() }, notes));
+    let texcoords = sampled(prim, &material, buffers, table, positions.len(), &mut notes)?;
+    let mean = if texcoords.is_empty() { base_texture(&material).and_then(|info| table.mean(&info)) } else { None };
+    let Some(rgba) = colors(prim, buffers, mean, positions.len())? else {
+        return Ok((Mesh { positions, indices, normals, single_sided, texcoords, ..Mesh::default() }, notes));
     };
     let name = || material_name(&material);
     let encode = |c: [f32; 4], a: u8| [srgb8(c[0]), srgb8(c[1]), srgb8(c[2]), a];
     let colors = match material.alpha_mode() {
         AlphaMode::Opaque => rgba.iter().map(|&c| encode(c, 255)).collect(),
         AlphaMode::Blend => rgba.iter().map(|&c| encode(c, crate::mesh::alpha(c[3]))).collect(),
-        // Alpha testing (glTF 2.0 sec. 3.9.4) without textures: a triangle whose alpha is below
-        // the cutoff at every corner is discarded whole, the rest drawn opaque. Those holed
-        // where their alpha falls below the cutoff, between corners or by their texture's alpha
-        // (not read), are cut-outs: never occluders.
+        // Alpha testing (glTF 2.0 sec. 3.9.4) by the factor and COLOR_0: a triangle whose alpha
+        // is below the cutoff at every corner is discarded whole, the rest drawn opaque. Those
+        // holed where their alpha falls below the cutoff, between corners or by their texture's
+        // alpha (tested per pixel where sampled), are cut-outs: never occluders.
         AlphaMode::Mask => {
             let cutoff = material.alpha_cutoff().unwrap_or(0.5);
             let before = indices.len() / 3;
@@ -278,7 +351,62 @@ fn primitive(prim: &gltf::Primitive, buffers: &[&[u8]], means: &[Result<Mean, St
             colors
         }
     };
-    Ok((Mesh { positions, indices, colors, normals, single_sided }, notes))
+    Ok((Mesh { positions, indices, colors, normals, single_sided, texcoords }, notes))
+}
+
+/// Where each vertex samples the material's base colour texture; empty where the material
+/// has none, its image cannot be read or the primitive has no coordinates for it.
+fn sampled(
+    prim: &gltf::Primitive,
+    material: &gltf::Material,
+    buffers: &[&[u8]],
+    table: &mut TextureTable,
+    vertices: usize,
+    notes: &mut Vec<String>,
+) -> Result<Vec<Texcoord>, ParseError> {
+    let Some(info) = base_texture(material).filter(|info| table.mean(info).is_some()) else { return Ok(Vec::new()) };
+    let Some(uv) = texcoords(prim, &info, buffers, vertices, notes)? else { return Ok(Vec::new()) };
+    let Some(texture) = table.texture(&info, material) else { return Ok(Vec::new()) };
+    Ok(uv.into_iter().map(|uv| Texcoord { uv, texture }).collect())
+}
+
+/// The coordinates at which a primitive samples the texture of `info`: its TEXCOORD_n,
+/// through `KHR_texture_transform` (offset, rotation and scale: T x R x S, as the extension
+/// defines it). None where the primitive has no such set.
+fn texcoords(
+    prim: &gltf::Primitive,
+    info: &gltf::texture::Info,
+    buffers: &[&[u8]],
+    vertices: usize,
+    notes: &mut Vec<String>,
+) -> Result<Option<Vec<[f32; 2]>>, ParseError> {
+    let transform = info.texture_transform();
+    let set = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
+    let Some(acc) = prim.get(&gltf::Semantic::TexCoords(set)) else {
+        notes.push(format!("no TEXCOORD_{set} for its base colour texture (drawn in the texture's mean colour)"));
+        return Ok(None);
+    };
+    if acc.dimensions() != Dimensions::Vec2 {
+        return Err(ParseError::new(format!("TEXCOORD_{set} is {:?}, expected VEC2", acc.dimensions())));
+    }
+    let mut uv = floats::<2>(&acc, buffers).map_err(|e| e.at(format!("TEXCOORD_{set}")))?;
+    if uv.len() != vertices {
+        return Err(ParseError::new(format!("TEXCOORD_{set} has {} elements for {vertices} vertices", uv.len())));
+    }
+    if let Some(t) = transform {
+        let ([x, y], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
+        let (sin, cos) = r.sin_cos();
+        for p in &mut uv {
+            let [u, v] = *p;
+            *p = [cos * sx * u + sin * sy * v + x, -sin * sx * u + cos * sy * v + y];
+        }
+    }
+    let bad = uv.iter().filter(|p| !p.iter().all(|c| c.is_finite())).count();
+    if bad > 0 {
+        uv.iter_mut().filter(|p| !p.iter().all(|c| c.is_finite())).for_each(|p| *p = [0.0; 2]);
+        notes.push(format!("{bad} texture coordinates not finite (sampled at 0, 0)"));
+    }
+    Ok(Some(uv))
 }
 
 /// The primitive's NORMAL, encoded; empty without one. A normal of zero length or not finite
@@ -301,23 +429,17 @@ fn normals(prim: &gltf::Primitive, buffers: &[&[u8]], vertices: usize, notes: &m
 }
 
 /// The primitive's linear colour per vertex: COLOR_0 times the material's baseColorFactor
-/// (glTF 2.0 sec. 3.9.2) times its base colour texture's mean where that can be read (of a
-/// MASK material the colour alone: its alpha is tested against the cutoff). None for a
-/// primitive with neither a material nor COLOR_0 (glTF's default material is plain white,
-/// which would hide the objects from each other).
-fn colors(
-    prim: &gltf::Primitive,
-    buffers: &[&[u8]],
-    means: &[Result<Mean, String>],
-    vertices: usize,
-) -> Result<Option<Vec<[f32; 4]>>, ParseError> {
+/// (glTF 2.0 sec. 3.9.2), times `mean`, its base colour texture's mean where that is read but
+/// not sampled (of a MASK material the colour alone: its alpha is tested against the cutoff).
+/// None for a primitive with neither a material nor COLOR_0 (glTF's default material is plain
+/// white, which would hide the objects from each other).
+fn colors(prim: &gltf::Primitive, buffers: &[&[u8]], mean: Option<[f32; 4]>, vertices: usize) -> Result<Option<Vec<[f32; 4]>>, ParseError> {
     let material = prim.material();
     let color0 = prim.get(&gltf::Semantic::Colors(0));
     if material.index().is_none() && color0.is_none() {
         return Ok(None);
     }
     let mut base = material.pbr_metallic_roughness().base_color_factor();
-    let mean = base_texture(&material).and_then(|t| means.get(t.texture().source().index())?.as_ref().ok().copied());
     if let Some(mean) = mean {
         let channels = if material.alpha_mode() == AlphaMode::Mask { 3 } else { 4 };
         (0..channels).for_each(|k| base[k] *= mean[k]);
@@ -338,11 +460,6 @@ fn colors(
         }
     };
     Ok(Some(per_vertex.into_iter().map(|c| [0, 1, 2, 3].map(|k| c[k] * base[k])).collect()))
-}
-
-/// A linear colour channel as an sRGB byte.
-fn srgb8(linear: f32) -> u8 {
-    (texture_mean::linear_to_srgb(linear) * 255.0).round() as u8
 }
 
 /// A triangle list from the vertex order of a list, strip or fan (glTF 2.0 sec. 3.7.2.1).

@@ -4,10 +4,10 @@
 
 pub mod gltf;
 mod gltf_raw;
+mod images;
 mod meshopt_views;
 pub mod obj;
 pub mod ply;
-mod texture_mean;
 
 use crate::mesh::Object;
 use std::path::{Path, PathBuf};
@@ -69,12 +69,13 @@ impl ParseError {
     }
 }
 
-/// What an importer read: the objects, what it skipped with a warning (the build report's
-/// notes), and what of the model it read but does not use (the report's `left_out`: the
-/// textures of a glTF).
+/// What an importer read: the objects, the textures they sample, what it skipped with a
+/// warning (the build report's notes), and what of the model it read but does not use (the
+/// report's `left_out`).
 #[derive(Debug, Default)]
 pub struct Imported {
     pub objects: Vec<Object>,
+    pub textures: crate::texture::Textures,
     pub skipped: Vec<String>,
     pub left_out: Vec<String>,
 }

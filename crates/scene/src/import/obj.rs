@@ -3,12 +3,14 @@
 //! resolved; points and lines are skipped. The material libraries it names (`mtllib`, beside
 //! the file) must be readable; an object's material gives its colour (Kd) and, with d below 1,
 //! its translucency; one with an alpha texture (map_d) is a cut-out ([`crate::mesh::CUT_OUT`]).
-//! Textures are not sampled: a diffuse texture (map_Kd) multiplies Kd by its mean colour, and
-//! `left_out` names them. All objects of a file share one f32 anchor
-//! (see [`crate::place`]).
+//! A diffuse texture (map_Kd) is sampled at the vertices' `vt` (OBJ's v runs up the image,
+//! glTF's down), with its own alpha as a cut-out's where map_d names the same file; a
+//! textured object without `vt` is drawn in Kd times the texture's mean colour. All objects of
+//! a file share one f32 anchor (see [`crate::place`]).
 
 use super::{ImportError, Imported, ParseError, first_few};
 use crate::mesh::{Mesh, Object};
+use crate::texture::{Sampler, Texcoord, Texture, Textures};
 use glam::{DAffine3, DVec3};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -43,14 +45,23 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
     }
     let materials = materials.map_err(|e| ParseError::caused("material library", e))?;
 
-    // Each diffuse texture's mean colour, as displayed, or why it cannot be read.
-    let means: Vec<Option<Result<[f32; 3], String>>> = materials
+    // Each material's diffuse texture, stored, or why it cannot be read.
+    let mut textures = Textures::default();
+    let mut files = std::collections::HashMap::new();
+    let diffuse: Vec<Option<Result<u32, String>>> = materials
         .iter()
         .map(|m| {
-            let mean = |t: &String| {
-                super::texture_mean::of_file(&base.join(t)).map(|c| [0, 1, 2].map(|k| super::texture_mean::linear_to_srgb(c[k])))
+            let file = m.diffuse_texture.as_ref()?;
+            let image = match files.get(file) {
+                Some(&k) => Ok(k),
+                None => super::images::of_file(&base.join(file)).map(|image| {
+                    textures.images.push(image);
+                    files.insert(file.clone(), textures.images.len() as u32 - 1);
+                    textures.images.len() as u32 - 1
+                }),
             };
-            m.diffuse_texture.as_ref().map(mean)
+            let cutoff = (m.dissolve_texture.as_ref() == Some(file)).then_some(0.5);
+            Some(image.map(|image| textures.add(Texture { image, sampler: Sampler::default(), cutoff })))
         })
         .collect();
     let points = models.iter().flat_map(|m| m.mesh.positions.chunks_exact(3)).map(|p| DVec3::new(p[0], p[1], p[2]));
@@ -65,13 +76,23 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
                 let given = m.mesh.normals.chunks_exact(3).map(|n| DVec3::new(n[0], n[1], n[2]).as_vec3());
                 mesh.normals = given.map(crate::normal::given).collect();
             }
-            // Kd, the diffuse colour, as display values (what OBJ viewers show), times its
-            // texture's mean where it has one; d below 1 is translucent.
+            // Kd, the diffuse colour, as display values (what OBJ viewers show): times its
+            // texture where sampled, else times the texture's mean; d below 1 is translucent.
             let material = m.mesh.material_id.and_then(|id| materials.get(id));
-            let mean = m.mesh.material_id.and_then(|id| means.get(id)?.as_ref()?.as_ref().ok());
+            let texture = m.mesh.material_id.and_then(|id| diffuse.get(id)?.as_ref()?.as_ref().ok().copied());
+            if let Some(texture) = texture
+                && m.mesh.texcoords.len() == p.len() * 2
+            {
+                let uv = m.mesh.texcoords.chunks_exact(2).map(|t| [t[0] as f32, (1.0 - t[1]) as f32]);
+                mesh.texcoords = uv.map(|uv| Texcoord { uv, texture }).collect();
+            }
+            let mean = texture.filter(|_| mesh.texcoords.is_empty()).map(|t| {
+                let m = crate::texture::mean(&textures.images[textures.textures[t as usize].image as usize]);
+                [0, 1, 2].map(|k| crate::texture::linear_to_srgb(m[k]))
+            });
             // A cut-out without Kd takes MTL's default, 0.8: its alpha must be stored.
             let cut_out = material.is_some_and(|mat| mat.dissolve_texture.is_some());
-            let default = (cut_out || mean.is_some()).then_some([0.8; 3]);
+            let default = (cut_out || texture.is_some()).then_some([0.8; 3]);
             if let Some(kd) = material.and_then(|mat| mat.diffuse.or(default)) {
                 let texel = |k: usize| mean.map_or(1.0, |m| m[k]);
                 let c = |k: usize| ((kd[k] as f32 * texel(k)).clamp(0.0, 1.0) * 255.0).round() as u8;
@@ -86,44 +107,41 @@ pub fn parse(obj: &mut impl std::io::BufRead, base: &Path) -> Result<Imported, P
             Object::placed(name, mesh, anchor, DAffine3::IDENTITY)
         })
         .collect();
-    Ok(Imported { objects, left_out: texture_notes(&materials, &means), ..Imported::default() })
+    Ok(Imported { objects, left_out: texture_notes(&materials, &diffuse), textures, ..Imported::default() })
 }
 
-/// One of a material's texture maps.
-type Map = fn(&tobj::Material) -> Option<&String>;
-
-/// The textures of `materials`, which the build does not sample: the diffuse ones (map_Kd),
-/// drawn as their mean colour where `means` could read them, and the alpha ones (map_d) of
-/// cut-outs, each note naming its first few.
-fn texture_notes(materials: &[tobj::Material], means: &[Option<Result<[f32; 3], String>>]) -> Vec<String> {
-    let named = |texture: Map| {
-        let mut names: Vec<String> = materials.iter().filter_map(texture).map(|t| format!("'{t}'")).collect();
-        names.sort();
-        names.dedup();
-        (materials.iter().filter(|m| texture(m).is_some()).count(), names)
+/// What the build leaves out of the materials' textures: diffuse ones (map_Kd) it cannot read,
+/// drawn in their Kd, and alpha ones (map_d) other than the diffuse texture itself, whose
+/// surfaces are cut-outs drawn whole, each note naming its first few.
+fn texture_notes(materials: &[tobj::Material], diffuse: &[Option<Result<u32, String>>]) -> Vec<String> {
+    let sorted = |mut v: Vec<String>| {
+        v.sort();
+        v.dedup();
+        v
     };
-    let kinds: [(Map, &str, &str); 2] = [
-        (
-            |m| m.diffuse_texture.as_ref(),
-            "diffuse textures (map_Kd)",
-            "textures are not sampled: those surfaces are drawn in their Kd times the texture's mean colour",
-        ),
-        (|m| m.dissolve_texture.as_ref(), "alpha textures (map_d)", "their surfaces are cut-outs, drawn whole, occluding nothing"),
-    ];
-    let notes = kinds.into_iter().map(|(texture, what, why)| {
-        let (uses, names) = named(texture);
-        (uses > 0).then(|| format!("{} {what} of {uses} materials ({why}): {}", names.len(), first_few(&names)))
+    let alpha = sorted(
+        materials
+            .iter()
+            .filter_map(|m| m.dissolve_texture.as_ref().filter(|&d| m.diffuse_texture.as_ref() != Some(d)).map(|t| format!("'{t}'")))
+            .collect(),
+    );
+    let unread = sorted(
+        materials
+            .iter()
+            .zip(diffuse)
+            .filter_map(|(m, d)| Some(format!("'{}' ({})", m.diffuse_texture.as_ref()?, d.as_ref()?.as_ref().err()?)))
+            .collect(),
+    );
+    let alpha = (!alpha.is_empty()).then(|| {
+        format!(
+            "{} alpha textures (map_d) apart from their diffuse texture (their surfaces are cut-outs, drawn whole, occluding nothing): {}",
+            alpha.len(),
+            first_few(&alpha)
+        )
     });
-    let mut unread: Vec<String> = materials
-        .iter()
-        .zip(means)
-        .filter_map(|(m, mean)| Some(format!("'{}' ({})", m.diffuse_texture.as_ref()?, mean.as_ref()?.as_ref().err()?)))
-        .collect();
-    unread.sort();
-    unread.dedup();
     let unread = (!unread.is_empty())
         .then(|| format!("{} diffuse textures that cannot be read (drawn in their Kd): {}", unread.len(), first_few(&unread)));
-    notes.flatten().chain(unread).collect()
+    alpha.into_iter().chain(unread).collect()
 }
 
 fn describe(e: tobj::LoadError) -> ParseError {
