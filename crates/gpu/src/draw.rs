@@ -55,9 +55,8 @@ pub struct ViewUniform {
     pub view_proj: [[f32; 4]; 4],
     pub offset: [f32; 4],
     /// x: the pass's tint, RGB in the low three bytes and 255 in the high one, or 0: each
-    /// object in its own colour; y: the pass's [`crate::uses::Uses::shift`]; z: the texture
-    /// level forced (f32 bits); w: bit 0 where textures are sampled (else drawn in their mean
-    /// colour), bit 1 where z forces the level.
+    /// object in its own colour; y: the pass's [`crate::uses::Uses::shift`]; z: a texture
+    /// level (f32 bits), forced where w is 1.
     pub draw: [u32; 4],
 }
 
@@ -92,13 +91,20 @@ impl Pass {
     }
 }
 
-pub struct DrawPipelines {
-    pub layout: wgpu::BindGroupLayout,
+/// The colour pipelines of one kind of surface: untextured, or textured (see `TEXTURES` in
+/// shaders/draw.wgsl).
+pub struct ColorPipelines {
     pub color: wgpu::RenderPipeline,
     pub color_over: wgpu::RenderPipeline,
+    pub blend: wgpu::RenderPipeline,
+}
+
+pub struct DrawPipelines {
+    pub layout: wgpu::BindGroupLayout,
+    pub plain: ColorPipelines,
+    pub textured: ColorPipelines,
     pub depth: wgpu::RenderPipeline,
     pub item: wgpu::RenderPipeline,
-    pub blend: wgpu::RenderPipeline,
     pub item_over: wgpu::RenderPipeline,
 }
 
@@ -113,8 +119,9 @@ pub fn depth_state(write: bool, compare: wgpu::CompareFunction) -> wgpu::DepthSt
 }
 
 impl DrawPipelines {
-    /// The pipelines whose vertex shader places instances with `rows`.
-    pub fn new(device: &wgpu::Device, rows: Rows) -> DrawPipelines {
+    /// The pipelines whose vertex shader places instances with `rows`; textured surfaces
+    /// sampled where `sample`, else in each texture's mean colour.
+    pub fn new(device: &wgpu::Device, rows: Rows, sample: bool) -> DrawPipelines {
         let place = match rows {
             Rows::Exact => include_str!("shaders/place64.wgsl"),
             Rows::Single => include_str!("shaders/place32.wgsl"),
@@ -162,14 +169,21 @@ impl DrawPipelines {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let make = |label: &str, module: &wgpu::ShaderModule, fs: Option<(&str, wgpu::TextureFormat)>, layer: Layer, compare| {
+        let make = |label: &str,
+                    module: &wgpu::ShaderModule,
+                    fs: Option<(&str, wgpu::TextureFormat)>,
+                    layer: Layer,
+                    compare,
+                    textures: u32| {
+            let constants = [("TEXTURES", textures as f64)];
+            let compilation_options = wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() };
             let vs = if fs.is_some_and(|(_, f)| f == COLOR) { "vs_shade" } else { "vs_main" };
             let blend = (layer == Layer::Translucent && fs.is_some_and(|(_, f)| f == COLOR)).then_some(wgpu::BlendState::ALPHA_BLENDING);
             let targets = fs.map(|(_, f)| [Some(wgpu::ColorTargetState { format: f, blend, write_mask: wgpu::ColorWrites::ALL })]);
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&pl),
-                vertex: wgpu::VertexState { module, entry_point: Some(vs), compilation_options: Default::default(), buffers: &[] },
+                vertex: wgpu::VertexState { module, entry_point: Some(vs), compilation_options: compilation_options.clone(), buffers: &[] },
                 // No back-face culling: a single-sided surface's back faces are dropped while its
                 // pass gathers them (osw_cull::cluster), the same way in every pass.
                 primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
@@ -178,7 +192,7 @@ impl DrawPipelines {
                 fragment: fs.map(|(entry, _)| wgpu::FragmentState {
                     module,
                     entry_point: Some(entry),
-                    compilation_options: Default::default(),
+                    compilation_options: compilation_options.clone(),
                     targets: targets.as_ref().map(|t| t.as_slice()).unwrap_or(&[]),
                 }),
                 multiview_mask: None,
@@ -186,24 +200,29 @@ impl DrawPipelines {
             })
         };
         use wgpu::CompareFunction::{Greater, GreaterEqual};
+        let colors = |textures: u32| ColorPipelines {
+            color: make("draw color", &module, Some(("fs_color", COLOR)), Layer::Opaque, Greater, textures),
+            color_over: make("draw color over", &module, Some(("fs_color", COLOR)), Layer::Opaque, GreaterEqual, textures),
+            blend: make("draw blend", &module, Some(("fs_blend", COLOR)), Layer::Translucent, Greater, textures),
+        };
         DrawPipelines {
-            color: make("draw color", &module, Some(("fs_color", COLOR)), Layer::Opaque, Greater),
-            color_over: make("draw color over", &module, Some(("fs_color", COLOR)), Layer::Opaque, GreaterEqual),
-            depth: make("draw depth", &module, None, Layer::Opaque, Greater),
-            item: make("draw item", &item_module, Some(("fs_item", ITEM)), Layer::Opaque, Greater),
-            blend: make("draw blend", &module, Some(("fs_blend", COLOR)), Layer::Translucent, Greater),
-            item_over: make("draw item over", &item_module, Some(("fs_item", ITEM)), Layer::Translucent, Greater),
+            plain: colors(0),
+            textured: colors(if sample { 2 } else { 1 }),
+            depth: make("draw depth", &module, None, Layer::Opaque, Greater, 0),
+            item: make("draw item", &item_module, Some(("fs_item", ITEM)), Layer::Opaque, Greater, 0),
+            item_over: make("draw item over", &item_module, Some(("fs_item", ITEM)), Layer::Translucent, Greater, 0),
             layout,
         }
     }
 
-    /// The pipeline of `pass` for `layer`; translucent clusters are never drawn into depth
-    /// alone (they occlude nothing), so the depth pass has one.
-    pub fn pipeline(&self, pass: Pass, layer: Layer) -> &wgpu::RenderPipeline {
+    /// The pipeline of `pass` for `layer`, for textured triangles or not; translucent clusters
+    /// are never drawn into depth alone (they occlude nothing), so the depth pass has one.
+    pub fn pipeline(&self, pass: Pass, layer: Layer, textured: bool) -> &wgpu::RenderPipeline {
+        let colors = if textured { &self.textured } else { &self.plain };
         match (pass, layer) {
-            (Pass::Color | Pass::Tinted(_), Layer::Opaque) => &self.color,
-            (Pass::ColorOver, Layer::Opaque) => &self.color_over,
-            (Pass::Color | Pass::Tinted(_) | Pass::ColorOver, Layer::Translucent) => &self.blend,
+            (Pass::Color | Pass::Tinted(_), Layer::Opaque) => &colors.color,
+            (Pass::ColorOver, Layer::Opaque) => &colors.color_over,
+            (Pass::Color | Pass::Tinted(_) | Pass::ColorOver, Layer::Translucent) => &colors.blend,
             (Pass::Depth, _) => &self.depth,
             (Pass::Item, Layer::Opaque) => &self.item,
             (Pass::Item, Layer::Translucent) => &self.item_over,

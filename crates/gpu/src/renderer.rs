@@ -217,6 +217,8 @@ pub struct Renderer {
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
     /// The pass's index list, as gathered ([`crate::gather`]), and the nodes its indices name.
     pub(crate) indices: Vec<u32>,
+    /// The pass's draws: ranges of `indices`, and whether each holds textured triangles.
+    draws: Vec<(std::ops::Range<u32>, bool)>,
     pub(crate) uses: Uses,
     /// Each node's indices as last gathered, for passes of the same view.
     pub(crate) gathered: Gathered,
@@ -252,7 +254,7 @@ impl Renderer {
         }
         use wgpu::BufferUsages as U;
         let rows = if options.single_rows { Rows::Single } else { Rows::of(&gpu) };
-        let draw = DrawPipelines::new(&gpu.device, rows);
+        let draw = DrawPipelines::new(&gpu.device, rows, options.textures);
         let boxtest = BoxTestPipelines::new(&gpu.device);
         let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);
         let index_buf = storage(&gpu, "pass indices", 4, U::INDEX | U::COPY_DST);
@@ -301,6 +303,7 @@ impl Renderer {
             results_staging,
             box_group,
             indices: Vec::new(),
+            draws: Vec::new(),
             uses: Uses::new(rows, options.max_nodes),
             gathered: Gathered::default(),
             gpu_boxes: Vec::new(),
@@ -377,8 +380,8 @@ impl Renderer {
     pub fn submit(&mut self, view: &View, pass: Pass, layer: Layer, load: Load, stats: &mut DrawStats) -> Result<(), RenderError> {
         // What is submitted, not what the node table says.
         stats.triangles = self.indices.len() as u64 / 3;
-        stats.draws = 1;
         let bytes = self.upload(view, pass, layer)?;
+        stats.draws = self.draws.len().max(1) as u32;
         let drawn = bytes > 0 && self.bind_arena();
         let label = pass.label(layer);
         let mut enc = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
@@ -405,21 +408,49 @@ impl Renderer {
             let size = use_bytes.next_power_of_two();
             self.uses_buf = storage(&self.gpu, "pass uses", size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
         }
+        self.split_textured(pass, layer);
         if pass == Pass::ColorOver && layer == Layer::Opaque {
             // Last triangle first, each triangle's corners in their order (see Pass::ColorOver).
             self.indices.reverse();
             self.indices.chunks_exact_mut(3).for_each(<[u32]>::reverse);
+            let n = self.indices.len() as u32;
+            self.draws = self.draws.iter().rev().map(|(r, t)| (n - r.end..n - r.start, *t)).collect();
         }
         let q = &self.gpu.queue;
         let level = self.options.texture_level;
-        let flags = u32::from(self.options.textures) | u32::from(level.is_some()) << 1;
-        let draw = [pass.tint(), self.uses.shift, level.unwrap_or(0.0).to_bits(), flags];
+        let draw = [pass.tint(), self.uses.shift, level.unwrap_or(0.0).to_bits(), u32::from(level.is_some())];
         q.write_buffer(&self.view_buf, 0, bytemuck::bytes_of(&ViewUniform { draw, ..ViewUniform::new(view) }));
         if bytes > 0 {
             q.write_buffer(&self.index_buf, 0, bytemuck::cast_slice(&self.indices));
             q.write_buffer(&self.uses_buf, 0, bytemuck::cast_slice(&self.uses.list));
         }
         Ok(bytes)
+    }
+
+    /// The pass's draws ([`Renderer::draws`]): a colour pass's opaque triangles of textured
+    /// nodes after the others, each group drawn by its own pipeline (shaders/draw.wgsl,
+    /// `TEXTURES`), in submission order otherwise kept; a translucent layer with any textured
+    /// node is one textured draw, so that its far-to-near order holds.
+    fn split_textured(&mut self, pass: Pass, layer: Layer) {
+        let n = self.indices.len() as u32;
+        let colour = matches!(pass, Pass::Color | Pass::Tinted(_) | Pass::ColorOver);
+        let textured = |uses: &Uses, i: u32| uses.list[(i >> uses.shift) as usize].textured != 0;
+        if !colour || !self.uses.list.iter().any(|u| u.textured != 0) {
+            self.draws = vec![(0..n, false)];
+            return;
+        }
+        if layer == Layer::Translucent {
+            self.draws = vec![(0..n, true)];
+            return;
+        }
+        let (mut plain, mut sampled) = (Vec::with_capacity(self.indices.len()), Vec::new());
+        for t in self.indices.chunks_exact(3) {
+            if textured(&self.uses, t[0]) { &mut sampled } else { &mut plain }.extend_from_slice(t);
+        }
+        let k = plain.len() as u32;
+        plain.extend_from_slice(&sampled);
+        self.indices = plain;
+        self.draws = [(0..k, false), (k..n, true)].into_iter().filter(|(r, _)| !r.is_empty()).collect();
     }
 
     /// Makes the draw's bind group again where the arena or the use table grew since the last
@@ -493,10 +524,12 @@ impl Renderer {
             rp.begin_pipeline_statistics_query(set, 0);
         }
         if let (Some(bytes), Some((group, _))) = (bytes, &self.draw_group) {
-            rp.set_pipeline(self.draw.pipeline(pass, layer));
             rp.set_bind_group(0, group, &[]);
             rp.set_index_buffer(self.index_buf.slice(..bytes), wgpu::IndexFormat::Uint32);
-            rp.draw_indexed(0..self.indices.len() as u32, 0, 0..1);
+            for (range, textured) in &self.draws {
+                rp.set_pipeline(self.draw.pipeline(pass, layer, *textured));
+                rp.draw_indexed(range.clone(), 0, 0..1);
+            }
         }
         if query.is_some() {
             rp.end_pipeline_statistics_query();

@@ -13,7 +13,7 @@ pub struct Args {
     /// Adapter: the first whose name contains this text [default: a GPU, else lavapipe].
     #[arg(long, value_name = "NAME")]
     adapter: Option<String>,
-    /// Also read and check every geometry block (reads the whole file).
+    /// Also read and check every geometry block and image (reads the whole file).
     #[arg(long)]
     check_geometry: bool,
 }
@@ -64,6 +64,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         out!("detail: static LOD chains and HLODs (--lod chains)");
     }
     out!("origin: {:?}", h.origin);
+    if h.image_count > 0 {
+        let largest = scene.images().iter().map(|m| m.width.max(m.height)).max().unwrap_or(0);
+        out!(
+            "textures: {} images ({} bytes of mip chains, the largest {largest} texels a side), {} textures",
+            h.image_count,
+            h.texels_bytes,
+            h.texture_count
+        );
+    } else {
+        out!("textures: none");
+    }
     out!("file_bytes: {file_bytes}");
     out!("open_ms: {open_ms:.2}");
     out!(
@@ -77,7 +88,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         for id in scene.bvh_count()..h.node_count {
             scene.geometry(id)?;
         }
-        out!("geometry: all {} blocks pass their hash and index checks in {:.1} ms", h.block_count, t.elapsed().as_secs_f64() * 1e3);
+        for k in 0..h.image_count {
+            scene.texels(k)?;
+        }
+        out!(
+            "geometry: all {} blocks and {} images pass their hash and index checks in {:.1} ms",
+            h.block_count,
+            h.image_count,
+            t.elapsed().as_secs_f64() * 1e3
+        );
         let rss_read = osw_render::stats::resident_bytes();
         out!(
             "resident_bytes_after_geometry: {} (grew by {} since opening, {:.1}% of the file)",

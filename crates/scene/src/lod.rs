@@ -1,6 +1,10 @@
 //! Static LOD chains for leaves (occlusion switch sec. 4.1), made with meshoptimizer's
 //! edge-collapse simplifier. Chunk borders are locked so that neighbouring chunks of one
-//! object at different levels still meet without cracks.
+//! object at different levels still meet without cracks. A textured chunk is simplified with
+//! its texture coordinates as attributes (meshoptimizer's attribute-aware quadrics): a collapse
+//! that slides the texture across the surface costs as a geometric one does, so a flat but
+//! textured surface keeps the vertices its mapping needs, and its level's error includes that
+//! slide. UV seams and a cut-out's border are vertices split by their attributes: kept.
 //!
 //! Errors: meshoptimizer reports each step's error relative to the mesh's extent; the object
 //! error of level k is the sum of the steps' absolute errors, an upper bound on the distance to
@@ -9,6 +13,11 @@
 
 use crate::limits::{LOD_MAX_LEVELS, LOD_MIN_REDUCTION, LOD_MIN_TRIANGLES, LOD_TARGET_RATIO};
 use crate::mesh::Mesh;
+
+/// Weight of a texture coordinate's change against a position's (meshoptimizer scales
+/// positions to the mesh's extent): sliding the texture by its whole width costs as much as
+/// moving the surface by the chunk's size.
+const UV_WEIGHT: f32 = 1.0;
 
 /// One level of a chain: geometry and its object-space error (world units).
 #[derive(Clone, Debug)]
@@ -52,6 +61,8 @@ pub fn chain(mesh: Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
         let target = ((prev.mesh.indices.len() as f32 * LOD_TARGET_RATIO) as usize / 3 * 3).max(3);
         let pays = |indices: &[u32]| !indices.is_empty() && indices.len() as f32 <= prev.mesh.indices.len() as f32 * LOD_MIN_REDUCTION;
         let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&prev.mesh.positions), 12, 0).expect("12-byte vertices");
+        let uv: Vec<f32> = prev.mesh.texcoords.iter().flat_map(|t| t.uv).collect();
+        let unlocked = vec![false; if uv.is_empty() { 0 } else { prev.mesh.positions.len() }];
         // Pruning removes whole disconnected parts at an error of their radius: what a cloud
         // of small parts (bolts, grating) needs, but it also removes a 6 m column at 3 m where
         // edge collapse alone flattens it onto its axis at an error of its thickness (a floor
@@ -65,7 +76,12 @@ pub fn chain(mesh: Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
         // Error limit 1.0 (relative): no limit, the level's error is measured, not bounded.
         let simplify = |opts| {
             let mut rel = 0.0f32;
-            let indices = meshopt::simplify(&prev.mesh.indices, &adapter, target, 1.0, opts, Some(&mut rel));
+            let indices = if uv.is_empty() {
+                meshopt::simplify(&prev.mesh.indices, &adapter, target, 1.0, opts, Some(&mut rel))
+            } else {
+                let (i, a) = (&prev.mesh.indices, &adapter);
+                meshopt::simplify_with_attributes_and_locks(i, a, &uv, &[UV_WEIGHT; 2], 8, &unlocked, target, 1.0, opts, Some(&mut rel))
+            };
             (indices, rel)
         };
         let (mut indices, mut rel) = simplify(meshopt::SimplifyOptions::LockBorder | meshopt::SimplifyOptions::Prune);
@@ -124,6 +140,48 @@ mod tests {
         assert!(levels[1].mesh.triangle_count() * 2 < levels[0].mesh.triangle_count());
         // Removing whole columns costs their half-height (about 3 m); flattening them, their width.
         assert!(levels[1].error < 0.5, "level 1 error {} m", levels[1].error);
+    }
+
+    /// A flat grid whose texture is mapped unevenly (u grows as x squared): without its
+    /// coordinates a flat surface collapses to its border at no error and the texture slides
+    /// across it; with them, level 1 keeps the mapping's shape.
+    #[test]
+    fn a_flat_textured_surface_keeps_the_vertices_its_mapping_needs() {
+        let n = 32;
+        let mut m = Mesh::default();
+        for y in 0..=n {
+            for x in 0..=n {
+                let (fx, fy) = (x as f32 / n as f32, y as f32 / n as f32);
+                m.positions.push([fx, fy, 0.0]);
+                m.texcoords.push(crate::texture::Texcoord { uv: [fx * fx, fy], texture: 0 });
+            }
+        }
+        for y in 0..n {
+            for x in 0..n {
+                let v = y * (n + 1) + x;
+                m.indices.extend([v, v + 1, v + n + 2, v, v + n + 2, v + n + 1]);
+            }
+        }
+        // Where a point of the surface samples the texture on a level: its triangle's
+        // interpolated u, against x squared.
+        let slide = |level: &Mesh| {
+            let mut worst = 0f32;
+            for t in level.indices.chunks_exact(3) {
+                let p: Vec<Vec3> = t.iter().map(|&v| Vec3::from_array(level.positions[v as usize])).collect();
+                let centre = (p[0] + p[1] + p[2]) / 3.0;
+                let u = t.iter().map(|&v| level.texcoords[v as usize].uv[0]).sum::<f32>() / 3.0;
+                worst = worst.max((u - centre.x * centre.x).abs());
+            }
+            worst
+        };
+        let (textured, _) = chain(m.clone(), 1e-6);
+        let (plain, _) = chain(Mesh { texcoords: Vec::new(), ..m }, 1e-6);
+        let with_uv = Mesh {
+            texcoords: plain[1].mesh.positions.iter().map(|p| crate::texture::Texcoord { uv: [p[0] * p[0], p[1]], texture: 0 }).collect(),
+            ..plain[1].mesh.clone()
+        };
+        assert!(slide(&textured[1].mesh) < slide(&with_uv) / 2.0, "{} against {}", slide(&textured[1].mesh), slide(&with_uv));
+        assert!(textured[1].error > 0.0);
     }
 
     #[test]

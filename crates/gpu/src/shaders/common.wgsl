@@ -5,8 +5,8 @@
 struct ViewUniform {
     view_proj: mat4x4<f32>,
     offset: vec4<f32>,
-    // x: the draw pass's tint, y: its use table's shift, z: a texture level forced, w: texture
-    // flags (draw.wgsl, gpu/src/draw.rs).
+    // x: the draw pass's tint, y: its use table's shift, z: a texture level, forced where w is 1
+    // (draw.wgsl, gpu/src/draw.rs).
     draw: vec4<u32>,
 }
 

@@ -46,6 +46,12 @@ struct Use {
 const NO_NORMAL: u32 = 0xffffffffu;
 const NO_TEXTURE: u32 = 0xffffffffu;
 
+// How a colour pipeline colours a textured surface: 0 not at all (its draws hold no textured
+// triangle), 1 in each texture's mean colour, 2 sampled. A pipeline constant rather than a
+// branch: lavapipe runs both sides of a branch for every pixel under a mask, so sampling code
+// behind an untaken branch costs what sampling costs (measured).
+override TEXTURES: u32 = 0u;
+
 struct Texcoord {
     u: f32,
     v: f32,
@@ -179,7 +185,7 @@ fn surface(in: VertexOut) -> vec4<f32> {
     if (in.color.a > 0.0) {
         base = in.color;
     }
-    if (in.texture != NO_TEXTURE) {
+    if (TEXTURES != 0u && in.texture != NO_TEXTURE) {
         // Products of sRGB-encoded values: within a rounding of products in linear light
         // (sRGB is close to a power law), as the light below is applied.
         base *= texel(textures[in.texture], in.uv, dx, dy);
@@ -195,7 +201,7 @@ fn surface(in: VertexOut) -> vec4<f32> {
 @fragment
 fn fs_color(in: VertexOut) -> @location(0) vec4<f32> {
     let c = surface(in);
-    if (in.texture != NO_TEXTURE && c.a < textures[in.texture].cutoff) {
+    if (TEXTURES != 0u && in.texture != NO_TEXTURE && c.a < textures[in.texture].cutoff) {
         discard;
     }
     return vec4<f32>(c.rgb, 1.0);
@@ -208,16 +214,16 @@ fn fs_blend(in: VertexOut) -> @location(0) vec4<f32> {
 }
 
 // Texture t at uv, sRGB-encoded with straight alpha: its mean where it is not resident or
-// the pass samples none, else filtered as its sampler says (glTF 2.0 sec. 3.8.4), at the level
+// the pipeline samples none, else filtered as its sampler says (glTF 2.0 sec. 3.8.4), at the level
 // that the footprint dx, dy of a pixel in uv asks for (the Vulkan spec's scale factor: the
 // longer of the two axes' footprints in texels) or the one view.draw.z forces.
 fn texel(t: TextureInfo, uv: vec2<f32>, dx: vec2<f32>, dy: vec2<f32>) -> vec4<f32> {
-    if (t.levels == 0u || (view.draw.w & 1u) == 0u) {
+    if (t.levels == 0u || TEXTURES == 1u) {
         return unpack4x8unorm(t.mean);
     }
     let size = vec2<f32>(f32(1u << (t.size & 255u)), f32(1u << ((t.size >> 8u) & 255u)));
     var lod = log2(max(length(dx * size), length(dy * size)));
-    if ((view.draw.w & 2u) != 0u) {
+    if (view.draw.w != 0u) {
         lod = bitcast<f32>(view.draw.z);
     }
     let magnified = (t.sampler >> 8u) & 15u;
