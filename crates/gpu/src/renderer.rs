@@ -443,13 +443,19 @@ impl Renderer {
             self.draws = vec![(0..n, true)];
             return;
         }
-        let (mut plain, mut sampled) = (Vec::with_capacity(self.indices.len()), Vec::new());
-        for t in self.indices.chunks_exact(3) {
-            if textured(&self.uses, t[0]) { &mut sampled } else { &mut plain }.extend_from_slice(t);
+        // In place: the untextured triangles close up, the textured ones go after them.
+        let (mut sampled, mut k) = (Vec::new(), 0);
+        for at in (0..self.indices.len()).step_by(3) {
+            if textured(&self.uses, self.indices[at]) {
+                sampled.extend_from_slice(&self.indices[at..at + 3]);
+            } else {
+                self.indices.copy_within(at..at + 3, k);
+                k += 3;
+            }
         }
-        let k = plain.len() as u32;
-        plain.extend_from_slice(&sampled);
-        self.indices = plain;
+        self.indices.truncate(k);
+        self.indices.extend_from_slice(&sampled);
+        let k = k as u32;
         self.draws = [(0..k, false), (k..n, true)].into_iter().filter(|(r, _)| !r.is_empty()).collect();
     }
 

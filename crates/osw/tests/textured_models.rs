@@ -8,33 +8,10 @@
 
 mod common;
 use common::*;
-use std::path::{Path, PathBuf};
-
-/// The glTF files under models/textured, sorted, or None (the test says so).
-fn textured_models(test: &str) -> Option<Vec<PathBuf>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/textured");
-    if !dir.is_dir() {
-        skip(test, &format!("no textured models in {} (run scripts/setup.sh)", dir.display()));
-        return None;
-    }
-    let mut found = Vec::new();
-    let mut todo = vec![dir];
-    while let Some(d) = todo.pop() {
-        for e in std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().path()) {
-            match e.extension().and_then(|x| x.to_str()) {
-                _ if e.is_dir() => todo.push(e),
-                Some("gltf" | "glb") => found.push(e),
-                _ => {}
-            }
-        }
-    }
-    found.sort();
-    Some(found)
-}
 
 #[test]
 fn the_peer_corpus_draws_its_textures() {
-    let Some(models) = textured_models("the_peer_corpus_draws_its_textures") else { return };
+    let Some(models) = setup_models("the_peer_corpus_draws_its_textures", "textured", "textured") else { return };
     assert!(models.len() >= 7, "{models:?}");
     let d = tempfile::tempdir().unwrap();
     for (k, model) in models.iter().enumerate() {

@@ -97,9 +97,15 @@ pub fn real_models(test: &str) -> Option<Vec<PathBuf>> {
 /// The malformed glTF files of `models/bad` (`scripts/setup.sh`), sorted, or None (the test
 /// says so).
 pub fn bad_models(test: &str) -> Option<Vec<PathBuf>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/bad");
+    setup_models(test, "bad", "malformed")
+}
+
+/// The glTF files under `models/<folder>` (`scripts/setup.sh`; `what` names them in the line
+/// a test that cannot run says), sorted, or None.
+pub fn setup_models(test: &str, folder: &str, what: &str) -> Option<Vec<PathBuf>> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models").join(folder);
     if !dir.is_dir() {
-        skip(test, &format!("no malformed models in {} (run scripts/setup.sh)", dir.display()));
+        skip(test, &format!("no {what} models in {} (run scripts/setup.sh)", dir.display()));
         return None;
     }
     let mut found = Vec::new();
