@@ -42,6 +42,7 @@ pub fn write_outputs(
         path: a.path.as_ref().map_or("(interactive walk)".into(), |p| p.display().to_string()),
         width: w,
         height: h,
+        textures: results::textures_key(scene, !a.no_textures),
         of: Details::Switch(SwitchSummary {
             bytes_per_frame_mean: mean(|r| r.bytes as f64),
             ids_sent_mean: mean(|r| r.ids_sent as f64),

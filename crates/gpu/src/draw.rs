@@ -140,7 +140,7 @@ impl DrawPipelines {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("draw"),
             // The view, the pass's use table, the vertex, normal and texcoord arenas, the texture
-            // table, its rectangles and the atlas (crate::atlas).
+            // table, its rectangles, the atlas and its sampler (crate::atlas).
             entries: &[
                 entry(
                     0,
@@ -156,12 +156,13 @@ impl DrawPipelines {
                 entry(
                     7,
                     wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
                         view_dimension: wgpu::TextureViewDimension::D2Array,
                         multisampled: false,
                     },
                     wgpu::ShaderStages::FRAGMENT,
                 ),
+                entry(8, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering), wgpu::ShaderStages::FRAGMENT),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -37,6 +37,10 @@ fn the_peer_corpus_draws_its_textures() {
             out
         };
         let (sampled, means) = (run("sampled", &[]), run("means", &["--no-textures"]));
+        for (out, key) in [(&sampled, "sampled"), (&means, "means")] {
+            let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+            assert_eq!(summary["textures"], key, "{}: summary.json says how it drew textures", model.display());
+        }
         let differ = differing_by(&sampled, &means, 1, 2);
         eprintln!("{}: {:.1}% of the pixels differ from the textures' means", model.display(), differ * 100.0);
         assert!(differ > 0.01, "{}: its texture drawn as its mean ({:.2}% of the pixels differ)", model.display(), differ * 100.0);

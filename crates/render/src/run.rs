@@ -82,6 +82,7 @@ pub fn render_path(r: &mut Renderer, scene: &SceneFile, cams: &[Camera], spec: &
         path: spec.path.display().to_string(),
         width: r.width(),
         height: r.height(),
+        textures: results::textures_key(scene, r.options().textures),
         of: Details::Render(RenderSummary {
             hc_test: spec.hc.name().to_owned(),
             adaptive: spec.ovc.adaptive,

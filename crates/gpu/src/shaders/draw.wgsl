@@ -42,6 +42,8 @@ struct Use {
 @group(0) @binding(5) var<storage, read> textures: array<TextureInfo>;
 @group(0) @binding(6) var<storage, read> rects: array<vec2<u32>>;
 @group(0) @binding(7) var atlas: texture_2d_array<f32>;
+// Bilinear, within a level: the gutter around each level holds what its wrap mode reads.
+@group(0) @binding(8) var bilinear: sampler;
 
 const NO_NORMAL: u32 = 0xffffffffu;
 const NO_TEXTURE: u32 = 0xffffffffu;
@@ -249,7 +251,8 @@ fn texel(t: TextureInfo, uv: vec2<f32>, dx: vec2<f32>, dy: vec2<f32>) -> vec4<f3
 }
 
 // Level k of texture t at uv, nearest (linear 0) or bilinear, in linear light (the atlas's
-// pages are sRGB: loads decode them).
+// pages are sRGB: the texture unit decodes them before it filters). A bilinear footprint
+// reaches half a texel past the wrapped coordinate's level into its gutter (gpu/src/atlas.rs).
 fn level(t: TextureInfo, k: u32, uv: vec2<f32>, linear: u32) -> vec4<f32> {
     let size = vec2<i32>(max(vec2<u32>(1u), vec2<u32>(1u << (t.size & 255u), 1u << ((t.size >> 8u) & 255u)) >> vec2<u32>(k)));
     let r = rects[t.rects + k];
@@ -259,14 +262,19 @@ fn level(t: TextureInfo, k: u32, uv: vec2<f32>, linear: u32) -> vec4<f32> {
     if (linear == 0u) {
         return textureLoad(atlas, origin + wrapped(vec2<i32>(floor(s)), size, wrap), i32(r.y), 0);
     }
-    let p = s - 0.5;
-    let i = vec2<i32>(floor(p));
-    let f = p - floor(p);
-    let a = textureLoad(atlas, origin + wrapped(i, size, wrap), i32(r.y), 0);
-    let b = textureLoad(atlas, origin + wrapped(i + vec2<i32>(1, 0), size, wrap), i32(r.y), 0);
-    let c = textureLoad(atlas, origin + wrapped(i + vec2<i32>(0, 1), size, wrap), i32(r.y), 0);
-    let d = textureLoad(atlas, origin + wrapped(i + vec2<i32>(1, 1), size, wrap), i32(r.y), 0);
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+    let n = vec2<f32>(size);
+    let w = vec2<f32>(wrap_coord(s.x, n.x, wrap.x), wrap_coord(s.y, n.y, wrap.y));
+    let page = vec2<f32>(textureDimensions(atlas));
+    return textureSampleLevel(atlas, bilinear, (vec2<f32>(origin) + w) / page, i32(r.y), 0.0);
+}
+
+// Coordinate s (in texels) along an axis of n texels, folded into 0..n: repeated (0), clamped
+// to the edge texels' centres (1) or mirrored (2).
+fn wrap_coord(s: f32, n: f32, mode: u32) -> f32 {
+    let repeated = s - n * floor(s / n);
+    let m = s - 2.0 * n * floor(s / (2.0 * n));
+    let mirrored = select(m, 2.0 * n - m, m > n);
+    return select(select(repeated, mirrored, mode == 2u), clamp(s, 0.5, n - 0.5), mode == 1u);
 }
 
 fn wrapped(i: vec2<i32>, size: vec2<i32>, wrap: vec2<u32>) -> vec2<i32> {

@@ -338,6 +338,7 @@ pub fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) ->
     let exact = run.join("exact");
     osw_ok(&["exact", "--scene", s(scene), "--path", s(path), "--size", SIZE, "--out", s(&exact)]);
     render(scene, path, ("vfc", "exact"), "0", &run.join("vfc"));
+    let textures = if osw_scene::SceneFile::open(scene).unwrap().textures().is_empty() { "none" } else { "sampled" };
     let frames = osw_scene::path::read(path).unwrap().len();
     // A triangle said to cover no pixel centre makes no fragment: without that test, the same
     // frames.
@@ -356,6 +357,7 @@ pub fn check_conservative(dir: &Path, scene: &Path, path: &Path, label: &str) ->
         assert_eq!(c["culling_b"]["false_culled_leaves_total"], 0, "{label} vfc: {c}");
         let summary = std::fs::read_to_string(run.join(&name).join("summary.json")).unwrap();
         assert!(!summary.contains("NaN") && !summary.contains("null"), "{label} {mode}: {summary}");
+        assert_eq!(self::summary(&run.join(&name)).textures, textures, "{label} {mode}: how textures were drawn");
     }
     run
 }

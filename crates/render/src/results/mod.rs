@@ -25,7 +25,7 @@ pub use exact::ExactFrame;
 pub use input::Input;
 pub use node::{Duty, NodeFrame, duty_median_ms};
 pub use report::{Entry, Report, Traffic};
-pub use summary::{Details, RenderSummary, Summary, SwitchSummary};
+pub use summary::{Details, RenderSummary, Summary, SwitchSummary, textures_key};
 
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};

@@ -44,9 +44,23 @@ pub struct Summary {
     pub path: String,
     pub width: u32,
     pub height: u32,
+    /// How textured surfaces were coloured: `sampled`, `means` (each texture's mean colour,
+    /// `--no-textures`), or `none` where the scene has no textures.
+    #[serde(default)]
+    pub textures: String,
     /// The keys of how it ran, written after these.
     #[serde(skip)]
     pub of: Details,
+}
+
+/// [`Summary::textures`] of a run on `scene` that samples textures where `sampled`.
+pub fn textures_key(scene: &osw_scene::SceneFile, sampled: bool) -> String {
+    match (scene.textures().is_empty(), sampled) {
+        (true, _) => "none",
+        (false, true) => "sampled",
+        (false, false) => "means",
+    }
+    .to_owned()
 }
 
 #[derive(Clone, Debug)]
