@@ -154,7 +154,11 @@ impl Atlas {
         let empty = chains.is_empty();
         let atlas = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("texture atlas"),
-            size: wgpu::Extent3d { width: if empty { 1 } else { page }, height: if empty { 1 } else { page }, depth_or_array_layers: layers },
+            size: wgpu::Extent3d {
+                width: if empty { 1 } else { page },
+                height: if empty { 1 } else { page },
+                depth_or_array_layers: layers,
+            },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,

@@ -102,7 +102,8 @@ pub struct ColorPipelines {
 pub struct DrawPipelines {
     pub layout: wgpu::BindGroupLayout,
     pub plain: ColorPipelines,
-    pub textured: ColorPipelines,
+    /// None where the scene has no texture or the renderer shades nothing (OR and HC).
+    pub textured: Option<ColorPipelines>,
     pub depth: wgpu::RenderPipeline,
     pub item: wgpu::RenderPipeline,
     pub item_over: wgpu::RenderPipeline,
@@ -120,8 +121,9 @@ pub fn depth_state(write: bool, compare: wgpu::CompareFunction) -> wgpu::DepthSt
 
 impl DrawPipelines {
     /// The pipelines whose vertex shader places instances with `rows`; textured surfaces
-    /// sampled where `sample`, else in each texture's mean colour.
-    pub fn new(device: &wgpu::Device, rows: Rows, sample: bool) -> DrawPipelines {
+    /// sampled where `textured` is `Some(true)`, in each texture's mean colour where
+    /// `Some(false)`, and no textured pipelines where `None`.
+    pub fn new(device: &wgpu::Device, rows: Rows, textured: Option<bool>) -> DrawPipelines {
         let place = match rows {
             Rows::Exact => include_str!("shaders/place64.wgsl"),
             Rows::Single => include_str!("shaders/place32.wgsl"),
@@ -208,7 +210,7 @@ impl DrawPipelines {
         };
         DrawPipelines {
             plain: colors(0),
-            textured: colors(if sample { 2 } else { 1 }),
+            textured: textured.map(|sample| colors(if sample { 2 } else { 1 })),
             depth: make("draw depth", &module, None, Layer::Opaque, Greater, 0),
             item: make("draw item", &item_module, Some(("fs_item", ITEM)), Layer::Opaque, Greater, 0),
             item_over: make("draw item over", &item_module, Some(("fs_item", ITEM)), Layer::Translucent, Greater, 0),
@@ -219,7 +221,7 @@ impl DrawPipelines {
     /// The pipeline of `pass` for `layer`, for textured triangles or not; translucent clusters
     /// are never drawn into depth alone (they occlude nothing), so the depth pass has one.
     pub fn pipeline(&self, pass: Pass, layer: Layer, textured: bool) -> &wgpu::RenderPipeline {
-        let colors = if textured { &self.textured } else { &self.plain };
+        let colors = self.textured.as_ref().filter(|_| textured).unwrap_or(&self.plain);
         match (pass, layer) {
             (Pass::Color | Pass::Tinted(_), Layer::Opaque) => &colors.color,
             (Pass::ColorOver, Layer::Opaque) => &colors.color_over,

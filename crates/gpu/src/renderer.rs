@@ -254,7 +254,8 @@ impl Renderer {
         }
         use wgpu::BufferUsages as U;
         let rows = if options.single_rows { Rows::Single } else { Rows::of(&gpu) };
-        let draw = DrawPipelines::new(&gpu.device, rows, options.textures);
+        let textured = (options.shade && !scene.textures().is_empty()).then_some(options.textures);
+        let draw = DrawPipelines::new(&gpu.device, rows, textured);
         let boxtest = BoxTestPipelines::new(&gpu.device);
         let view_buf = storage(&gpu, "view", std::mem::size_of::<ViewUniform>() as u64, U::UNIFORM | U::COPY_DST);
         let index_buf = storage(&gpu, "pass indices", 4, U::INDEX | U::COPY_DST);

@@ -16,7 +16,16 @@ pub struct Args {
     /// Also read and check every geometry block and image (reads the whole file).
     #[arg(long)]
     check_geometry: bool,
+    /// Also measure each LOD and HLOD's distance from the full detail it stands for against
+    /// its stored error (osw_scene::error_check); fails where a level lies farther than twice
+    /// its error.
+    #[arg(long)]
+    check_errors: bool,
 }
+
+/// A coarser level may lie this many times its stored error from its full detail before
+/// `--check-errors` fails: the build measures each step from fewer points than the check.
+const ERROR_SLACK: f32 = 2.0;
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     // Without a scene the adapter is the question, and not having one is the answer's error.
@@ -104,6 +113,34 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             rss_read.saturating_sub(rss_open),
             100.0 * rss_read.saturating_sub(rss_open) as f64 / file_bytes as f64
         );
+    }
+    if a.check_errors {
+        let t = Instant::now();
+        let levels = osw_scene::error_check::measure(&scene)?;
+        let over: Vec<_> = levels.iter().filter(|m| m.ratio() > ERROR_SLACK).collect();
+        let worst = levels.iter().max_by(|a, b| a.ratio().total_cmp(&b.ratio()));
+        out!(
+            "lod_errors: {} coarser levels measured from their full detail in {:.1} s; {} lie farther than {ERROR_SLACK}x their stored error{}",
+            levels.len(),
+            t.elapsed().as_secs_f64(),
+            over.len(),
+            worst.map_or(String::new(), |m| format!(
+                "; the farthest for its error: LOD node {} of node {}, {:.4} from its full detail at a stored error of {:.4} ({:.2}x)",
+                m.lod,
+                m.node,
+                m.distance,
+                m.error,
+                m.ratio()
+            ))
+        );
+        if !over.is_empty() {
+            anyhow::bail!(
+                "{}: {} of {} coarser levels understate their error (more than {ERROR_SLACK}x)",
+                path.display(),
+                over.len(),
+                levels.len()
+            );
+        }
     }
     Ok(())
 }

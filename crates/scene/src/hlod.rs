@@ -2,8 +2,10 @@
 //! coarsest representations merged and simplified with meshoptimizer's sloppy simplifier,
 //! which merges disjoint parts (a row of tanks becomes one blob) where edge collapse cannot.
 //!
-//! Error: the sloppy step's absolute error plus the largest error of the merged inputs, so that
-//! a parent's error is never below a child's (errors monotone up the hierarchy).
+//! Error: the sloppy step's absolute error, or the distance measured from its input to its
+//! result where larger (vertex clustering drops coplanar parts at no error by the input's
+//! planes: [`crate::deviation`]), plus the largest error of the merged inputs, so that a
+//! parent's error is never below a child's (errors monotone up the hierarchy).
 
 use crate::limits::{HLOD_MAX_FRACTION, HLOD_MAX_TRIANGLES, LOD_MAX_LEVELS, LOD_MIN_TRIANGLES, LOD_TARGET_RATIO};
 use crate::lod::Level;
@@ -53,7 +55,11 @@ pub fn build(parts: &[&Level], min_error: f32) -> Result<Level, NoHlod> {
     let (indices, rel) = result?;
     let scale = meshopt::simplify_scale(&adapter);
     let inputs_error = parts.iter().map(|p| p.error).fold(0.0, f32::max);
-    Ok(Level { mesh: merged.sub_mesh(&indices), error: inputs_error + (rel * scale).max(min_error) })
+    let mesh = merged.sub_mesh(&indices);
+    // The sloppy step's own error is by the input's planes; what it dropped within them is
+    // measured (crate::deviation).
+    let step = crate::deviation::one_sided(&merged, &mesh, rel * scale, crate::deviation::CLUSTERING_STEPS);
+    Ok(Level { mesh, error: inputs_error + step.max(min_error) })
 }
 
 /// Ends a chain in levels each simplified as an HLOD of the one before alone would be, while
@@ -65,10 +71,11 @@ pub fn build(parts: &[&Level], min_error: f32) -> Result<Level, NoHlod> {
 ///
 /// The stand-ins start at the first chain level that a stand-in of the level before buys
 /// cheaper (the smaller product of error and triangles, as [`crate::lod::chain`] weighs
-/// pruning against collapsing) at a quarter of its error or less (a level's step, one halving
-/// of the screen size): a chain step that paid its triangles with a jump of error, as pruning
-/// a boiler's tube bank (1,024 triangles at 4.5 mm to 4 at 3.7 m), drew the finer level out to
-/// a hundred times the distance. Returns how many of the chain's levels were kept.
+/// pruning against collapsing) or a whole step coarser (LOD_TARGET_RATIO of its triangles), at
+/// a quarter of its error or less (a level's step, one halving of the screen size): a chain
+/// step that paid its triangles with a jump of error, as pruning a boiler's tube bank (a
+/// thousand triangles at millimetres to four at metres), drew the finer level out to a hundred
+/// times the distance. Returns how many of the chain's levels were kept.
 pub fn stand_ins(levels: &mut Vec<Level>, min_error: f32) -> usize {
     let cost = |l: &Level| l.error as f64 * l.mesh.triangle_count() as f64;
     let mut next = None;
@@ -76,7 +83,8 @@ pub fn stand_ins(levels: &mut Vec<Level>, min_error: f32) -> usize {
         if let Ok(s) = build(&[&levels[k - 1]], min_error)
             && s.error > levels[k - 1].error
             && !s.mesh.is_empty()
-            && cost(&s) < cost(&levels[k])
+            && (cost(&s) < cost(&levels[k])
+                || s.mesh.triangle_count() as f32 <= levels[k - 1].mesh.triangle_count() as f32 * LOD_TARGET_RATIO)
             && s.error <= LOD_TARGET_RATIO * levels[k].error
         {
             levels.truncate(k);
@@ -198,6 +206,41 @@ mod tests {
                 prop_assert!(w[1].error > w[0].error && w[1].error.is_finite());
             }
         }
+    }
+
+    #[test]
+    fn an_hlod_of_coplanar_tiles_reports_the_distance_to_what_it_dropped() {
+        // A game level's ground: a 24-by-24 grid of separate 5 m tiles in one plane, two triangles each.
+        // Vertex clustering drops tiles at no error by their common plane; the level's error
+        // must reach every tile's centre that is left without a surface nearby.
+        let mut m = Mesh::default();
+        for (i, j) in (0..24).flat_map(|i| (0..24).map(move |j| (i as f32 * 5.0, j as f32 * 5.0))) {
+            let n = m.positions.len() as u32;
+            m.positions.extend([[i, 0.0, j], [i + 5.0, 0.0, j], [i + 5.0, 0.0, j + 5.0], [i, 0.0, j + 5.0]]);
+            m.indices.extend([n, n + 2, n + 1, n, n + 3, n + 2]);
+        }
+        let hlod = build(&[&Level { mesh: m.clone(), error: 0.0 }], 1e-6).expect("an HLOD");
+        let result: Vec<[Vec3; 3]> =
+            hlod.mesh.indices.chunks_exact(3).map(|t| [0, 1, 2].map(|k| Vec3::from(hlod.mesh.positions[t[k] as usize]))).collect();
+        // Each tile's centre (its first triangle's corners 0 and 2) against the result, by brute force over points of the result's
+        // triangles (a barycentric grid of 16 steps a side each: within a fraction of a tile).
+        let points: Vec<Vec3> = result
+            .iter()
+            .flat_map(|t| {
+                (0..=16).flat_map(move |a| {
+                    (0..=16 - a).map(move |b| t[0] + (t[1] - t[0]) * (a as f32 / 16.0) + (t[2] - t[0]) * (b as f32 / 16.0))
+                })
+            })
+            .collect();
+        let farthest = m
+            .indices
+            .chunks_exact(6)
+            .map(|q| (Vec3::from(m.positions[q[0] as usize]) + Vec3::from(m.positions[q[1] as usize])) / 2.0)
+            .map(|c| points.iter().map(|p| p.distance(c)).fold(f32::INFINITY, f32::min))
+            .fold(0.0, f32::max);
+        let slack = result.iter().map(|t| (t[1] - t[0]).length().max((t[2] - t[0]).length())).fold(0.0, f32::max) / 16.0;
+        assert!(hlod.error + slack >= farthest, "error {} against a tile centre {farthest} from the result", hlod.error);
+        assert!(farthest > 1.0, "the sloppy simplifier dropped no tile: the test tests nothing ({farthest})");
     }
 
     #[test]

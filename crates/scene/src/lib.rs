@@ -11,14 +11,16 @@
 //!   whose box is loose.
 //! - [`bvh`]: the SAH bounding volume hierarchy over chunks.
 //! - [`lod`] and [`hlod`]: static LOD chains per leaf, HLODs per interior node; or [`clod`]: a
-//!   cluster hierarchy per object, its simplified groups owned by BVH nodes.
+//!   cluster hierarchy per object, its simplified groups owned by BVH nodes; [`deviation`]:
+//!   how far a simplified mesh lies from its input, measured.
 //! - [`build`]: the pipeline above, out of core ([`source`] streams the input, the build's
 //!   stages chunk it into the [`spill`] file and build the hierarchy's geometry a subtree at a
 //!   time), its options, its report of what it left out, and its errors; [`progress`] for long
 //!   work.
 //! - [`format`], [`block`], [`writer`] and [`file`]: the versioned, hashed, memory-mapped scene
 //!   file, its geometry blocks encoded and decoded in one place.
-//! - [`error_metric`]: object-space error projected to pixels (tau).
+//! - [`error_metric`]: object-space error projected to pixels (tau); [`error_check`]: the
+//!   stored errors measured against the full detail they stand for.
 //! - [`camera`] and [`path`]: cameras, the path CSV, and walk/orbit/flyover paths.
 
 pub mod aabb;
@@ -30,6 +32,8 @@ pub mod camera;
 pub mod chunk;
 pub mod clod;
 pub mod cluster;
+pub mod deviation;
+pub mod error_check;
 pub mod error_metric;
 pub mod file;
 pub mod fins;

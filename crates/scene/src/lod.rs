@@ -6,9 +6,11 @@
 //! textured surface keeps the vertices its mapping needs, and its level's error includes that
 //! slide. UV seams and a cut-out's border are vertices split by their attributes: kept.
 //!
-//! Errors: meshoptimizer reports each step's error relative to the mesh's extent; the object
-//! error of level k is the sum of the steps' absolute errors, an upper bound on the distance to
-//! the original by the triangle inequality. Levels are simplified one from the next (cost
+//! Errors: meshoptimizer reports each step's error relative to the mesh's extent, as quadric
+//! errors (distances to the input's planes); each step's error is that or the distance measured
+//! from its input to its result ([`crate::deviation`]), whichever is larger, and the object
+//! error of level k is the sum of the steps', an upper bound on the distance to the original by
+//! the triangle inequality. Levels are simplified one from the next (cost
 //! 1 + 1/4 + 1/16 ... of the chunk instead of one pass per level).
 
 use crate::limits::{LOD_MAX_LEVELS, LOD_MIN_REDUCTION, LOD_MIN_TRIANGLES, LOD_TARGET_RATIO};
@@ -63,16 +65,14 @@ pub fn chain(mesh: Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
         let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&prev.mesh.positions), 12, 0).expect("12-byte vertices");
         let uv: Vec<f32> = prev.mesh.texcoords.iter().flat_map(|t| t.uv).collect();
         let unlocked = vec![false; if uv.is_empty() { 0 } else { prev.mesh.positions.len() }];
-        // Pruning removes whole disconnected parts at an error of their radius: what a cloud
-        // of small parts (bolts, grating) needs, but it also removes a 6 m column at 3 m where
-        // edge collapse alone flattens it onto its axis at an error of its thickness (a floor
-        // chunk of the plant: 4,096 to about 1,000 triangles at 3.26 m pruning, 0.14 to 0.26 m
-        // collapsing). So where pruning reaches the step, collapsing alone is tried too and the
-        // one that buys its triangles cheaper is kept (the smaller product of error and
-        // triangles: on a curved surface the triangles a level needs grow about as 1/error).
-        // Where pruning cannot reach it the chain ends as before: collapsing alone then gains
-        // little at a large error (a pump's part, its borders locked: 4,096 to 1,088 triangles
-        // at 2.02 m), and the part's stand-in, simplified as an HLOD, does better (1,020 at 2 mm).
+        // Pruning removes whole disconnected parts (bolts, grating) at an error of their
+        // radius; collapsing alone keeps them but may flatten a thin part to nothing. Both are
+        // tried where pruning reaches the step, and the one that buys its triangles cheaper is
+        // kept (the smaller product of error and triangles: on a curved surface the triangles a
+        // level needs grow about as 1/error), each at its measured error (crate::deviation).
+        // Where pruning cannot reach the step the chain ends: collapsing alone then gains
+        // little with the borders locked, and a stored-once part's stand-ins go on
+        // (crate::hlod::stand_ins).
         // Error limit 1.0 (relative): no limit, the level's error is measured, not bounded.
         let simplify = |opts| {
             let mut rel = 0.0f32;
@@ -93,8 +93,10 @@ pub fn chain(mesh: Mesh, min_error: f32) -> (Vec<Level>, LodStats) {
         if pays(&collapsed) && collapsed_rel * (collapsed.len() as f32) < rel * indices.len() as f32 {
             (indices, rel) = (collapsed, collapsed_rel);
         }
-        let error = prev.error + (rel * scale).max(min_error);
         let mesh = prev.mesh.sub_mesh(&indices);
+        // Quadric errors are distances to the input's planes; the distance itself is measured.
+        let step = crate::deviation::one_sided(&prev.mesh, &mesh, rel * scale, 1);
+        let error = prev.error + step.max(min_error);
         let small = mesh.triangle_count() <= LOD_MIN_TRIANGLES as usize;
         levels.push(Level { mesh, error });
         if levels.len() == LOD_MAX_LEVELS {
@@ -129,8 +131,10 @@ mod tests {
     }
 
     #[test]
-    fn a_floor_of_thin_columns_is_flattened_not_pruned() {
-        // The plant's floor structure: slabs and I-beam columns 6 m tall, 0.3 m across.
+    fn a_floor_of_thin_columns_reports_what_its_levels_drop() {
+        // The plant's floor structure: slabs and I-beam columns 6 m tall, 0.3 m across. Edge
+        // collapse flattens a column onto its axis at a quadric error of its width, but a
+        // flattened column has no area left: it is gone, as far as 6 m from what remains.
         let objects = crate::generators::plant::generate(2_000_000, 1);
         let floor = objects.iter().find(|o| o.name.starts_with("structure floor 1")).expect("a floor");
         let chunks = crate::chunk::split(&floor.mesh, crate::chunk::SplitOptions { max_triangles: 4096, loose: 0.0 });
@@ -138,8 +142,11 @@ mod tests {
         let (levels, _) = chain(chunk, 1e-6);
         assert!(levels.len() >= 2, "{} levels", levels.len());
         assert!(levels[1].mesh.triangle_count() * 2 < levels[0].mesh.triangle_count());
-        // Removing whole columns costs their half-height (about 3 m); flattening them, their width.
-        assert!(levels[1].error < 0.5, "level 1 error {} m", levels[1].error);
+        for (k, l) in levels.iter().enumerate().skip(1) {
+            let far = crate::deviation::one_sided(&levels[0].mesh, &l.mesh, 0.0, 1);
+            assert!(l.error >= far * 0.99, "level {k}: error {} m, but the chunk lies up to {far} m from it", l.error);
+        }
+        assert!(levels[1].error > 1.0, "level 1 at {} m: no column dropped, the test tests nothing", levels[1].error);
     }
 
     /// A flat grid whose texture is mapped unevenly (u grows as x squared): without its
